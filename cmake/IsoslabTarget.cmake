@@ -1,0 +1,26 @@
+# isoslab_warnings(target): the project's warning and sanitizer flags for one target.
+function(isoslab_warnings target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wconversion
+                                           -Wshadow -Wnon-virtual-dtor)
+  if(ISOSLAB_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+endfunction()
+
+if(ISOSLAB_SANITIZE)
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all)
+  add_link_options(-fsanitize=address,undefined)
+endif()
+
+# isoslab_library(name folder sources...): a static library isoslab_<name>, aliased isoslab::<name>,
+# whose headers are included as "<folder>/<file>.h" from the project root.
+function(isoslab_library name)
+  add_library(isoslab_${name} STATIC ${ARGN})
+  add_library(isoslab::${name} ALIAS isoslab_${name})
+  target_include_directories(isoslab_${name} PUBLIC
+    $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/isoslab>)
+  set_target_properties(isoslab_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON
+                                                  EXPORT_NAME ${name})
+  isoslab_warnings(isoslab_${name})
+endfunction()

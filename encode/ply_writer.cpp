@@ -1,0 +1,96 @@
+#include "encode/ply_writer.h"
+
+#include <fmt/format.h>
+
+#include <bit>
+#include <cstring>
+#include <filesystem>
+
+#include "io/error.h"
+
+namespace isoslab {
+namespace {
+
+constexpr std::uint64_t kMaxCount = 4294967295ULL;
+
+template <typename T>
+void append(std::vector<char>& buf, const T& value) {
+  const auto* p = reinterpret_cast<const char*>(&value);
+  buf.insert(buf.end(), p, p + sizeof(T));
+}
+
+}  // namespace
+
+PlyWriter::PlyWriter(std::string path) : path_(std::move(path)) {}
+PlyWriter::~PlyWriter() = default;
+
+std::string PlyWriter::header(std::uint64_t vertices, std::uint64_t faces, std::size_t padTo) const {
+  std::string head = "ply\nformat binary_little_endian 1.0\n";
+  head += fmt::format("comment isoslab {} iso {} space {}\n", meshHeader_.method, meshHeader_.iso,
+                      meshHeader_.space);
+  std::string tail = fmt::format("element vertex {}\nproperty float x\nproperty float y\nproperty float z\n", vertices);
+  if (meshHeader_.normals) tail += "property float nx\nproperty float ny\nproperty float nz\n";
+  tail += fmt::format("element face {}\nproperty list uchar uint vertex_indices\nend_header\n", faces);
+  // A comment line pads the header to exactly padTo bytes, so that it can be written last.
+  std::string pad = "comment";
+  if (padTo > 0) {
+    const std::size_t base = head.size() + tail.size() + pad.size() + 1;
+    if (padTo > base) pad.append(padTo - base, ' ');
+  }
+  return head + pad + "\n" + tail;
+}
+
+void PlyWriter::begin(const MeshHeader& header) {
+  if constexpr (std::endian::native != std::endian::little) {
+    throw Error(fmt::format("{}: PLY output is implemented for little-endian hosts only", path_));
+  }
+  meshHeader_ = header;
+  file_ = std::make_unique<AtomicFile>(path_);
+  const std::string folder = std::filesystem::path(path_).parent_path().string();
+  faces_ = std::make_unique<SpoolFile>(folder.empty() ? "." : folder, path_);
+  reserved_ = this->header(kMaxCount, kMaxCount, 0).size();
+  const std::string blank(reserved_, ' ');
+  file_->write(blank.data(), blank.size());
+}
+
+void PlyWriter::consume(const MeshChunk& chunk) {
+  buffer_.clear();
+  const bool normals = meshHeader_.normals;
+  for (std::size_t v = 0; v < chunk.positions.size(); ++v) {
+    append(buffer_, chunk.positions[v].x);
+    append(buffer_, chunk.positions[v].y);
+    append(buffer_, chunk.positions[v].z);
+    if (normals) {
+      append(buffer_, chunk.normals[v].x);
+      append(buffer_, chunk.normals[v].y);
+      append(buffer_, chunk.normals[v].z);
+    }
+  }
+  file_->write(buffer_.data(), buffer_.size());
+  vertices_ += chunk.positions.size();
+  buffer_.clear();
+  for (const Triangle& t : chunk.triangles) {
+    buffer_.push_back(3);
+    append(buffer_, t[0]);
+    append(buffer_, t[1]);
+    append(buffer_, t[2]);
+  }
+  faces_->write(buffer_.data(), buffer_.size());
+  faceCount_ += chunk.triangles.size();
+  if (vertices_ > kMaxCount || faceCount_ > kMaxCount) {
+    throw Error(fmt::format("{}: the mesh exceeds PLY's 32-bit counts", path_));
+  }
+}
+
+void PlyWriter::finish() {
+  faces_->copyTo(*file_);
+  faces_.reset();
+  const std::string head = header(vertices_, faceCount_, reserved_);
+  file_->seek(0);
+  file_->write(head.data(), head.size());
+  bytes_ = file_->size();
+  file_->commit();
+  file_.reset();
+}
+
+}  // namespace isoslab

@@ -1,0 +1,41 @@
+// Binary little-endian PLY, streamed: vertices go straight to the output after a reserved header,
+// faces to a spool file beside it until the vertex count is known; finish() appends the faces,
+// writes the header and renames the file into place.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "encode/mesh_writer.h"
+#include "io/atomic_file.h"
+
+namespace isoslab {
+
+class PlyWriter final : public MeshFileSink {
+ public:
+  /// Nothing is created until begin().
+  explicit PlyWriter(std::string path);
+  ~PlyWriter() override;
+
+  void begin(const MeshHeader& header) override;
+  void consume(const MeshChunk& chunk) override;
+  void finish() override;
+
+  /// Size of the finished file.
+  std::int64_t bytes() const noexcept override { return bytes_; }
+
+ private:
+  std::string header(std::uint64_t vertices, std::uint64_t faces, std::size_t padTo) const;
+
+  std::string path_;
+  MeshHeader meshHeader_;
+  std::unique_ptr<AtomicFile> file_;
+  std::unique_ptr<SpoolFile> faces_;
+  std::size_t reserved_ = 0;
+  std::uint64_t vertices_ = 0;
+  std::uint64_t faceCount_ = 0;
+  std::int64_t bytes_ = 0;
+  std::vector<char> buffer_;
+};
+
+}  // namespace isoslab

@@ -1,0 +1,36 @@
+#include "extract/extractor.h"
+
+#include "extract/lattice_extractor.h"
+
+namespace isoslab {
+
+std::string_view methodName(Method m) noexcept {
+  switch (m) {
+    case Method::kMarchingCubes: return "mc";
+    case Method::kTetra5: return "mt5";
+    case Method::kTetra6: return "mt6";
+    case Method::kBcc12: return "bcc12";
+  }
+  return "?";
+}
+
+std::optional<Method> parseMethod(std::string_view name) noexcept {
+  for (Method m : {Method::kMarchingCubes, Method::kTetra5, Method::kTetra6, Method::kBcc12}) {
+    if (name == methodName(m)) return m;
+  }
+  return std::nullopt;
+}
+
+std::unique_ptr<Extractor> makeExtractor(const ExtractOptions& options, const VolumeInfo& info,
+                                         const LatticeFrame& frame) {
+  std::unique_ptr<CellScheme> scheme;
+  switch (options.method) {
+    case Method::kMarchingCubes: break;
+    case Method::kTetra5: scheme = std::make_unique<CellScheme>(makeTetra5Scheme()); break;
+    case Method::kTetra6: scheme = std::make_unique<CellScheme>(makeTetra6Scheme()); break;
+    case Method::kBcc12: scheme = std::make_unique<CellScheme>(makeBcc12Scheme()); break;
+  }
+  return makeLatticeExtractor(options, info, frame, std::move(scheme));
+}
+
+}  // namespace isoslab

@@ -1,0 +1,47 @@
+// The map from lattice coordinates (i, j, k), in voxel units, to output coordinates.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "io/slice_source.h"
+
+namespace isoslab {
+
+using Vec3d = std::array<double, 3>;
+
+class LatticeFrame {
+ public:
+  /// Output coordinates are the lattice coordinates themselves.
+  static LatticeFrame voxel();
+  /// Output coordinates are the source's physical frame: origin + direction * spacing, or the
+  /// per-slice origins when the source has them.
+  static LatticeFrame physical(const VolumeInfo& info);
+
+  /// Position of lattice point (i, j, k); k may be fractional between slices.
+  Vec3d map(double i, double j, double k) const noexcept;
+
+  /// Converts a gradient taken with respect to lattice coordinates into one with respect to output
+  /// coordinates (multiplies by the inverse transpose of the linear part).
+  Vec3d gradient(const Vec3d& latticeGradient) const noexcept;
+
+  /// True if the frame is left-handed, so that triangle winding must be reversed to keep normals
+  /// pointing from high to low values.
+  bool flipsWinding() const noexcept { return determinant_ < 0; }
+
+  /// Output volume of one unit lattice cube.
+  double cellVolume() const noexcept { return determinant_ < 0 ? -determinant_ : determinant_; }
+
+  const std::string& name() const noexcept { return name_; }
+
+ private:
+  std::string name_ = "voxel";
+  Vec3d origin_{0, 0, 0};
+  std::array<double, 9> linear_{1, 0, 0, 0, 1, 0, 0, 0, 1};       // row-major, columns per axis
+  std::array<double, 9> inverseT_{1, 0, 0, 0, 1, 0, 0, 0, 1};     // inverse transpose of linear_
+  std::vector<Vec3d> sliceOrigins_;
+  double determinant_ = 1;
+};
+
+}  // namespace isoslab

@@ -1,0 +1,411 @@
+// Marching Cubes: W. E. Lorensen and H. E. Cline, "Marching cubes: a high resolution 3D surface
+// construction algorithm", SIGGRAPH 1987; tables generated as described in mc_table.h.
+// Marching Tetrahedra and the comparison of decompositions: V. Skala and A. Brus, "Two methods for
+// iso-surface extraction from volumetric data and their comparison".
+// BCC: C.-S. Chan and E. O. Purisima, Computers & Graphics 22(1), 1998.
+#include "extract/lattice_extractor.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <tuple>
+
+#include "extract/mc_table.h"
+#include "extract/tet_table.h"
+
+namespace isoslab {
+namespace {
+
+constexpr VertexId kNoVertex = std::numeric_limits<VertexId>::max();
+
+// A lattice edge as seen from a cell: its two nodes (a is the lower endpoint), and where its
+// vertex id lives: anchor plane 0 (slice z), 1 (centre plane) or 2 (slice z+1), and the offset of
+// the slot in that plane's cache relative to the cell's (i, j).
+struct EdgeRef {
+  std::uint8_t a = 0;
+  std::uint8_t b = 0;
+  std::uint8_t plane = 0;
+  std::int64_t offset = 0;
+};
+
+struct TetRef {
+  std::array<std::uint8_t, 4> nodes{};
+  std::array<EdgeRef, 6> edges{};
+  double volume = 0;  // in voxel units
+};
+
+struct VariantRef {
+  std::vector<TetRef> tets;
+  std::uint32_t nodeMask = 0;  // nodes whose values the variant reads
+  double volume = 0;
+};
+
+bool lowerNode(const LatticeNode& a, const LatticeNode& b) {
+  return std::tie(a.hz, a.hy, a.hx) < std::tie(b.hz, b.hy, b.hx);
+}
+
+class LatticeExtractor final : public Extractor {
+ public:
+  LatticeExtractor(const ExtractOptions& options, const VolumeInfo& info, const LatticeFrame& frame,
+                   std::unique_ptr<CellScheme> scheme)
+      : options_(options), frame_(frame), scheme_(std::move(scheme)) {
+    nx_ = info.dims[0];
+    ny_ = info.dims[1];
+    nz_ = info.dims[2];
+    planeSize_ = nx_ * ny_;
+    flip_ = frame_.flipsWinding();
+    cellVolume_ = frame_.cellVolume();
+    if (scheme_) {
+      nodes_ = scheme_->nodes;
+    } else {
+      for (int c = 0; c < 8; ++c) {
+        nodes_.push_back({static_cast<std::int8_t>(2 * (c & 1)), static_cast<std::int8_t>(2 * ((c >> 1) & 1)),
+                          static_cast<std::int8_t>(2 * ((c >> 2) & 1))});
+      }
+      for (int e = 0; e < 12; ++e) {
+        mcEdges_[static_cast<std::size_t>(e)] = makeEdge(mc::kEdgeCorners[static_cast<std::size_t>(e)][0],
+                                                         mc::kEdgeCorners[static_cast<std::size_t>(e)][1]);
+      }
+    }
+    if (scheme_) {
+      for (const auto& variant : scheme_->variants) {
+        VariantRef v;
+        for (const Tetrahedron& t : variant) {
+          TetRef r;
+          r.nodes = t.nodes;
+          for (int e = 0; e < 6; ++e) {
+            r.edges[static_cast<std::size_t>(e)] =
+                makeEdge(t.nodes[tet::kTetEdges[static_cast<std::size_t>(e)][0]],
+                         t.nodes[tet::kTetEdges[static_cast<std::size_t>(e)][1]]);
+          }
+          const auto& n = nodes_;
+          r.volume = signedVolume6(n[t.nodes[0]], n[t.nodes[1]], n[t.nodes[2]], n[t.nodes[3]]) / 48.0;
+          for (auto k : t.nodes) v.nodeMask |= 1u << k;
+          v.volume += r.volume;
+          v.tets.push_back(r);
+        }
+        variants_.push_back(std::move(v));
+      }
+    }
+    for (int p = 0; p < 3; ++p) {
+      const std::size_t classes = (p == 1 ? oddClasses_ : evenClasses_).size();
+      planes_[static_cast<std::size_t>(p)].assign(classes * static_cast<std::size_t>(planeSize_), kNoVertex);
+    }
+    needsCentres_ = scheme_ && scheme_->rule == VariantRule::kBoundary;
+    if (needsCentres_) {
+      const auto cells = static_cast<std::size_t>((nx_ - 1) * (ny_ - 1));
+      centres_[0].assign(cells, 0.0f);
+      centres_[1].assign(cells, 0.0f);
+    }
+  }
+
+  int slicesBelow() const noexcept override { return options_.normals ? 1 : 0; }
+  int slicesAbove() const noexcept override { return (options_.normals || needsCentres_) ? 1 : 0; }
+  std::uint64_t vertexCount() const noexcept override { return vertexCount_; }
+  bool cellVolumes() const noexcept override { return scheme_ != nullptr; }
+
+  void extractSlab(const SlabView& slab, MeshChunk& out) noexcept override {
+    z_ = slab.z;
+    slices_ = slab.slices;
+    out_ = &out;
+    if (needsCentres_) {
+      if (z_ == 0) computeCentres(0, centres_[0]);
+      if (z_ + 1 <= nz_ - 2) computeCentres(1, centres_[1]);
+    }
+    double insideVolume = 0;
+    const float* s0 = slices_[1];
+    const float* s1 = slices_[2];
+    const double iso = options_.iso;
+    for (std::int64_t j = 0; j + 1 < ny_; ++j) {
+      for (std::int64_t i = 0; i + 1 < nx_; ++i) {
+        const std::int64_t p = j * nx_ + i;
+        value_[0] = s0[p];
+        value_[1] = s0[p + 1];
+        value_[2] = s0[p + nx_];
+        value_[3] = s0[p + nx_ + 1];
+        value_[4] = s1[p];
+        value_[5] = s1[p + 1];
+        value_[6] = s1[p + nx_];
+        value_[7] = s1[p + nx_ + 1];
+        unsigned cornerCase = 0;
+        for (unsigned c = 0; c < 8; ++c) cornerCase |= static_cast<unsigned>(value_[c] >= iso) << c;
+        if (!scheme_) {
+          if (cornerCase == 0 || cornerCase == 255) continue;
+          marchCube(cornerCase, i, j);
+        } else {
+          insideVolume += marchTetrahedra(cornerCase, i, j);
+        }
+      }
+    }
+    out.cellVolume = insideVolume * cellVolume_;
+    // Roll the caches: slice z+1 becomes the next slab's slice z.
+    clearPlane(0);
+    std::swap(planes_[0], planes_[2]);
+    std::swap(touched_[0], touched_[2]);
+    clearPlane(1);
+    if (needsCentres_) std::swap(centres_[0], centres_[1]);
+  }
+
+ private:
+  // Registers the edge between nodes a and b and returns how to find its vertex slot.
+  EdgeRef makeEdge(int a, int b) {
+    const LatticeNode* na = &nodes_[static_cast<std::size_t>(a)];
+    const LatticeNode* nb = &nodes_[static_cast<std::size_t>(b)];
+    if (lowerNode(*nb, *na)) {
+      std::swap(a, b);
+      std::swap(na, nb);
+    }
+    EdgeRef r;
+    r.a = static_cast<std::uint8_t>(a);
+    r.b = static_cast<std::uint8_t>(b);
+    r.plane = static_cast<std::uint8_t>(na->hz);
+    assert(r.plane <= 2);
+    auto& classes = na->hz == 1 ? oddClasses_ : evenClasses_;
+    const std::array<int, 3> dir{nb->hx - na->hx, nb->hy - na->hy, nb->hz - na->hz};
+    const auto it = classes.emplace(dir, classes.size()).first;
+    const std::int64_t dx = na->hx >> 1;  // corner offsets 0/2 -> 0/1, centres 1 -> 0, 3 -> 1
+    const std::int64_t dy = na->hy >> 1;
+    r.offset = static_cast<std::int64_t>(it->second) * planeSize_ + dy * nx_ + dx;
+    return r;
+  }
+
+  void clearPlane(int p) noexcept {
+    auto& plane = planes_[static_cast<std::size_t>(p)];
+    for (std::int64_t slot : touched_[static_cast<std::size_t>(p)]) plane[static_cast<std::size_t>(slot)] = kNoVertex;
+    touched_[static_cast<std::size_t>(p)].clear();
+  }
+
+  // Cube-centre values of slab z_ + which: the mean of each cell's eight corners.
+  void computeCentres(int which, std::vector<float>& dst) noexcept {
+    const float* a = slices_[static_cast<std::size_t>(1 + which)];
+    const float* b = slices_[static_cast<std::size_t>(2 + which)];
+    for (std::int64_t j = 0; j + 1 < ny_; ++j) {
+      for (std::int64_t i = 0; i + 1 < nx_; ++i) {
+        const std::int64_t p = j * nx_ + i;
+        const double sum = static_cast<double>(a[p]) + a[p + 1] + a[p + nx_] + a[p + nx_ + 1] + b[p] +
+                           b[p + 1] + b[p + nx_] + b[p + nx_ + 1];
+        dst[static_cast<std::size_t>(j * (nx_ - 1) + i)] = static_cast<float>(sum / 8.0);
+      }
+    }
+  }
+
+  void marchCube(unsigned cornerCase, std::int64_t i, std::int64_t j) noexcept {
+    const auto& table = mc::kCaseTable;
+    const int count = table.triangleCount[cornerCase];
+    for (int t = 0; t < count; ++t) {
+      const auto& tri = table.triangles[cornerCase][static_cast<std::size_t>(t)];
+      emitTriangle(vertex(mcEdges_[tri[0]], i, j), vertex(mcEdges_[tri[1]], i, j),
+                   vertex(mcEdges_[tri[2]], i, j));
+    }
+  }
+
+  // Returns the inside volume of the cell's tetrahedra, in voxel units.
+  double marchTetrahedra(unsigned cornerCase, std::int64_t i, std::int64_t j) noexcept {
+    std::size_t variant = 0;
+    switch (scheme_->rule) {
+      case VariantRule::kSingle: break;
+      case VariantRule::kParity: variant = static_cast<std::size_t>((i + j + z_) & 1); break;
+      case VariantRule::kBoundary:
+        variant = static_cast<std::size_t>((i == 0 ? 1 : 0) | (i + 2 == nx_ ? 2 : 0) | (j == 0 ? 4 : 0) |
+                                           (j + 2 == ny_ ? 8 : 0) | (z_ == 0 ? 16 : 0) |
+                                           (z_ + 2 == nz_ ? 32 : 0));
+        break;
+    }
+    const VariantRef& v = variants_[variant];
+    unsigned nodeCase = cornerCase;
+    if (needsCentres_) {
+      const std::int64_t c = j * (nx_ - 1) + i;
+      value_[8] = centres_[0][static_cast<std::size_t>(c)];
+      if (v.nodeMask & (1u << 9)) value_[9] = centres_[0][static_cast<std::size_t>(c + 1)];
+      if (v.nodeMask & (1u << 10)) value_[10] = centres_[0][static_cast<std::size_t>(c + nx_ - 1)];
+      if (v.nodeMask & (1u << 11)) value_[11] = centres_[1][static_cast<std::size_t>(c)];
+      for (unsigned n = 8; n < 12; ++n) {
+        if (v.nodeMask & (1u << n)) nodeCase |= static_cast<unsigned>(value_[n] >= options_.iso) << n;
+      }
+    }
+    const unsigned used = v.nodeMask;
+    if ((nodeCase & used) == 0) return 0.0;
+    if ((nodeCase & used) == used) return v.volume;
+    double inside = 0;
+    for (const TetRef& t : v.tets) {
+      unsigned cas = 0;
+      for (unsigned k = 0; k < 4; ++k) cas |= ((nodeCase >> t.nodes[k]) & 1u) << k;
+      if (cas == 0) continue;
+      if (cas == 15) {
+        inside += t.volume;
+        continue;
+      }
+      inside += tetInsideVolume(t, cas);
+      const auto& table = tet::kTetCases;
+      for (int n = 0; n < table.triangleCount[cas]; ++n) {
+        const auto& tri = table.triangles[cas][static_cast<std::size_t>(n)];
+        emitTriangle(vertex(t.edges[tri[0]], i, j), vertex(t.edges[tri[1]], i, j), vertex(t.edges[tri[2]], i, j));
+      }
+    }
+    return inside;
+  }
+
+  // Lattice position of node n of cell (i, j, z_).
+  Vec3d nodePosition(std::size_t n, std::int64_t i, std::int64_t j) const noexcept {
+    const LatticeNode& node = nodes_[n];
+    return {static_cast<double>(i) + 0.5 * node.hx, static_cast<double>(j) + 0.5 * node.hy,
+            static_cast<double>(z_) + 0.5 * node.hz};
+  }
+
+  // The part of tetrahedron t (case cas, neither empty nor full) inside the surface, in voxel
+  // units: case groups of the paper's section F. Linear interpolation makes the surface inside a
+  // tetrahedron a plane, so the inside part is a small tetrahedron (one node inside), the rest of
+  // the tetrahedron (three inside) or a triangular prism (two and two), cut into three tetrahedra.
+  double tetInsideVolume(const TetRef& t, unsigned cas) const noexcept {
+    Vec3d p[4];
+    double v[4];
+    for (int k = 0; k < 4; ++k) {
+      const LatticeNode& n = nodes_[t.nodes[static_cast<std::size_t>(k)]];
+      p[k] = {0.5 * n.hx, 0.5 * n.hy, 0.5 * n.hz};
+      v[k] = value_[t.nodes[static_cast<std::size_t>(k)]];
+    }
+    auto cut = [&](int a, int b) {
+      const double s = (options_.iso - v[a]) / (v[b] - v[a]);
+      return Vec3d{p[a][0] + s * (p[b][0] - p[a][0]), p[a][1] + s * (p[b][1] - p[a][1]),
+                   p[a][2] + s * (p[b][2] - p[a][2])};
+    };
+    auto vol = [](const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
+      const double ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+      const double vx = c[0] - a[0], vy = c[1] - a[1], vz = c[2] - a[2];
+      const double wx = d[0] - a[0], wy = d[1] - a[1], wz = d[2] - a[2];
+      return std::abs(ux * (vy * wz - vz * wy) - uy * (vx * wz - vz * wx) + uz * (vx * wy - vy * wx)) / 6.0;
+    };
+    int in[4];
+    int out[4];
+    int nIn = 0;
+    int nOut = 0;
+    for (int k = 0; k < 4; ++k) ((cas >> k) & 1 ? in[nIn++] : out[nOut++]) = k;
+    if (nIn == 1) {
+      const int a = in[0];
+      return vol(p[a], cut(a, out[0]), cut(a, out[1]), cut(a, out[2]));
+    }
+    if (nIn == 3) {
+      const int a = out[0];
+      return t.volume - vol(p[a], cut(a, in[0]), cut(a, in[1]), cut(a, in[2]));
+    }
+    const int a = in[0], b = in[1], c = out[0], d = out[1];
+    const Vec3d ac = cut(a, c), ad = cut(a, d), bc = cut(b, c), bd = cut(b, d);
+    // Prism with triangles (a, ac, ad) and (b, bc, bd), lateral edges a-b, ac-bc, ad-bd.
+    return vol(p[a], ac, ad, bd) + vol(p[a], ac, bc, bd) + vol(p[a], p[b], bc, bd);
+  }
+
+  void emitTriangle(VertexId a, VertexId b, VertexId c) noexcept {
+    if (flip_) std::swap(b, c);
+    out_->triangles.push_back({a, b, c});
+  }
+
+  VertexId vertex(const EdgeRef& e, std::int64_t i, std::int64_t j) noexcept {
+    const std::int64_t slot = e.offset + j * nx_ + i;
+    VertexId& id = planes_[e.plane][static_cast<std::size_t>(slot)];
+    if (id == kNoVertex) {
+      id = static_cast<VertexId>(vertexCount_++);
+      touched_[e.plane].push_back(slot);
+      createVertex(e, i, j);
+    }
+    return id;
+  }
+
+  void createVertex(const EdgeRef& e, std::int64_t i, std::int64_t j) noexcept {
+    const double va = value_[e.a];
+    const double vb = value_[e.b];
+    const double t = (options_.iso - va) / (vb - va);
+    const Vec3d a = nodePosition(e.a, i, j);
+    const Vec3d b = nodePosition(e.b, i, j);
+    const Vec3d lattice{a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+    const Vec3d w = frame_.map(lattice[0], lattice[1], lattice[2]);
+    out_->positions.push_back({static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])});
+    std::uint8_t faces = 0;
+    auto on = [&](int axis, double value) { return a[static_cast<std::size_t>(axis)] == value && b[static_cast<std::size_t>(axis)] == value; };
+    if (on(0, 0.0)) faces |= kFaceXMin;
+    if (on(0, static_cast<double>(nx_ - 1))) faces |= kFaceXMax;
+    if (on(1, 0.0)) faces |= kFaceYMin;
+    if (on(1, static_cast<double>(ny_ - 1))) faces |= kFaceYMax;
+    if (on(2, 0.0)) faces |= kFaceZMin;
+    if (on(2, static_cast<double>(nz_ - 1))) faces |= kFaceZMax;
+    out_->boundary.push_back(faces);
+    if (options_.normals) {
+      const Vec3d ga = nodeGradient(e.a, i, j);
+      const Vec3d gb = nodeGradient(e.b, i, j);
+      const Vec3d g = frame_.gradient(
+          {ga[0] + t * (gb[0] - ga[0]), ga[1] + t * (gb[1] - ga[1]), ga[2] + t * (gb[2] - ga[2])});
+      const double len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+      // The normal points down the gradient, from higher to lower values.
+      const double s = len > 0 ? -1.0 / len : 0.0;
+      out_->normals.push_back({static_cast<float>(g[0] * s), static_cast<float>(g[1] * s), static_cast<float>(g[2] * s)});
+    }
+  }
+
+  // Value at global lattice point (gi, gj) of slice z_ + dz, dz in -1..2.
+  float at(std::int64_t gi, std::int64_t gj, std::int64_t dz) const noexcept {
+    return slices_[static_cast<std::size_t>(dz + 1)][gj * nx_ + gi];
+  }
+
+  // Central difference along one axis at index g of n points; one-sided at the ends.
+  template <typename F>
+  static double difference(std::int64_t g, std::int64_t n, F&& value) noexcept {
+    if (g == 0) return value(1) - value(0);
+    if (g == n - 1) return value(0) - value(-1);
+    return 0.5 * (value(1) - value(-1));
+  }
+
+  // Gradient of the field at node n of cell (i, j, z_), with respect to lattice coordinates.
+  // Corners: central differences. Cube centres: the gradient of the trilinear interpolant of the
+  // centre's cell, taken at the centre (the mean of the cell's four edge differences per axis).
+  Vec3d nodeGradient(std::size_t n, std::int64_t i, std::int64_t j) const noexcept {
+    const LatticeNode& node = nodes_[n];
+    if (node.isCentre()) {
+      const std::int64_t ci = i + (node.hx - 1) / 2;
+      const std::int64_t cj = j + (node.hy - 1) / 2;
+      const std::int64_t cz = (node.hz - 1) / 2;  // slab offset 0 or 1
+      double c[8];
+      for (int k = 0; k < 8; ++k) c[k] = at(ci + (k & 1), cj + ((k >> 1) & 1), cz + ((k >> 2) & 1));
+      return {0.25 * ((c[1] - c[0]) + (c[3] - c[2]) + (c[5] - c[4]) + (c[7] - c[6])),
+              0.25 * ((c[2] - c[0]) + (c[3] - c[1]) + (c[6] - c[4]) + (c[7] - c[5])),
+              0.25 * ((c[4] - c[0]) + (c[5] - c[1]) + (c[6] - c[2]) + (c[7] - c[3]))};
+    }
+    const std::int64_t gi = i + node.hx / 2;
+    const std::int64_t gj = j + node.hy / 2;
+    const std::int64_t dz = node.hz / 2;
+    return {difference(gi, nx_, [&](std::int64_t d) { return static_cast<double>(at(gi + d, gj, dz)); }),
+            difference(gj, ny_, [&](std::int64_t d) { return static_cast<double>(at(gi, gj + d, dz)); }),
+            difference(z_ + dz, nz_, [&](std::int64_t d) { return static_cast<double>(at(gi, gj, dz + d)); })};
+  }
+
+  ExtractOptions options_;
+  LatticeFrame frame_;
+  std::unique_ptr<CellScheme> scheme_;
+  std::vector<LatticeNode> nodes_;
+  std::array<EdgeRef, 12> mcEdges_{};
+  std::vector<VariantRef> variants_;
+  std::map<std::array<int, 3>, std::size_t> evenClasses_;
+  std::map<std::array<int, 3>, std::size_t> oddClasses_;
+  std::array<std::vector<VertexId>, 3> planes_;
+  std::array<std::vector<std::int64_t>, 3> touched_;
+  std::array<std::vector<float>, 2> centres_;
+  bool needsCentres_ = false;
+  bool flip_ = false;
+  double cellVolume_ = 1;
+  std::int64_t nx_ = 0, ny_ = 0, nz_ = 0, planeSize_ = 0;
+  std::int64_t z_ = 0;
+  std::array<const float*, 4> slices_{};
+  MeshChunk* out_ = nullptr;
+  std::array<float, 12> value_{};
+  std::uint64_t vertexCount_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<Extractor> makeLatticeExtractor(const ExtractOptions& options, const VolumeInfo& info,
+                                                const LatticeFrame& frame,
+                                                std::unique_ptr<CellScheme> scheme) {
+  return std::make_unique<LatticeExtractor>(options, info, frame, std::move(scheme));
+}
+
+}  // namespace isoslab

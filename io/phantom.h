@@ -1,0 +1,64 @@
+// Phantoms: volumes computed from analytic fields, slice by slice, with no file.
+//
+// Named wherever an input is accepted as  phantom:NAME?key=value&key=value , for example
+// "phantom:sphere?n=64&r=20&field=distance". Keys common to every phantom:
+//   n        cube edge "64", or "nx,ny,nz"                      (default per phantom)
+//   type     voxel type u8 i8 u16 i16 u32 i32 f32 f64            (default per phantom)
+//   spacing  "s" or "sx,sy,sz", physical voxel size              (default 1,1,1)
+//   c        centre "cx,cy,cz" in voxel units                    (default the grid centre)
+// Phantoms and their own keys:
+//   sphere   r (radius, voxels), field=distance|binary. distance: value = 1000 - 10*|p - c|,
+//            suggested iso 1000 - 10*r, default type f32. binary: 100 where |p - c| <= r, else 0,
+//            suggested iso 50, default type u8.
+//   box      lo, hi: inclusive voxel corners "x,y,z" of the inside block (value 100, outside 0),
+//            suggested iso 50, default type u8. Default: the middle third of the grid.
+//   torus    R (major radius), r (minor radius), around the z axis through c; field as for the
+//            sphere, with |p - c| replaced by the distance to the tube's core circle.
+//   head     a noisy CT-like head: air -1000, soft tissue about 40, skull bone about 700, brain
+//            about 35, in HU, as i16. seed (default 1), noise (standard deviation, default 20).
+//            Suggested iso -400 (skin); 300 gives bone.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "io/slice_source.h"
+
+namespace isoslab {
+
+class PhantomSource final : public SliceSource {
+ public:
+  /// True if `input` names a phantom ("phantom:..."), whether or not the rest is valid.
+  static bool isPhantom(std::string_view input) noexcept;
+
+  /// Parses the spec; throws isoslab::Error naming the spec and the bad key or value.
+  static std::unique_ptr<PhantomSource> open(const std::string& spec);
+
+  const VolumeInfo& info() const noexcept override { return info_; }
+  bool readSlice(std::span<float> slice) override;
+
+  /// The field value at lattice point (i, j, k) before conversion to the voxel type.
+  double value(std::int64_t i, std::int64_t j, std::int64_t k) const noexcept;
+
+ private:
+  enum class Kind : std::uint8_t { kSphere, kBox, kTorus, kHead };
+
+  PhantomSource() = default;
+
+  VolumeInfo info_;
+  Kind kind_ = Kind::kSphere;
+  bool binary_ = false;
+  std::array<double, 3> centre_{};
+  double radius_ = 0;       // sphere radius, torus minor radius
+  double majorRadius_ = 0;  // torus
+  std::array<std::int64_t, 3> lo_{};
+  std::array<std::int64_t, 3> hi_{};
+  std::uint64_t seed_ = 1;
+  double noise_ = 20;
+  std::int64_t nextSlice_ = 0;
+};
+
+}  // namespace isoslab

@@ -1,0 +1,51 @@
+// Raw voxel data without a header: one file holding the whole volume (plain or gzip), or one file
+// per slice given as a printf pattern ("CThead.%d") or as a folder in natural numeric order.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/slice_source.h"
+
+namespace isoslab {
+
+struct RawOptions {
+  /// Lattice points along x, y, z. For per-slice inputs z may be 0: the number of files.
+  std::array<std::int64_t, 3> dims{0, 0, 0};
+  VoxelType type = VoxelType::kU8;
+  ByteOrder byteOrder = ByteOrder::kLittle;
+  /// Bytes skipped at the start of the file (of every file, for per-slice inputs).
+  std::int64_t headerBytes = 0;
+  std::array<double, 3> spacing{1.0, 1.0, 1.0};
+};
+
+class RawReader final : public SliceSource {
+ public:
+  /// Opens `input`: a file (gzip is recognised by its magic bytes and inflated as a stream), a
+  /// printf pattern, or a folder. Checks dims and, for plain files, that every file is long enough.
+  static std::unique_ptr<RawReader> open(const std::string& input, const RawOptions& options);
+
+  ~RawReader() override;
+
+  const VolumeInfo& info() const noexcept override { return info_; }
+  bool readSlice(std::span<float> slice) override;
+
+ private:
+  RawReader() = default;
+  void openFile(const std::string& path);
+  void readBytes(const std::string& path, std::byte* dst, std::int64_t n, std::int64_t alreadyRead,
+                 std::int64_t expected);
+
+  VolumeInfo info_;
+  RawOptions options_;
+  std::vector<std::string> files_;  // one file, or one per slice
+  std::vector<std::byte> bytes_;    // one slice of raw bytes
+  void* gz_ = nullptr;              // gzFile of the open file
+  std::string openPath_;
+  std::int64_t nextSlice_ = 0;
+};
+
+}  // namespace isoslab

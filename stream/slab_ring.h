@@ -1,0 +1,73 @@
+// The slab ring: the few consecutive slices that the current slab of cells needs, and nothing more.
+//
+// A slab z is the layer of cells between slices z and z+1. Extractors read slices z and z+1, and,
+// for central-difference gradients or the next slab's BCC cube centres, slices z-1 and z+2: at most
+// four slices, so memory depends on the slice size and never on the number of slices. Values
+// derived per slab (such as BCC cube-centre values) are held by the extractor that derives them,
+// two slabs deep.
+//
+// Contract: acquire(k) hands out the slot for slice k and evicts slice k - capacity. A pointer
+// returned by slice(k) stays valid until slice k is evicted, i.e. until acquire(k + capacity).
+// Slices must be acquired in increasing order. Not thread-safe.
+#pragma once
+
+#include <array>
+#include <cassert>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace isoslab {
+
+class SlabRing {
+ public:
+  SlabRing(std::int64_t sliceVoxels, int capacity)
+      : sliceVoxels_(static_cast<std::size_t>(sliceVoxels)),
+        capacity_(capacity),
+        storage_(static_cast<std::size_t>(capacity) * static_cast<std::size_t>(sliceVoxels)),
+        resident_(static_cast<std::size_t>(capacity), -1) {
+    assert(capacity >= 2);
+  }
+
+  int capacity() const noexcept { return capacity_; }
+
+  /// The slot to fill with slice k. Evicts slice k - capacity().
+  std::span<float> acquire(std::int64_t k) {
+    assert(k > newest_);
+    newest_ = k;
+    const std::size_t slot = slotOf(k);
+    resident_[slot] = k;
+    return {storage_.data() + slot * sliceVoxels_, sliceVoxels_};
+  }
+
+  /// Slice k, or nullptr if it is not resident.
+  const float* slice(std::int64_t k) const noexcept {
+    if (k < 0) return nullptr;
+    const std::size_t slot = slotOf(k);
+    return resident_[slot] == k ? storage_.data() + slot * sliceVoxels_ : nullptr;
+  }
+
+  /// Bytes of slice storage.
+  std::size_t bytes() const noexcept { return storage_.size() * sizeof(float); }
+
+ private:
+  std::size_t slotOf(std::int64_t k) const noexcept {
+    return static_cast<std::size_t>(k % capacity_);
+  }
+
+  std::size_t sliceVoxels_;
+  int capacity_;
+  std::vector<float> storage_;
+  std::vector<std::int64_t> resident_;
+  std::int64_t newest_ = -1;
+};
+
+/// What an extractor sees of the ring for slab z.
+struct SlabView {
+  std::int64_t z = 0;
+  std::array<std::int64_t, 3> dims{};
+  /// Slices z-1, z, z+1, z+2; nullptr where outside the volume or not requested.
+  std::array<const float*, 4> slices{};
+};
+
+}  // namespace isoslab
