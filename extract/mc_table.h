@@ -13,7 +13,9 @@
 // face always cut it the same way and the surface has no cracks. Each segment is directed so that
 // the inside lies on its left when the face is seen from outside the cube; the segments then link
 // into closed loops on the cube's surface, and every loop is fanned into triangles whose normals
-// point from the inside (higher values) to the outside (lower values).
+// point from the inside (higher values) to the outside (lower values). Each loop is fanned from a
+// point chosen so that no diagonal joins two points of one face: diagonals then run through the
+// cube's interior, and every edge of the mesh belongs to exactly two triangles.
 #pragma once
 
 #include <array>
@@ -61,6 +63,18 @@ struct CaseTable {
 namespace detail {
 
 constexpr int coord(int corner, int axis) { return (corner >> axis) & 1; }
+
+/// True if edges e0 and e1 lie on a common face of the cube.
+constexpr bool shareFace(int e0, int e1) {
+  for (int axis = 0; axis < 3; ++axis) {
+    const int v = coord(kEdgeCorners[e0][0], axis);
+    if (coord(kEdgeCorners[e0][1], axis) == v && coord(kEdgeCorners[e1][0], axis) == v &&
+        coord(kEdgeCorners[e1][1], axis) == v) {
+      return true;
+    }
+  }
+  return false;
+}
 
 constexpr CaseTable buildCaseTable() {
   CaseTable table{};
@@ -133,20 +147,32 @@ constexpr CaseTable buildCaseTable() {
     // Link the segments into loops and fan each loop.
     std::array<bool, 12> used{};
     int nTris = 0;
-    for (int start = 0; start < 12; ++start) {
-      if (next[start] < 0 || used[start]) continue;
+    for (int first = 0; first < 12; ++first) {
+      if (next[first] < 0 || used[first]) continue;
       int loop[12] = {};
       int len = 0;
-      for (int e = start; !used[e]; e = next[e]) {
+      for (int e = first; !used[e]; e = next[e]) {
         if (next[e] < 0) throw "open loop";
         used[e] = true;
         loop[len++] = e;
       }
+      // Fan from the first loop point whose diagonals all cross the cube's interior. A diagonal
+      // between two points of one face would lie in that face, where the neighbouring cell may
+      // draw it too, and the edge would then have four triangles.
+      int start = -1;
+      for (int s = 0; s < len && start < 0; ++s) {
+        bool interior = true;
+        for (int i = 2; i + 1 < len; ++i) {
+          if (shareFace(loop[s], loop[(s + i) % len])) interior = false;
+        }
+        if (interior) start = s;
+      }
+      if (start < 0) throw "a loop has no fan with interior diagonals";
       for (int i = 1; i + 1 < len; ++i) {
         if (nTris >= kMaxTriangles) throw "kMaxTriangles is too small";
-        table.triangles[cas][nTris++] = {static_cast<std::uint8_t>(loop[0]),
-                                         static_cast<std::uint8_t>(loop[i + 1]),
-                                         static_cast<std::uint8_t>(loop[i])};
+        table.triangles[cas][nTris++] = {static_cast<std::uint8_t>(loop[start]),
+                                         static_cast<std::uint8_t>(loop[(start + i + 1) % len]),
+                                         static_cast<std::uint8_t>(loop[(start + i) % len])};
       }
     }
     table.triangleCount[cas] = static_cast<std::uint8_t>(nTris);
