@@ -1,6 +1,7 @@
 // The isoslab program: extract, info and phantom. Library errors (isoslab::Error) become one line
 // on stderr, "isoslab: error: ...", and exit status 1; usage errors exit with 2.
 #include <CLI/CLI.hpp>
+#include <signal.h>
 #include <fmt/format.h>
 
 #include <cmath>
@@ -82,7 +83,6 @@ SourceOptions sourceOptions(const RawArgs& raw) {
     }
     r.dims[a] = static_cast<std::int64_t>(dims[a]);
   }
-  if (dims.size() == 3 && r.dims[2] == 0) throw Error(fmt::format("--raw-dims: dims {} are invalid: every axis needs at least 2 points", raw.dims));
   const auto type = parseVoxelType(raw.type);
   if (!type) throw Error(fmt::format("--raw-type: unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", raw.type));
   r.type = *type;
@@ -133,7 +133,6 @@ int runExtract(const ExtractArgs& args) {
     iso = *args.iso;
   } else if (info.suggestedIso) {
     iso = *info.suggestedIso;
-    if (!args.quiet) std::fprintf(stderr, "isoslab: using the input's suggested iso value %g\n", iso);
   } else {
     throw Error(fmt::format("{}: --iso is required for this input", args.input));
   }
@@ -208,7 +207,8 @@ int runExtract(const ExtractArgs& args) {
     writeText(args.report, r.dump(2) + "\n");
   }
   if (!args.quiet) {
-    std::fprintf(stderr, "isoslab: %s: %llu triangles, %llu vertices, %s, %.2f s -> %s\n", header.method.c_str(),
+    std::fprintf(stderr, "isoslab: %s at iso %g%s: %llu triangles, %llu vertices, %s, %.2f s -> %s\n",
+                 header.method.c_str(), iso, args.iso ? "" : " (the input's suggestion)",
                  static_cast<unsigned long long>(s.triangles), static_cast<unsigned long long>(s.vertices),
                  s.closed() ? "closed" : fmt::format("{} boundary edges", s.boundaryEdges).c_str(),
                  run.totalSeconds, args.output.c_str());
@@ -262,6 +262,8 @@ int runPhantom(const std::string& spec, const std::string& output) {
 
 int main(int argc, char** argv) {
   using namespace isoslab;
+  // A file-size limit then fails the write with EFBIG, reported like any write error.
+  ::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"isoslab: streaming iso-surface extraction from volumetric scanner data"};
   app.require_subcommand(1);
   app.set_version_flag("--version", kVersion);

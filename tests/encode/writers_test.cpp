@@ -1,0 +1,130 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "encode/indexed_mesh.h"
+#include "encode/mesh_writer.h"
+#include "encode/ply_writer.h"
+#include "encode/stl_writer.h"
+#include "io/error.h"
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+
+namespace isoslab {
+namespace {
+
+std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// Streams `mesh` in two chunks (triangles of chunk 1 use vertices of chunk 0), as extraction does.
+void stream(const IndexedMesh& mesh, MeshSink& sink, bool normals) {
+  MeshHeader h;
+  h.normals = normals;
+  h.method = "mc";
+  h.iso = 50;
+  h.space = "voxel";
+  sink.begin(h);
+  const std::size_t half = mesh.positions.size() / 2;
+  MeshChunk a;
+  a.positions.assign(mesh.positions.begin(), mesh.positions.begin() + static_cast<std::ptrdiff_t>(half));
+  if (normals) a.normals.assign(mesh.normals.begin(), mesh.normals.begin() + static_cast<std::ptrdiff_t>(half));
+  MeshChunk b;
+  b.slab = 1;
+  b.firstVertex = static_cast<VertexId>(half);
+  b.positions.assign(mesh.positions.begin() + static_cast<std::ptrdiff_t>(half), mesh.positions.end());
+  if (normals) b.normals.assign(mesh.normals.begin() + static_cast<std::ptrdiff_t>(half), mesh.normals.end());
+  // Triangles stay in order: chunk a takes them while they use only its vertices.
+  bool inA = true;
+  for (const Triangle& t : mesh.triangles) {
+    inA = inA && std::max({t[0], t[1], t[2]}) < half;
+    (inA ? a : b).triangles.push_back(t);
+  }
+  sink.consume(a);
+  sink.consume(b);
+  sink.finish();
+}
+
+TEST(PlyWriter, RoundTripsPositionsNormalsAndFaces) {
+  const testing::Extraction x = testing::extract("phantom:sphere?n=24&r=8", Method::kTetra6, 920, true);
+  const std::string dir = testing::tempDir();
+  PlyWriter w(dir + "/s.ply");
+  stream(x.mesh, w, true);
+  EXPECT_EQ(w.bytes(), static_cast<std::int64_t>(fs::file_size(dir + "/s.ply")));
+  const IndexedMesh back = readMesh(dir + "/s.ply");
+  EXPECT_EQ(back.positions, x.mesh.positions);
+  EXPECT_EQ(back.normals, x.mesh.normals);
+  EXPECT_EQ(back.triangles, x.mesh.triangles);
+  EXPECT_EQ(testing::fileCount(dir), 1);  // no spool or temporary file left
+}
+
+TEST(PlyWriter, HeaderIsStandardAndPaddedToItsReservedSize) {
+  IndexedMesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  m.triangles = {{0, 1, 2}};
+  const std::string dir = testing::tempDir();
+  PlyWriter w(dir + "/t.ply");
+  stream(m, w, false);
+  const std::string bytes = slurp(dir + "/t.ply");
+  const std::string tail =
+      "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar uint vertex_indices\nend_header\n";
+  const std::size_t end = bytes.find("end_header\n") + 11;
+  EXPECT_EQ(bytes.substr(0, 58), "ply\nformat binary_little_endian 1.0\ncomment isoslab mc iso");
+  EXPECT_EQ(bytes.substr(end - tail.size(), tail.size()), tail);
+  EXPECT_EQ(bytes.size(), end + 3 * 12 + 13);
+  EXPECT_EQ(bytes[end + 36], 3);  // the face's vertex count
+}
+
+TEST(StlWriter, RoundTripsTheWeldedMesh) {
+  const testing::Extraction x = testing::extract("phantom:torus?n=40,40,20&R=11&r=4", Method::kMarchingCubes, 960);
+  const std::string dir = testing::tempDir();
+  StlWriter w(dir + "/t.stl");
+  stream(x.mesh, w, false);
+  const std::string bytes = slurp(dir + "/t.stl");
+  EXPECT_EQ(bytes.size(), 84 + 50 * x.mesh.triangles.size());
+  EXPECT_NE(bytes.substr(0, 5), "solid");
+  const IndexedMesh back = readMesh(dir + "/t.stl");
+  EXPECT_EQ(back.triangles.size(), x.mesh.triangles.size());
+  EXPECT_EQ(back.positions.size(), x.mesh.positions.size());
+}
+
+TEST(Writers, AnAbandonedWriterLeavesNothing) {
+  const std::string dir = testing::tempDir();
+  for (const char* name : {"a.ply", "a.stl"}) {
+    auto w = makeMeshWriter(dir + "/" + name);
+    w->begin(MeshHeader{});
+    MeshChunk c;
+    c.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    c.triangles = {{0, 1, 2}};
+    w->consume(c);
+  }
+  EXPECT_EQ(testing::fileCount(dir), 0);
+}
+
+TEST(Writers, ErrorsNameTheOutput) {
+  const std::string dir = testing::tempDir();
+  try {
+    makeMeshWriter(dir + "/mesh.xyz");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), dir + "/mesh.xyz: unknown mesh format '.xyz' (use .ply or .stl)");
+  }
+  try {
+    auto w = makeMeshWriter(dir + "/nope/mesh.ply");
+    w->begin(MeshHeader{});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              dir + "/nope/mesh.ply: cannot create the output: the folder '" + dir + "/nope' does not exist");
+  }
+}
+
+}  // namespace
+}  // namespace isoslab

@@ -1,0 +1,279 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <set>
+
+#include "encode/indexed_mesh.h"
+#include "extract/frame.h"
+#include "io/open_source.h"
+#include "io/phantom.h"
+#include "test_support.h"
+
+namespace isoslab {
+namespace {
+
+using testing::Extraction;
+using testing::kAllMethods;
+
+std::string name(Method m) { return std::string(methodName(m)); }
+
+const char* kBlock = "phantom:box?n=10&lo=2,2,2&hi=7,7,7";
+
+// 6 x 6 x 6 inside lattice points (value 100) in a 10^3 grid of zeros, iso 50.
+//
+// mc: the cells that straddle the block are
+//   face cells, 6 faces x 5 x 5, four inside corners (a plane): 2 triangles each   = 300
+//   edge cells, 12 edges x 5, two inside corners: 2 triangles each                 = 120
+//   corner cells, 8, one inside corner: 1 triangle each                            =   8
+// 428 triangles; one vertex per crossed lattice edge, 6 x 6 x 6 surface points = 216.
+//
+// mt6 (tetrahedra 0 -> a -> a+b -> 7 for the 6 orders of the axes a, b, c):
+//   face cells: 1 + 1 + 2 + 2 + 1 + 1 = 8 triangles per cell on every face (the split is
+//     symmetric under axis permutations and under the inversion 0 <-> 7)          = 1200
+//   edge cells: an edge whose two inside corners lie on a line parallel to the main diagonal's
+//     projection (local corners (0,0) or (1,1) in the other two axes) gives 2+2+1+1+1+1 = 8,
+//     the other two edges per axis give 2+1+1 = 4; per axis 2x5x8 + 2x5x4 = 120     =  360
+//   corner cells: corners 0 and 7 lie in all 6 tetrahedra (6 triangles), the other six in 2
+//     (2 triangles): 6 + 6 + 6 x 2                                                  =   24
+// 1584 triangles.
+// mt5 and bcc12: counted cell by cell by an independent script (cell types and their tetrahedra
+// enumerated separately from the library): 1220 and 2424.
+TEST(ExtractBlock, ExactTriangleCounts) {
+  struct Expect {
+    Method method;
+    std::uint64_t triangles;
+  };
+  for (const Expect& e : {Expect{Method::kMarchingCubes, 428}, Expect{Method::kTetra5, 1220},
+                          Expect{Method::kTetra6, 1584}, Expect{Method::kBcc12, 2424}}) {
+    const Extraction x = testing::extract(kBlock, e.method, 50);
+    EXPECT_EQ(x.stats.triangles, e.triangles) << name(e.method);
+    EXPECT_TRUE(x.stats.closed()) << name(e.method);
+    EXPECT_EQ(x.stats.inconsistentEdges, 0u) << name(e.method);
+    EXPECT_EQ(x.stats.euler, 2) << name(e.method);
+    // bcc12's centre values on the block's faces are the mean of four 100s and four 0s: exactly
+    // the iso value, so vertices land on those centres and some triangles collapse.
+    if (e.method != Method::kBcc12) {
+      EXPECT_EQ(x.stats.degenerateTriangles, 0u) << name(e.method);
+    }
+  }
+  EXPECT_EQ(testing::extract(kBlock, Method::kMarchingCubes, 50).stats.vertices, 216u);
+}
+
+TEST(ExtractBlock, ValuesEqualToIsoGiveDegenerateTrianglesButNoHole) {
+  // Inside means value >= iso: with iso 100 every inside corner is exactly on the surface, so
+  // several vertices coincide and triangles collapse, but the mesh stays closed in index terms.
+  for (Method m : kAllMethods) {
+    const Extraction x = testing::extract(kBlock, m, 100);
+    EXPECT_GT(x.stats.degenerateTriangles, 0u) << name(m);
+    EXPECT_TRUE(x.stats.closed()) << name(m);
+    EXPECT_EQ(x.stats.inconsistentEdges, 0u) << name(m);
+    EXPECT_EQ(x.stats.euler, 2) << name(m);
+  }
+}
+
+TEST(ExtractSphere, ClosedOrientedAndAccurateForEveryMethod) {
+  const double r = 20;
+  const double area = 4 * std::numbers::pi * r * r;
+  const double volume = 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  for (Method m : kAllMethods) {
+    const Extraction x = testing::extract("phantom:sphere?n=64&r=20&field=distance", m, 1000 - 10 * r);
+    const MeshStats& s = x.stats;
+    EXPECT_EQ(s.boundaryEdges, 0u) << name(m);
+    EXPECT_EQ(s.nonManifoldEdges, 0u) << name(m);
+    EXPECT_EQ(s.inconsistentEdges, 0u) << name(m);
+    EXPECT_EQ(s.euler, 2) << name(m);
+    EXPECT_NEAR(s.area / area, 1.0, 0.005) << name(m);
+    EXPECT_NEAR(s.volume / volume, 1.0, 0.005) << name(m);
+    if (m == Method::kMarchingCubes) {
+      EXPECT_FALSE(s.cellVolume.has_value());
+    } else {
+      ASSERT_TRUE(s.cellVolume.has_value()) << name(m);
+      EXPECT_NEAR(*s.cellVolume / volume, 1.0, 0.005) << name(m);
+      EXPECT_NEAR(*s.cellVolume / s.volume, 1.0, 1e-6) << name(m);
+    }
+  }
+}
+
+TEST(ExtractSphere, TetrahedralMethodsMakeMoreTrianglesThanMarchingCubes) {
+  const auto count = [](Method m) { return testing::extract("phantom:sphere?n=48&r=15", m, 850).stats.triangles; };
+  const auto mc = count(Method::kMarchingCubes);
+  const auto mt5 = count(Method::kTetra5);
+  const auto mt6 = count(Method::kTetra6);
+  const auto bcc = count(Method::kBcc12);
+  EXPECT_LT(mc, mt5);
+  EXPECT_LT(mt5, mt6);
+  EXPECT_LT(mt6, bcc);
+}
+
+TEST(ExtractTorus, EulerCharacteristicZeroForEveryMethod) {
+  for (Method m : kAllMethods) {
+    const Extraction x = testing::extract("phantom:torus?n=64,64,32&R=18&r=7", m, 1000 - 70);
+    EXPECT_TRUE(x.stats.closed()) << name(m);
+    EXPECT_EQ(x.stats.inconsistentEdges, 0u) << name(m);
+    EXPECT_EQ(x.stats.euler, 0) << name(m);
+  }
+}
+
+// Random fields have every kind of cell, including every ambiguous face and, with few distinct
+// values, many values exactly at iso.
+TEST(ExtractRandom, NoCracksAndConsistentWinding) {
+  for (unsigned seed : {1u, 2u, 3u, 4u}) {
+    std::mt19937 rng(seed);
+    const int levels = seed % 2 == 0 ? 4 : 1000;
+    std::uniform_int_distribution<int> dist(0, levels - 1);
+    std::vector<float> values(32 * 32 * 32);
+    for (float& v : values) v = static_cast<float>(dist(rng));
+    const double iso = levels / 2;
+    for (Method m : kAllMethods) {
+      testing::VectorSource source({32, 32, 32}, values);
+      const Extraction x = testing::extract(source, m, iso);
+      EXPECT_GT(x.stats.triangles, 1000u);
+      EXPECT_EQ(x.stats.interiorBoundaryEdges, 0u) << name(m) << " seed " << seed;
+      EXPECT_EQ(x.stats.nonManifoldEdges, 0u) << name(m) << " seed " << seed;
+      EXPECT_EQ(x.stats.inconsistentEdges, 0u) << name(m) << " seed " << seed;
+      if (m != Method::kMarchingCubes) {
+        // Closed or cut by the box, the per-tetrahedron volume stays within the box.
+        EXPECT_GT(*x.stats.cellVolume, 0.0);
+        EXPECT_LT(*x.stats.cellVolume, 31.0 * 31 * 31);
+      }
+    }
+  }
+}
+
+TEST(ExtractRandom, EveryVertexIsUsedAndEveryIdIsDense) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> dist(0, 1);
+  std::vector<float> values(20 * 17 * 13);
+  for (float& v : values) v = dist(rng);
+  for (Method m : kAllMethods) {
+    testing::VectorSource source({20, 17, 13}, values);
+    const Extraction x = testing::extract(source, m, 0.5);
+    std::vector<int> uses(x.mesh.positions.size(), 0);
+    for (const Triangle& t : x.mesh.triangles) {
+      for (VertexId v : t) {
+        ASSERT_LT(v, uses.size());
+        ++uses[v];
+      }
+    }
+    for (std::size_t v = 0; v < uses.size(); ++v) EXPECT_GT(uses[v], 0) << name(m) << " vertex " << v;
+  }
+}
+
+TEST(ExtractRandom, CubeEdgeVerticesMatchMarchingCubesBitForBit) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> dist(0, 100);
+  std::vector<float> values(24 * 24 * 24);
+  for (float& v : values) v = dist(rng);
+  auto key = [](const Vec3f& p) { return std::array<float, 3>{p.x, p.y, p.z}; };
+  testing::VectorSource mcSource({24, 24, 24}, values);
+  const Extraction mc = testing::extract(mcSource, Method::kMarchingCubes, 50);
+  for (Method m : {Method::kTetra5, Method::kTetra6, Method::kBcc12}) {
+    testing::VectorSource source({24, 24, 24}, values);
+    const Extraction x = testing::extract(source, m, 50);
+    std::set<std::array<float, 3>> positions;
+    for (const Vec3f& p : x.mesh.positions) positions.insert(key(p));
+    for (const Vec3f& p : mc.mesh.positions) ASSERT_TRUE(positions.contains(key(p))) << name(m);
+  }
+}
+
+TEST(ExtractStreaming, PhantomAndRawFileGiveIdenticalMeshes) {
+  const std::string dir = testing::tempDir();
+  const std::string spec = "phantom:head?n=40,44,36";
+  auto phantom = openSource(spec, {});
+  writeRaw(*phantom, dir + "/head.raw", VoxelType::kI16);
+  for (Method m : kAllMethods) {
+    const Extraction a = testing::extract(spec, m, -400, true);
+    SourceOptions options;
+    options.raw = RawOptions{};
+    options.raw->dims = {40, 44, 36};
+    options.raw->type = VoxelType::kI16;
+    auto raw = openSource(dir + "/head.raw", options);
+    const Extraction b = testing::extract(*raw, m, -400, true);
+    EXPECT_GT(a.mesh.triangles.size(), 1000u);
+    EXPECT_TRUE(a.mesh == b.mesh) << name(m);
+  }
+}
+
+TEST(ExtractNormals, PointOutOfTheSphere) {
+  for (Method m : kAllMethods) {
+    const Extraction x = testing::extract("phantom:sphere?n=40&r=12", m, 880, true);
+    ASSERT_EQ(x.mesh.normals.size(), x.mesh.positions.size());
+    const double c = 19.5;
+    for (std::size_t v = 0; v < x.mesh.positions.size(); ++v) {
+      const Vec3f& p = x.mesh.positions[v];
+      const Vec3f& n = x.mesh.normals[v];
+      const double dx = p.x - c, dy = p.y - c, dz = p.z - c;
+      const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
+      EXPECT_GT((n.x * dx + n.y * dy + n.z * dz) / len, 0.99) << name(m);
+      EXPECT_NEAR(std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z), 1.0, 1e-5);
+    }
+  }
+}
+
+TEST(ExtractFrame, LeftHandedFrameKeepsNormalsOutward) {
+  // Flip the y axis: the frame is left-handed, so winding must be reversed for the enclosed
+  // volume (and the triangles' facing) to stay positive.
+  auto field = [](std::int64_t i, std::int64_t j, std::int64_t k) {
+    const double x = static_cast<double>(i) - 12, y = static_cast<double>(j) - 12, z = static_cast<double>(k) - 12;
+    return static_cast<float>(1000 - 10 * std::sqrt(x * x + y * y + z * z));
+  };
+  for (Method m : kAllMethods) {
+    testing::VectorSource source({25, 25, 25}, field);
+    source.mutableInfo().direction = {1, 0, 0, 0, -1, 0, 0, 0, 1};
+    source.mutableInfo().spacing = {0.5, 0.5, 2.0};
+    const Extraction x = testing::extract(source, m, 920, true);
+    const double volume = 4.0 / 3.0 * std::numbers::pi * 8 * 8 * 8 * 0.5 * 0.5 * 2.0;
+    EXPECT_NEAR(x.stats.volume / volume, 1.0, 0.02) << name(m);
+    EXPECT_EQ(x.stats.inconsistentEdges, 0u);
+    if (x.stats.cellVolume) {
+      EXPECT_NEAR(*x.stats.cellVolume / x.stats.volume, 1.0, 1e-6);
+    }
+    // Normals agree with the facing of their triangles (by area: slivers may disagree).
+    double agree = 0;
+    double total = 0;
+    for (const Triangle& t : x.mesh.triangles) {
+      const Vec3f& a = x.mesh.positions[t[0]];
+      const Vec3f& b = x.mesh.positions[t[1]];
+      const Vec3f& c = x.mesh.positions[t[2]];
+      const double ux = b.x - a.x, uy = b.y - a.y, uz = b.z - a.z, vx = c.x - a.x, vy = c.y - a.y, vz = c.z - a.z;
+      const double n[3] = {uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
+      const Vec3f& na = x.mesh.normals[t[0]];
+      const double twiceArea = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      total += twiceArea;
+      agree += n[0] * na.x + n[1] * na.y + n[2] * na.z > 0 ? twiceArea : 0;
+    }
+    EXPECT_GT(agree / total, 0.999) << name(m);
+  }
+}
+
+TEST(ExtractFrame, PhysicalFramePlacesVerticesByOriginDirectionAndSpacing) {
+  testing::VectorSource source({4, 4, 4}, [](std::int64_t i, std::int64_t, std::int64_t) { return static_cast<float>(i); });
+  VolumeInfo& info = source.mutableInfo();
+  info.origin = {10, 20, 30};
+  info.spacing = {2, 3, 4};
+  info.direction = {0, 1, 0, 1, 0, 0, 0, 0, 1};  // i runs along y, j along x
+  const Extraction x = testing::extract(source, Method::kMarchingCubes, 1.5);
+  ASSERT_FALSE(x.mesh.positions.empty());
+  for (const Vec3f& p : x.mesh.positions) {
+    EXPECT_FLOAT_EQ(p.y, 20 + 1.5f * 2);  // the plane i = 1.5
+  }
+}
+
+TEST(ExtractSliceOrigins, UnevenSlicesPutVerticesInTheirSlicesPlanes) {
+  testing::VectorSource source({6, 6, 4}, [](std::int64_t i, std::int64_t j, std::int64_t) {
+    const double x = static_cast<double>(i) - 2.5, y = static_cast<double>(j) - 2.5;
+    return static_cast<float>(x * x + y * y);
+  });
+  source.mutableInfo().sliceOrigins = {{0, 0, 0}, {0, 0.5, 4}, {0, 1, 5}, {0, 1.5, 12}};
+  const Extraction x = testing::extract(source, Method::kMarchingCubes, 3.0);
+  std::set<float> zs;
+  for (const Vec3f& p : x.mesh.positions) {
+    if (p.z == 0 || p.z == 4 || p.z == 5 || p.z == 12) zs.insert(p.z);
+  }
+  EXPECT_EQ(zs, (std::set<float>{0, 4, 5, 12}));
+}
+
+}  // namespace
+}  // namespace isoslab

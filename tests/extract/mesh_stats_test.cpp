@@ -1,0 +1,75 @@
+#include <gtest/gtest.h>
+
+#include "encode/indexed_mesh.h"
+#include "extract/mesh_stats.h"
+
+namespace isoslab {
+namespace {
+
+MeshStats measure(const IndexedMesh& mesh) {
+  MeshStatsSink sink;
+  feedMesh(mesh, MeshHeader{}, sink);
+  return sink.stats();
+}
+
+IndexedMesh unitCube() {
+  IndexedMesh m;
+  for (int c = 0; c < 8; ++c) m.positions.push_back({float(c & 1), float((c >> 1) & 1), float((c >> 2) & 1)});
+  // Outward-facing quads split into triangles.
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads) {
+    m.triangles.push_back({VertexId(q[0]), VertexId(q[1]), VertexId(q[2])});
+    m.triangles.push_back({VertexId(q[0]), VertexId(q[2]), VertexId(q[3])});
+  }
+  return m;
+}
+
+TEST(MeshStats, UnitCubeIsClosedWithKnownAreaAndVolume) {
+  const MeshStats s = measure(unitCube());
+  EXPECT_EQ(s.vertices, 8u);
+  EXPECT_EQ(s.triangles, 12u);
+  EXPECT_EQ(s.edges, 18u);
+  EXPECT_EQ(s.euler, 2);
+  EXPECT_TRUE(s.closed());
+  EXPECT_TRUE(s.oriented());
+  EXPECT_DOUBLE_EQ(s.area, 6.0);
+  EXPECT_DOUBLE_EQ(s.volume, 1.0);
+  EXPECT_EQ(s.bounds, (std::array<double, 6>{0, 0, 0, 1, 1, 1}));
+}
+
+TEST(MeshStats, DetectsHolesFlipsNonManifoldEdgesAndDegenerateTriangles) {
+  IndexedMesh holed = unitCube();
+  holed.triangles.pop_back();
+  const MeshStats h = measure(holed);
+  EXPECT_EQ(h.boundaryEdges, 3u);
+  EXPECT_EQ(h.interiorBoundaryEdges, 3u);
+  EXPECT_FALSE(h.closed());
+
+  IndexedMesh flipped = unitCube();
+  std::swap(flipped.triangles[0][1], flipped.triangles[0][2]);
+  EXPECT_EQ(measure(flipped).inconsistentEdges, 3u);
+
+  IndexedMesh fin = unitCube();
+  fin.positions.push_back({0.5f, 0.5f, 0.5f});
+  fin.triangles.push_back({0, 1, 8});
+  EXPECT_EQ(measure(fin).nonManifoldEdges, 1u);
+
+  IndexedMesh degenerate = unitCube();
+  degenerate.positions.push_back({0, 0, 0});
+  degenerate.triangles.push_back({0, 8, 1});
+  degenerate.triangles.push_back({0, 1, 8});
+  EXPECT_EQ(measure(degenerate).degenerateTriangles, 2u);
+}
+
+TEST(MeshStats, BoundaryEdgesOnTheVolumeFacesAreNotHoles) {
+  IndexedMesh quad;
+  quad.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  quad.boundary = {kFaceXMin | kFaceYMin, kFaceYMin, 0, kFaceXMin};
+  quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+  const MeshStats s = measure(quad);
+  EXPECT_EQ(s.boundaryEdges, 4u);
+  EXPECT_EQ(s.interiorBoundaryEdges, 2u);  // 1-2 and 2-3 are not on a face of the volume
+}
+
+}  // namespace
+}  // namespace isoslab
