@@ -1,8 +1,8 @@
 // The isoslab program: extract, info and phantom. Library errors (isoslab::Error) become one line
 // on stderr, "isoslab: error: ...", and exit status 1; usage errors exit with 2.
-#include <CLI/CLI.hpp>
-#include <signal.h>
 #include <fmt/format.h>
+#include <signal.h>
+#include <CLI/CLI.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -41,13 +41,15 @@ void addRawOptions(CLI::App* cmd, RawArgs& raw) {
   cmd->add_option("--raw-dims", raw.dims, "Raw input: lattice points X,Y,Z (Z may be left out for per-slice files)")
       ->group("Raw input");
   cmd->add_option("--raw-type", raw.type, "Raw input: voxel type u8 i8 u16 i16 u32 i32 f32 f64")
-      ->group("Raw input")->capture_default_str();
+      ->group("Raw input")
+      ->capture_default_str();
   cmd->add_option("--raw-endian", raw.endian, "Raw input: byte order, little or big")
-      ->group("Raw input")->capture_default_str();
+      ->group("Raw input")
+      ->capture_default_str();
   cmd->add_option("--raw-offset", raw.offset, "Raw input: header bytes to skip in each file")
-      ->group("Raw input")->capture_default_str();
-  cmd->add_option("--spacing", raw.spacing, "Voxel spacing sx,sy,sz (raw input; default 1,1,1)")
-      ->group("Raw input");
+      ->group("Raw input")
+      ->capture_default_str();
+  cmd->add_option("--spacing", raw.spacing, "Voxel spacing sx,sy,sz (raw input; default 1,1,1)")->group("Raw input");
 }
 
 std::vector<double> parseList(const std::string& text, const std::string& option) {
@@ -84,7 +86,8 @@ SourceOptions sourceOptions(const RawArgs& raw) {
     r.dims[a] = static_cast<std::int64_t>(dims[a]);
   }
   const auto type = parseVoxelType(raw.type);
-  if (!type) throw Error(fmt::format("--raw-type: unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", raw.type));
+  if (!type)
+    throw Error(fmt::format("--raw-type: unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", raw.type));
   r.type = *type;
   if (raw.endian == "little") {
     r.byteOrder = ByteOrder::kLittle;
@@ -103,7 +106,9 @@ SourceOptions sourceOptions(const RawArgs& raw) {
   return options;
 }
 
-nlohmann::json array3(const std::array<double, 3>& a) { return nlohmann::json::array({a[0], a[1], a[2]}); }
+nlohmann::json array3(const std::array<double, 3>& a) {
+  return nlohmann::json::array({a[0], a[1], a[2]});
+}
 
 void writeText(const std::string& path, const std::string& text) {
   AtomicFile f(path);
@@ -155,8 +160,10 @@ int runExtract(const ExtractArgs& args) {
     const auto hi = frame.map(static_cast<double>(info.dims[0] - 1), static_cast<double>(info.dims[1] - 1),
                               static_cast<double>(info.dims[2] - 1));
     for (int a = 0; a < 3; ++a) {
-      header.volumeBounds[static_cast<std::size_t>(a)] = std::min(lo[static_cast<std::size_t>(a)], hi[static_cast<std::size_t>(a)]);
-      header.volumeBounds[static_cast<std::size_t>(a + 3)] = std::max(lo[static_cast<std::size_t>(a)], hi[static_cast<std::size_t>(a)]);
+      header.volumeBounds[static_cast<std::size_t>(a)] =
+          std::min(lo[static_cast<std::size_t>(a)], hi[static_cast<std::size_t>(a)]);
+      header.volumeBounds[static_cast<std::size_t>(a + 3)] =
+          std::max(lo[static_cast<std::size_t>(a)], hi[static_cast<std::size_t>(a)]);
     }
   }
 
@@ -210,8 +217,8 @@ int runExtract(const ExtractArgs& args) {
     std::fprintf(stderr, "isoslab: %s at iso %g%s: %llu triangles, %llu vertices, %s, %.2f s -> %s\n",
                  header.method.c_str(), iso, args.iso ? "" : " (the input's suggestion)",
                  static_cast<unsigned long long>(s.triangles), static_cast<unsigned long long>(s.vertices),
-                 s.closed() ? "closed" : fmt::format("{} boundary edges", s.boundaryEdges).c_str(),
-                 run.totalSeconds, args.output.c_str());
+                 s.closed() ? "closed" : fmt::format("{} boundary edges", s.boundaryEdges).c_str(), run.totalSeconds,
+                 args.output.c_str());
   }
   return 0;
 }
@@ -246,7 +253,8 @@ int runInfo(const std::string& input, const RawArgs& raw) {
 }
 
 int runPhantom(const std::string& spec, const std::string& output) {
-  if (!PhantomSource::isPhantom(spec)) throw Error(fmt::format("{}: not a phantom spec (phantom:NAME?key=value&...)", spec));
+  if (!PhantomSource::isPhantom(spec))
+    throw Error(fmt::format("{}: not a phantom spec (phantom:NAME?key=value&...)", spec));
   auto source = PhantomSource::open(spec);
   const VolumeInfo& info = source->info();
   const std::int64_t bytes = writeRaw(*source, output, info.type);
@@ -270,8 +278,10 @@ int main(int argc, char** argv) {
 
   ExtractArgs ex;
   auto* extract = app.add_subcommand("extract", "Extract an iso-surface mesh from a volume");
-  extract->add_option("INPUT", ex.input, "Volume: a raw file, pattern or folder, or phantom:NAME?key=value&...")->required();
-  extract->add_option("--iso", ex.iso, "Iso value; voxels with value >= iso are inside (default: the input's suggestion, for phantoms)");
+  extract->add_option("INPUT", ex.input, "Volume: a raw file, pattern or folder, or phantom:NAME?key=value&...")
+      ->required();
+  extract->add_option("--iso", ex.iso,
+                      "Iso value; voxels with value >= iso are inside (default: the input's suggestion, for phantoms)");
   extract->add_option("--method", ex.method, "mc, mt5, mt6 or bcc12")->capture_default_str();
   extract->add_option("-o,--output", ex.output, "Output mesh: .ply (binary) or .stl (binary)")->required();
   extract->add_flag("--normals", ex.normals, "Write vertex normals from the field's gradient (PLY)");

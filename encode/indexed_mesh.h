@@ -11,7 +11,7 @@ namespace isoslab {
 
 struct IndexedMesh {
   std::vector<Vec3f> positions;
-  std::vector<Vec3f> normals;  // empty, or one per position
+  std::vector<Vec3f> normals;          // empty, or one per position
   std::vector<std::uint8_t> boundary;  // empty, or one per position
   std::vector<Triangle> triangles;
   double cellVolume = 0;

@@ -76,10 +76,12 @@ class Input {
 
 void addPolygon(IndexedMesh& mesh, const std::vector<std::uint64_t>& poly, const std::string& path) {
   for (std::uint64_t v : poly) {
-    if (v >= mesh.positions.size()) throw Error(fmt::format("{}: a face references vertex {} of {}", path, v, mesh.positions.size()));
+    if (v >= mesh.positions.size())
+      throw Error(fmt::format("{}: a face references vertex {} of {}", path, v, mesh.positions.size()));
   }
   for (std::size_t k = 1; k + 1 < poly.size(); ++k) {
-    mesh.triangles.push_back({static_cast<VertexId>(poly[0]), static_cast<VertexId>(poly[k]), static_cast<VertexId>(poly[k + 1])});
+    mesh.triangles.push_back(
+        {static_cast<VertexId>(poly[0]), static_cast<VertexId>(poly[k]), static_cast<VertexId>(poly[k + 1])});
   }
 }
 
@@ -153,7 +155,8 @@ IndexedMesh readPly(const std::string& path, std::string data) {
       }
       if (e.name == "vertex") {
         mesh.positions.push_back({static_cast<float>(xyz[0]), static_cast<float>(xyz[1]), static_cast<float>(xyz[2])});
-        if (hasNormal) mesh.normals.push_back({static_cast<float>(xyz[3]), static_cast<float>(xyz[4]), static_cast<float>(xyz[5])});
+        if (hasNormal)
+          mesh.normals.push_back({static_cast<float>(xyz[3]), static_cast<float>(xyz[4]), static_cast<float>(xyz[5])});
       } else if (e.name == "face") {
         addPolygon(mesh, poly, path);
       }

@@ -20,12 +20,12 @@ LatticeNode cornerNode(int c) {
 // Adds tetrahedron (a, b, c, d) with its nodes reordered to a positive signed volume.
 void addTet(CellScheme& s, std::vector<Tetrahedron>& list, int a, int b, int c, int d) {
   const auto& n = s.nodes;
-  if (signedVolume6(n[static_cast<std::size_t>(a)], n[static_cast<std::size_t>(b)],
-                    n[static_cast<std::size_t>(c)], n[static_cast<std::size_t>(d)]) < 0) {
+  if (signedVolume6(n[static_cast<std::size_t>(a)], n[static_cast<std::size_t>(b)], n[static_cast<std::size_t>(c)],
+                    n[static_cast<std::size_t>(d)]) < 0) {
     std::swap(c, d);
   }
-  list.push_back({{static_cast<std::uint8_t>(a), static_cast<std::uint8_t>(b),
-                   static_cast<std::uint8_t>(c), static_cast<std::uint8_t>(d)}});
+  list.push_back({{static_cast<std::uint8_t>(a), static_cast<std::uint8_t>(b), static_cast<std::uint8_t>(c),
+                   static_cast<std::uint8_t>(d)}});
 }
 
 void addCorners(CellScheme& s) {
@@ -34,8 +34,7 @@ void addCorners(CellScheme& s) {
 
 }  // namespace
 
-int signedVolume6(const LatticeNode& a, const LatticeNode& b, const LatticeNode& c,
-                  const LatticeNode& d) noexcept {
+int signedVolume6(const LatticeNode& a, const LatticeNode& b, const LatticeNode& c, const LatticeNode& d) noexcept {
   const int ux = b.hx - a.hx, uy = b.hy - a.hy, uz = b.hz - a.hz;
   const int vx = c.hx - a.hx, vy = c.hy - a.hy, vz = c.hz - a.hz;
   const int wx = d.hx - a.hx, wy = d.hy - a.hy, wz = d.hz - a.hz;

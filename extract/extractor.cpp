@@ -6,10 +6,14 @@ namespace isoslab {
 
 std::string_view methodName(Method m) noexcept {
   switch (m) {
-    case Method::kMarchingCubes: return "mc";
-    case Method::kTetra5: return "mt5";
-    case Method::kTetra6: return "mt6";
-    case Method::kBcc12: return "bcc12";
+    case Method::kMarchingCubes:
+      return "mc";
+    case Method::kTetra5:
+      return "mt5";
+    case Method::kTetra6:
+      return "mt6";
+    case Method::kBcc12:
+      return "bcc12";
   }
   return "?";
 }
@@ -25,10 +29,17 @@ std::unique_ptr<Extractor> makeExtractor(const ExtractOptions& options, const Vo
                                          const LatticeFrame& frame) {
   std::unique_ptr<CellScheme> scheme;
   switch (options.method) {
-    case Method::kMarchingCubes: break;
-    case Method::kTetra5: scheme = std::make_unique<CellScheme>(makeTetra5Scheme()); break;
-    case Method::kTetra6: scheme = std::make_unique<CellScheme>(makeTetra6Scheme()); break;
-    case Method::kBcc12: scheme = std::make_unique<CellScheme>(makeBcc12Scheme()); break;
+    case Method::kMarchingCubes:
+      break;
+    case Method::kTetra5:
+      scheme = std::make_unique<CellScheme>(makeTetra5Scheme());
+      break;
+    case Method::kTetra6:
+      scheme = std::make_unique<CellScheme>(makeTetra6Scheme());
+      break;
+    case Method::kBcc12:
+      scheme = std::make_unique<CellScheme>(makeBcc12Scheme());
+      break;
   }
   return makeLatticeExtractor(options, info, frame, std::move(scheme));
 }

@@ -4,7 +4,9 @@
 
 namespace isoslab {
 
-LatticeFrame LatticeFrame::voxel() { return LatticeFrame(); }
+LatticeFrame LatticeFrame::voxel() {
+  return LatticeFrame();
+}
 
 LatticeFrame LatticeFrame::physical(const VolumeInfo& info) {
   LatticeFrame f;
@@ -16,10 +18,9 @@ LatticeFrame LatticeFrame::physical(const VolumeInfo& info) {
   }
   const auto& m = f.linear_;
   // Cofactors give the inverse transpose directly: inv(M)^T = cof(M) / det(M).
-  std::array<double, 9> cof{
-      m[4] * m[8] - m[5] * m[7], m[5] * m[6] - m[3] * m[8], m[3] * m[7] - m[4] * m[6],
-      m[2] * m[7] - m[1] * m[8], m[0] * m[8] - m[2] * m[6], m[1] * m[6] - m[0] * m[7],
-      m[1] * m[5] - m[2] * m[4], m[2] * m[3] - m[0] * m[5], m[0] * m[4] - m[1] * m[3]};
+  std::array<double, 9> cof{m[4] * m[8] - m[5] * m[7], m[5] * m[6] - m[3] * m[8], m[3] * m[7] - m[4] * m[6],
+                            m[2] * m[7] - m[1] * m[8], m[0] * m[8] - m[2] * m[6], m[1] * m[6] - m[0] * m[7],
+                            m[1] * m[5] - m[2] * m[4], m[2] * m[3] - m[0] * m[5], m[0] * m[4] - m[1] * m[3]};
   f.determinant_ = m[0] * cof[0] + m[1] * cof[1] + m[2] * cof[2];
   for (int n = 0; n < 9; ++n) f.inverseT_[n] = cof[n] / f.determinant_;
   f.sliceOrigins_ = info.sliceOrigins;

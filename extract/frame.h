@@ -38,8 +38,8 @@ class LatticeFrame {
  private:
   std::string name_ = "voxel";
   Vec3d origin_{0, 0, 0};
-  std::array<double, 9> linear_{1, 0, 0, 0, 1, 0, 0, 0, 1};       // row-major, columns per axis
-  std::array<double, 9> inverseT_{1, 0, 0, 0, 1, 0, 0, 0, 1};     // inverse transpose of linear_
+  std::array<double, 9> linear_{1, 0, 0, 0, 1, 0, 0, 0, 1};    // row-major, columns per axis
+  std::array<double, 9> inverseT_{1, 0, 0, 0, 1, 0, 0, 0, 1};  // inverse transpose of linear_
   std::vector<Vec3d> sliceOrigins_;
   double determinant_ = 1;
 };

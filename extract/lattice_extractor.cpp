@@ -76,9 +76,8 @@ class LatticeExtractor final : public Extractor {
           TetRef r;
           r.nodes = t.nodes;
           for (int e = 0; e < 6; ++e) {
-            r.edges[static_cast<std::size_t>(e)] =
-                makeEdge(t.nodes[tet::kTetEdges[static_cast<std::size_t>(e)][0]],
-                         t.nodes[tet::kTetEdges[static_cast<std::size_t>(e)][1]]);
+            r.edges[static_cast<std::size_t>(e)] = makeEdge(t.nodes[tet::kTetEdges[static_cast<std::size_t>(e)][0]],
+                                                            t.nodes[tet::kTetEdges[static_cast<std::size_t>(e)][1]]);
           }
           const auto& n = nodes_;
           r.volume = signedVolume6(n[t.nodes[0]], n[t.nodes[1]], n[t.nodes[2]], n[t.nodes[3]]) / 48.0;
@@ -184,8 +183,8 @@ class LatticeExtractor final : public Extractor {
     for (std::int64_t j = 0; j + 1 < ny_; ++j) {
       for (std::int64_t i = 0; i + 1 < nx_; ++i) {
         const std::int64_t p = j * nx_ + i;
-        const double sum = static_cast<double>(a[p]) + a[p + 1] + a[p + nx_] + a[p + nx_ + 1] + b[p] +
-                           b[p + 1] + b[p + nx_] + b[p + nx_ + 1];
+        const double sum = static_cast<double>(a[p]) + a[p + 1] + a[p + nx_] + a[p + nx_ + 1] + b[p] + b[p + 1] +
+                           b[p + nx_] + b[p + nx_ + 1];
         dst[static_cast<std::size_t>(j * (nx_ - 1) + i)] = static_cast<float>(sum / 8.0);
       }
     }
@@ -196,8 +195,7 @@ class LatticeExtractor final : public Extractor {
     const int count = table.triangleCount[cornerCase];
     for (int t = 0; t < count; ++t) {
       const auto& tri = table.triangles[cornerCase][static_cast<std::size_t>(t)];
-      emitTriangle(vertex(mcEdges_[tri[0]], i, j), vertex(mcEdges_[tri[1]], i, j),
-                   vertex(mcEdges_[tri[2]], i, j));
+      emitTriangle(vertex(mcEdges_[tri[0]], i, j), vertex(mcEdges_[tri[1]], i, j), vertex(mcEdges_[tri[2]], i, j));
     }
   }
 
@@ -205,12 +203,14 @@ class LatticeExtractor final : public Extractor {
   double marchTetrahedra(unsigned cornerCase, std::int64_t i, std::int64_t j) noexcept {
     std::size_t variant = 0;
     switch (scheme_->rule) {
-      case VariantRule::kSingle: break;
-      case VariantRule::kParity: variant = static_cast<std::size_t>((i + j + z_) & 1); break;
+      case VariantRule::kSingle:
+        break;
+      case VariantRule::kParity:
+        variant = static_cast<std::size_t>((i + j + z_) & 1);
+        break;
       case VariantRule::kBoundary:
         variant = static_cast<std::size_t>((i == 0 ? 1 : 0) | (i + 2 == nx_ ? 2 : 0) | (j == 0 ? 4 : 0) |
-                                           (j + 2 == ny_ ? 8 : 0) | (z_ == 0 ? 16 : 0) |
-                                           (z_ + 2 == nz_ ? 32 : 0));
+                                           (j + 2 == ny_ ? 8 : 0) | (z_ == 0 ? 16 : 0) | (z_ + 2 == nz_ ? 32 : 0));
         break;
     }
     const VariantRef& v = variants_[variant];
@@ -322,7 +322,9 @@ class LatticeExtractor final : public Extractor {
     const Vec3d w = frame_.map(lattice[0], lattice[1], lattice[2]);
     out_->positions.push_back({static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])});
     std::uint8_t faces = 0;
-    auto on = [&](int axis, double value) { return a[static_cast<std::size_t>(axis)] == value && b[static_cast<std::size_t>(axis)] == value; };
+    auto on = [&](int axis, double value) {
+      return a[static_cast<std::size_t>(axis)] == value && b[static_cast<std::size_t>(axis)] == value;
+    };
     if (on(0, 0.0)) faces |= kFaceXMin;
     if (on(0, static_cast<double>(nx_ - 1))) faces |= kFaceXMax;
     if (on(1, 0.0)) faces |= kFaceYMin;
@@ -333,12 +335,13 @@ class LatticeExtractor final : public Extractor {
     if (options_.normals) {
       const Vec3d ga = nodeGradient(e.a, i, j);
       const Vec3d gb = nodeGradient(e.b, i, j);
-      const Vec3d g = frame_.gradient(
-          {ga[0] + t * (gb[0] - ga[0]), ga[1] + t * (gb[1] - ga[1]), ga[2] + t * (gb[2] - ga[2])});
+      const Vec3d g =
+          frame_.gradient({ga[0] + t * (gb[0] - ga[0]), ga[1] + t * (gb[1] - ga[1]), ga[2] + t * (gb[2] - ga[2])});
       const double len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
       // The normal points down the gradient, from higher to lower values.
       const double s = len > 0 ? -1.0 / len : 0.0;
-      out_->normals.push_back({static_cast<float>(g[0] * s), static_cast<float>(g[1] * s), static_cast<float>(g[2] * s)});
+      out_->normals.push_back(
+          {static_cast<float>(g[0] * s), static_cast<float>(g[1] * s), static_cast<float>(g[2] * s)});
     }
   }
 
@@ -403,8 +406,7 @@ class LatticeExtractor final : public Extractor {
 }  // namespace
 
 std::unique_ptr<Extractor> makeLatticeExtractor(const ExtractOptions& options, const VolumeInfo& info,
-                                                const LatticeFrame& frame,
-                                                std::unique_ptr<CellScheme> scheme) {
+                                                const LatticeFrame& frame, std::unique_ptr<CellScheme> scheme) {
   return std::make_unique<LatticeExtractor>(options, info, frame, std::move(scheme));
 }
 

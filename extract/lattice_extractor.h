@@ -18,7 +18,6 @@ namespace isoslab {
 
 /// `scheme` null means Marching Cubes.
 std::unique_ptr<Extractor> makeLatticeExtractor(const ExtractOptions& options, const VolumeInfo& info,
-                                                const LatticeFrame& frame,
-                                                std::unique_ptr<CellScheme> scheme);
+                                                const LatticeFrame& frame, std::unique_ptr<CellScheme> scheme);
 
 }  // namespace isoslab

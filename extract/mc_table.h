@@ -62,7 +62,9 @@ struct CaseTable {
 
 namespace detail {
 
-constexpr int coord(int corner, int axis) { return (corner >> axis) & 1; }
+constexpr int coord(int corner, int axis) {
+  return (corner >> axis) & 1;
+}
 
 /// True if edges e0 and e1 lie on a common face of the cube.
 constexpr bool shareFace(int e0, int e1) {

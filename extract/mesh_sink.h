@@ -58,9 +58,7 @@ struct MeshChunk {
     triangles.clear();
     cellVolume = 0;
   }
-  VertexId endVertex() const noexcept {
-    return firstVertex + static_cast<VertexId>(positions.size());
-  }
+  VertexId endVertex() const noexcept { return firstVertex + static_cast<VertexId>(positions.size()); }
 };
 
 /// What a sink learns before the first chunk.

@@ -26,8 +26,10 @@ void MeshStatsSink::consume(const MeshChunk& chunk) {
   for (const Vec3f& p : chunk.positions) {
     const double c[3] = {p.x, p.y, p.z};
     for (int a = 0; a < 3; ++a) {
-      if (!haveBounds_ || c[a] < stats_.bounds[static_cast<std::size_t>(a)]) stats_.bounds[static_cast<std::size_t>(a)] = c[a];
-      if (!haveBounds_ || c[a] > stats_.bounds[static_cast<std::size_t>(a + 3)]) stats_.bounds[static_cast<std::size_t>(a + 3)] = c[a];
+      if (!haveBounds_ || c[a] < stats_.bounds[static_cast<std::size_t>(a)])
+        stats_.bounds[static_cast<std::size_t>(a)] = c[a];
+      if (!haveBounds_ || c[a] > stats_.bounds[static_cast<std::size_t>(a + 3)])
+        stats_.bounds[static_cast<std::size_t>(a + 3)] = c[a];
     }
     haveBounds_ = true;
   }
@@ -44,18 +46,18 @@ void MeshStatsSink::consume(const MeshChunk& chunk) {
     stats_.area += 0.5 * twiceArea;
     if (twiceArea == 0) ++stats_.degenerateTriangles;
     // Divergence theorem: the signed volume of the tetrahedron (origin, a, b, c).
-    stats_.volume += (double(a.x) * (double(b.y) * c.z - double(b.z) * c.y) -
-                      double(a.y) * (double(b.x) * c.z - double(b.z) * c.x) +
-                      double(a.z) * (double(b.x) * c.y - double(b.y) * c.x)) /
-                     6.0;
+    stats_.volume +=
+        (double(a.x) * (double(b.y) * c.z - double(b.z) * c.y) - double(a.y) * (double(b.x) * c.z - double(b.z) * c.x) +
+         double(a.z) * (double(b.x) * c.y - double(b.y) * c.x)) /
+        6.0;
     for (int k = 0; k < 3; ++k) {
       const VertexId from = t[static_cast<std::size_t>(k)];
       const VertexId to = t[static_cast<std::size_t>((k + 1) % 3)];
       const VertexId lo = std::min(from, to);
       const VertexId hi = std::max(from, to);
       const bool onFace = (boundaryOf(from) & boundaryOf(to)) != 0;
-      pending_.push_back({(std::uint64_t{lo} << 32) | hi, static_cast<std::uint8_t>(from < to),
-                          static_cast<std::uint8_t>(onFace)});
+      pending_.push_back(
+          {(std::uint64_t{lo} << 32) | hi, static_cast<std::uint8_t>(from < to), static_cast<std::uint8_t>(onFace)});
     }
   }
   stats_.triangles += chunk.triangles.size();
@@ -64,8 +66,7 @@ void MeshStatsSink::consume(const MeshChunk& chunk) {
 }
 
 void MeshStatsSink::settle(VertexId retiredBelow) {
-  std::sort(pending_.begin(), pending_.end(),
-            [](const EdgeUse& x, const EdgeUse& y) { return x.key < y.key; });
+  std::sort(pending_.begin(), pending_.end(), [](const EdgeUse& x, const EdgeUse& y) { return x.key < y.key; });
   std::size_t kept = 0;
   for (std::size_t i = 0; i < pending_.size();) {
     std::size_t end = i + 1;

@@ -56,7 +56,7 @@ class MeshStatsSink final : public MeshSink {
 
  private:
   struct EdgeUse {
-    std::uint64_t key;  // lo << 32 | hi
+    std::uint64_t key;     // lo << 32 | hi
     std::uint8_t forward;  // 1 if the triangle runs lo -> hi
     std::uint8_t onVolumeFace;
   };

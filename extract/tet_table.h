@@ -87,8 +87,8 @@ constexpr TetCaseTable buildTetCaseTable() {
       const int lone = nIn == 1 ? in[0] : out[0];
       const int* others = nIn == 1 ? out : in;
       t.triangleCount[cas] = 1;
-      t.triangles[cas][0] = orient(cas, tetEdgeOf(lone, others[0]), tetEdgeOf(lone, others[1]),
-                                   tetEdgeOf(lone, others[2]));
+      t.triangles[cas][0] =
+          orient(cas, tetEdgeOf(lone, others[0]), tetEdgeOf(lone, others[1]), tetEdgeOf(lone, others[2]));
     } else {
       // Quad a-c, a-d, b-d, b-c (consecutive edges share a node), split along its first diagonal.
       const int a = in[0], b = in[1], c = out[0], d = out[1];

@@ -139,7 +139,8 @@ void SpoolFile::copyTo(AtomicFile& out) {
   std::vector<char> buf(1 << 20);
   std::int64_t left = size_;
   while (left > 0) {
-    const std::size_t want = static_cast<std::size_t>(std::min<std::int64_t>(left, static_cast<std::int64_t>(buf.size())));
+    const std::size_t want =
+        static_cast<std::size_t>(std::min<std::int64_t>(left, static_cast<std::int64_t>(buf.size())));
     if (std::fread(buf.data(), 1, want, file_) != want) {
       throw Error(fmt::format("{}: cannot read the spool file back: {}", owner_, std::strerror(errno)));
     }

@@ -57,8 +57,7 @@ std::vector<std::string> listFolder(const std::string& folder) {
     names.push_back(name);
   }
   if (names.empty()) throw Error(fmt::format("{}: the folder holds no file", folder));
-  std::sort(names.begin(), names.end(),
-            [](const std::string& x, const std::string& y) { return naturalLess(x, y); });
+  std::sort(names.begin(), names.end(), [](const std::string& x, const std::string& y) { return naturalLess(x, y); });
   std::vector<std::string> paths;
   paths.reserve(names.size());
   for (const std::string& n : names) paths.push_back((fs::path(folder) / n).string());

@@ -21,8 +21,7 @@ std::unique_ptr<SliceSource> openSource(const std::string& input, const SourceOp
   if (!std::filesystem::exists(input, ec) && !isSlicePattern(input)) {
     throw Error(fmt::format("{}: cannot open: {}", input, std::strerror(ENOENT)));
   }
-  throw Error(fmt::format(
-      "{}: unrecognised input format; for raw data give --raw-dims X,Y[,Z] and --raw-type", input));
+  throw Error(fmt::format("{}: unrecognised input format; for raw data give --raw-dims X,Y[,Z] and --raw-type", input));
 }
 
 std::int64_t writeRaw(SliceSource& source, const std::string& path, VoxelType type) {

@@ -34,8 +34,8 @@ double parseNumber(const std::string& spec, const std::string& key, const std::s
   return v;
 }
 
-std::array<double, 3> parseTriple(const std::string& spec, const std::string& key,
-                                  const std::string& text, bool allowScalar) {
+std::array<double, 3> parseTriple(const std::string& spec, const std::string& key, const std::string& text,
+                                  bool allowScalar) {
   const auto parts = split(text, ',');
   if (parts.size() == 1 && allowScalar) {
     const double v = parseNumber(spec, key, parts[0]);
@@ -44,8 +44,7 @@ std::array<double, 3> parseTriple(const std::string& spec, const std::string& ke
   if (parts.size() != 3) {
     throw Error(fmt::format("{}: key '{}' needs three comma-separated values, got '{}'", spec, key, text));
   }
-  return {parseNumber(spec, key, parts[0]), parseNumber(spec, key, parts[1]),
-          parseNumber(spec, key, parts[2])};
+  return {parseNumber(spec, key, parts[0]), parseNumber(spec, key, parts[1]), parseNumber(spec, key, parts[2])};
 }
 
 // A deterministic hash of a lattice point, so that noise does not depend on reading order.
@@ -60,9 +59,9 @@ std::uint64_t mix(std::uint64_t x) noexcept {
 
 // Approximately standard normal noise: the sum of four uniforms, rescaled to unit variance.
 double gaussianNoise(std::uint64_t seed, std::int64_t i, std::int64_t j, std::int64_t k) noexcept {
-  std::uint64_t h = mix(seed * 0x9e3779b97f4a7c15ULL ^ mix(static_cast<std::uint64_t>(i) ^
-                                                           mix(static_cast<std::uint64_t>(j) ^
-                                                               mix(static_cast<std::uint64_t>(k)))));
+  std::uint64_t h =
+      mix(seed * 0x9e3779b97f4a7c15ULL ^
+          mix(static_cast<std::uint64_t>(i) ^ mix(static_cast<std::uint64_t>(j) ^ mix(static_cast<std::uint64_t>(k)))));
   double sum = 0;
   for (int n = 0; n < 4; ++n) {
     h = mix(h + 0x9e3779b97f4a7c15ULL);
@@ -73,7 +72,9 @@ double gaussianNoise(std::uint64_t seed, std::int64_t i, std::int64_t j, std::in
 
 // 1 deep inside, 0 outside, a linear ramp one voxel wide across the surface; `d` is a signed
 // distance in voxels, negative inside.
-double cover(double d) noexcept { return std::clamp(0.5 - d, 0.0, 1.0); }
+double cover(double d) noexcept {
+  return std::clamp(0.5 - d, 0.0, 1.0);
+}
 
 // Approximate signed distance in voxels to an axis-aligned ellipsoid with semi-axes `a`.
 double ellipsoidDistance(double x, double y, double z, const std::array<double, 3>& a) noexcept {
@@ -248,9 +249,7 @@ double PhantomSource::value(std::int64_t i, std::int64_t j, std::int64_t k) cons
       return 1000.0 - 10.0 * d;
     }
     case Kind::kBox:
-      return (i >= lo_[0] && i <= hi_[0] && j >= lo_[1] && j <= hi_[1] && k >= lo_[2] && k <= hi_[2])
-                 ? 100.0
-                 : 0.0;
+      return (i >= lo_[0] && i <= hi_[0] && j >= lo_[1] && j <= hi_[1] && k >= lo_[2] && k <= hi_[2]) ? 100.0 : 0.0;
     case Kind::kHead: {
       // Semi-axes in voxels, relative to the grid's half extents.
       const std::array<double, 3> half{0.5 * static_cast<double>(info_.dims[0] - 1),
@@ -260,18 +259,14 @@ double PhantomSource::value(std::int64_t i, std::int64_t j, std::int64_t k) cons
         return std::array<double, 3>{fx * half[0], fy * half[1], fz * half[2]};
       };
       const double skin = cover(ellipsoidDistance(x, y, z, axes(0.80, 0.88, 0.85)));
-      const double nose = cover(ellipsoidDistance(x, y - 0.80 * half[1], z + 0.05 * half[2],
-                                                  axes(0.10, 0.18, 0.16)));
+      const double nose = cover(ellipsoidDistance(x, y - 0.80 * half[1], z + 0.05 * half[2], axes(0.10, 0.18, 0.16)));
       const double bone = cover(ellipsoidDistance(x, y, z, axes(0.74, 0.82, 0.79)));
       const double brain = cover(ellipsoidDistance(x, y, z, axes(0.68, 0.76, 0.73)));
-      const double ventricle =
-          std::max(cover(ellipsoidDistance(x - 0.12 * half[0], y, z, axes(0.06, 0.25, 0.12))),
-                   cover(ellipsoidDistance(x + 0.12 * half[0], y, z, axes(0.06, 0.25, 0.12))));
-      const double eye =
-          std::max(cover(ellipsoidDistance(x - 0.3 * half[0], y - 0.62 * half[1], z - 0.1 * half[2],
-                                           axes(0.12, 0.12, 0.12))),
-                   cover(ellipsoidDistance(x + 0.3 * half[0], y - 0.62 * half[1], z - 0.1 * half[2],
-                                           axes(0.12, 0.12, 0.12))));
+      const double ventricle = std::max(cover(ellipsoidDistance(x - 0.12 * half[0], y, z, axes(0.06, 0.25, 0.12))),
+                                        cover(ellipsoidDistance(x + 0.12 * half[0], y, z, axes(0.06, 0.25, 0.12))));
+      const double eye = std::max(
+          cover(ellipsoidDistance(x - 0.3 * half[0], y - 0.62 * half[1], z - 0.1 * half[2], axes(0.12, 0.12, 0.12))),
+          cover(ellipsoidDistance(x + 0.3 * half[0], y - 0.62 * half[1], z - 0.1 * half[2], axes(0.12, 0.12, 0.12))));
       double v = -1000.0;
       v += (40.0 + 1000.0) * std::max(skin, nose);
       v += (700.0 - 40.0) * bone;

@@ -65,15 +65,14 @@ std::unique_ptr<RawReader> RawReader::open(const std::string& input, const RawOp
     const auto count = static_cast<std::int64_t>(r->files_.size());
     if (dims[2] == 0) dims[2] = count;
     if (dims[2] > count) {
-      throw Error(fmt::format("{}: dims {} need {} slice files but only {} exist", input,
-                              dimsText(dims), dims[2], count));
+      throw Error(
+          fmt::format("{}: dims {} need {} slice files but only {} exist", input, dimsText(dims), dims[2], count));
     }
     r->files_.resize(static_cast<std::size_t>(dims[2]));
   }
   validateDims(dims, input);
 
-  const std::int64_t sliceBytes =
-      dims[0] * dims[1] * static_cast<std::int64_t>(voxelSize(options.type));
+  const std::int64_t sliceBytes = dims[0] * dims[1] * static_cast<std::int64_t>(voxelSize(options.type));
   // Plain files are checked up front; gzip data can only be checked as it is inflated.
   for (const std::string& f : r->files_) {
     if (!fs::is_regular_file(f, ec)) {
@@ -84,10 +83,9 @@ std::unique_ptr<RawReader> RawReader::open(const std::string& input, const RawOp
     if (ec) throw Error(fmt::format("{}: cannot read its size: {}", f, ec.message()));
     const std::int64_t need = options.headerBytes + (perSlice ? sliceBytes : sliceBytes * dims[2]);
     if (size < need) {
-      throw Error(fmt::format(
-          "{}: holds {} bytes, but dims {} of {} after a {}-byte header need {}{}", f, size,
-          dimsText(dims), voxelTypeName(options.type), options.headerBytes, need,
-          perSlice ? " (one slice per file)" : ""));
+      throw Error(fmt::format("{}: holds {} bytes, but dims {} of {} after a {}-byte header need {}{}", f, size,
+                              dimsText(dims), voxelTypeName(options.type), options.headerBytes, need,
+                              perSlice ? " (one slice per file)" : ""));
     }
   }
 
@@ -128,8 +126,8 @@ void RawReader::openFile(const std::string& path) {
   }
 }
 
-void RawReader::readBytes(const std::string& path, std::byte* dst, std::int64_t n,
-                          std::int64_t alreadyRead, std::int64_t expected) {
+void RawReader::readBytes(const std::string& path, std::byte* dst, std::int64_t n, std::int64_t alreadyRead,
+                          std::int64_t expected) {
   auto* f = static_cast<gzFile>(gz_);
   std::int64_t got = 0;
   while (got < n) {
@@ -138,8 +136,7 @@ void RawReader::readBytes(const std::string& path, std::byte* dst, std::int64_t 
     if (r < 0) {
       int errnum = 0;
       const char* msg = gzerror(f, &errnum);
-      throw Error(fmt::format("{}: cannot read: {}", path,
-                              errnum == Z_ERRNO ? std::strerror(errno) : msg));
+      throw Error(fmt::format("{}: cannot read: {}", path, errnum == Z_ERRNO ? std::strerror(errno) : msg));
     }
     if (r == 0) {
       int errnum = 0;
@@ -147,8 +144,7 @@ void RawReader::readBytes(const std::string& path, std::byte* dst, std::int64_t 
       if (errnum != Z_OK && errnum != Z_BUF_ERROR) {
         throw Error(fmt::format("{}: corrupt compressed data: {}", path, msg));
       }
-      throw Error(fmt::format("{}: data ends after {} of {} bytes", path, alreadyRead + got,
-                              expected));
+      throw Error(fmt::format("{}: data ends after {} of {} bytes", path, alreadyRead + got, expected));
     }
     got += r;
   }

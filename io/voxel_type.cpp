@@ -56,27 +56,39 @@ void fromFloatTyped(std::span<const float> in, std::span<std::byte> bytes) noexc
 std::size_t voxelSize(VoxelType type) noexcept {
   switch (type) {
     case VoxelType::kU8:
-    case VoxelType::kI8: return 1;
+    case VoxelType::kI8:
+      return 1;
     case VoxelType::kU16:
-    case VoxelType::kI16: return 2;
+    case VoxelType::kI16:
+      return 2;
     case VoxelType::kU32:
     case VoxelType::kI32:
-    case VoxelType::kF32: return 4;
-    case VoxelType::kF64: return 8;
+    case VoxelType::kF32:
+      return 4;
+    case VoxelType::kF64:
+      return 8;
   }
   return 1;
 }
 
 std::string_view voxelTypeName(VoxelType type) noexcept {
   switch (type) {
-    case VoxelType::kU8: return "u8";
-    case VoxelType::kI8: return "i8";
-    case VoxelType::kU16: return "u16";
-    case VoxelType::kI16: return "i16";
-    case VoxelType::kU32: return "u32";
-    case VoxelType::kI32: return "i32";
-    case VoxelType::kF32: return "f32";
-    case VoxelType::kF64: return "f64";
+    case VoxelType::kU8:
+      return "u8";
+    case VoxelType::kI8:
+      return "i8";
+    case VoxelType::kU16:
+      return "u16";
+    case VoxelType::kI16:
+      return "i16";
+    case VoxelType::kU32:
+      return "u32";
+    case VoxelType::kI32:
+      return "i32";
+    case VoxelType::kF32:
+      return "f32";
+    case VoxelType::kF64:
+      return "f64";
   }
   return "?";
 }
@@ -89,14 +101,14 @@ std::optional<VoxelType> parseVoxelType(std::string_view name) noexcept {
     VoxelType type;
   };
   static constexpr Alias kAliases[] = {
-      {"u8", VoxelType::kU8},     {"uint8", VoxelType::kU8},    {"uchar", VoxelType::kU8},
-      {"i8", VoxelType::kI8},     {"int8", VoxelType::kI8},     {"char", VoxelType::kI8},
-      {"u16", VoxelType::kU16},   {"uint16", VoxelType::kU16},  {"ushort", VoxelType::kU16},
-      {"i16", VoxelType::kI16},   {"int16", VoxelType::kI16},   {"short", VoxelType::kI16},
-      {"u32", VoxelType::kU32},   {"uint32", VoxelType::kU32},  {"uint", VoxelType::kU32},
-      {"i32", VoxelType::kI32},   {"int32", VoxelType::kI32},   {"int", VoxelType::kI32},
-      {"f32", VoxelType::kF32},   {"float32", VoxelType::kF32}, {"float", VoxelType::kF32},
-      {"f64", VoxelType::kF64},   {"float64", VoxelType::kF64}, {"double", VoxelType::kF64},
+      {"u8", VoxelType::kU8},   {"uint8", VoxelType::kU8},    {"uchar", VoxelType::kU8},
+      {"i8", VoxelType::kI8},   {"int8", VoxelType::kI8},     {"char", VoxelType::kI8},
+      {"u16", VoxelType::kU16}, {"uint16", VoxelType::kU16},  {"ushort", VoxelType::kU16},
+      {"i16", VoxelType::kI16}, {"int16", VoxelType::kI16},   {"short", VoxelType::kI16},
+      {"u32", VoxelType::kU32}, {"uint32", VoxelType::kU32},  {"uint", VoxelType::kU32},
+      {"i32", VoxelType::kI32}, {"int32", VoxelType::kI32},   {"int", VoxelType::kI32},
+      {"f32", VoxelType::kF32}, {"float32", VoxelType::kF32}, {"float", VoxelType::kF32},
+      {"f64", VoxelType::kF64}, {"float64", VoxelType::kF64}, {"double", VoxelType::kF64},
   };
   for (const Alias& a : kAliases) {
     if (s == a.name) return a.type;
@@ -108,44 +120,83 @@ ByteOrder hostByteOrder() noexcept {
   return std::endian::native == std::endian::little ? ByteOrder::kLittle : ByteOrder::kBig;
 }
 
-void convertToFloat(std::span<const std::byte> bytes, VoxelType type, ByteOrder order,
-                    std::span<float> out) noexcept {
+void convertToFloat(std::span<const std::byte> bytes, VoxelType type, ByteOrder order, std::span<float> out) noexcept {
   const bool swap = order != hostByteOrder();
   switch (type) {
-    case VoxelType::kU8: convertTyped<std::uint8_t>(bytes, false, out); break;
-    case VoxelType::kI8: convertTyped<std::int8_t>(bytes, false, out); break;
-    case VoxelType::kU16: convertTyped<std::uint16_t>(bytes, swap, out); break;
-    case VoxelType::kI16: convertTyped<std::int16_t>(bytes, swap, out); break;
-    case VoxelType::kU32: convertTyped<std::uint32_t>(bytes, swap, out); break;
-    case VoxelType::kI32: convertTyped<std::int32_t>(bytes, swap, out); break;
-    case VoxelType::kF32: convertTyped<float>(bytes, swap, out); break;
-    case VoxelType::kF64: convertTyped<double>(bytes, swap, out); break;
+    case VoxelType::kU8:
+      convertTyped<std::uint8_t>(bytes, false, out);
+      break;
+    case VoxelType::kI8:
+      convertTyped<std::int8_t>(bytes, false, out);
+      break;
+    case VoxelType::kU16:
+      convertTyped<std::uint16_t>(bytes, swap, out);
+      break;
+    case VoxelType::kI16:
+      convertTyped<std::int16_t>(bytes, swap, out);
+      break;
+    case VoxelType::kU32:
+      convertTyped<std::uint32_t>(bytes, swap, out);
+      break;
+    case VoxelType::kI32:
+      convertTyped<std::int32_t>(bytes, swap, out);
+      break;
+    case VoxelType::kF32:
+      convertTyped<float>(bytes, swap, out);
+      break;
+    case VoxelType::kF64:
+      convertTyped<double>(bytes, swap, out);
+      break;
   }
 }
 
 void convertFromFloat(std::span<const float> in, VoxelType type, std::span<std::byte> bytes) noexcept {
   switch (type) {
-    case VoxelType::kU8: fromFloatTyped<std::uint8_t>(in, bytes); break;
-    case VoxelType::kI8: fromFloatTyped<std::int8_t>(in, bytes); break;
-    case VoxelType::kU16: fromFloatTyped<std::uint16_t>(in, bytes); break;
-    case VoxelType::kI16: fromFloatTyped<std::int16_t>(in, bytes); break;
-    case VoxelType::kU32: fromFloatTyped<std::uint32_t>(in, bytes); break;
-    case VoxelType::kI32: fromFloatTyped<std::int32_t>(in, bytes); break;
-    case VoxelType::kF32: fromFloatTyped<float>(in, bytes); break;
-    case VoxelType::kF64: fromFloatTyped<double>(in, bytes); break;
+    case VoxelType::kU8:
+      fromFloatTyped<std::uint8_t>(in, bytes);
+      break;
+    case VoxelType::kI8:
+      fromFloatTyped<std::int8_t>(in, bytes);
+      break;
+    case VoxelType::kU16:
+      fromFloatTyped<std::uint16_t>(in, bytes);
+      break;
+    case VoxelType::kI16:
+      fromFloatTyped<std::int16_t>(in, bytes);
+      break;
+    case VoxelType::kU32:
+      fromFloatTyped<std::uint32_t>(in, bytes);
+      break;
+    case VoxelType::kI32:
+      fromFloatTyped<std::int32_t>(in, bytes);
+      break;
+    case VoxelType::kF32:
+      fromFloatTyped<float>(in, bytes);
+      break;
+    case VoxelType::kF64:
+      fromFloatTyped<double>(in, bytes);
+      break;
   }
 }
 
 double quantize(double value, VoxelType type) noexcept {
   switch (type) {
-    case VoxelType::kU8: return clampRound<std::uint8_t>(value);
-    case VoxelType::kI8: return clampRound<std::int8_t>(value);
-    case VoxelType::kU16: return clampRound<std::uint16_t>(value);
-    case VoxelType::kI16: return clampRound<std::int16_t>(value);
-    case VoxelType::kU32: return clampRound<std::uint32_t>(value);
-    case VoxelType::kI32: return clampRound<std::int32_t>(value);
-    case VoxelType::kF32: return static_cast<float>(value);
-    case VoxelType::kF64: return value;
+    case VoxelType::kU8:
+      return clampRound<std::uint8_t>(value);
+    case VoxelType::kI8:
+      return clampRound<std::int8_t>(value);
+    case VoxelType::kU16:
+      return clampRound<std::uint16_t>(value);
+    case VoxelType::kI16:
+      return clampRound<std::int16_t>(value);
+    case VoxelType::kU32:
+      return clampRound<std::uint32_t>(value);
+    case VoxelType::kI32:
+      return clampRound<std::int32_t>(value);
+    case VoxelType::kF32:
+      return static_cast<float>(value);
+    case VoxelType::kF64:
+      return value;
   }
   return value;
 }

@@ -29,8 +29,7 @@ ByteOrder hostByteOrder() noexcept;
 /// Converts `out.size()` voxels of `type` stored in `order` from `bytes` to float. `bytes` must hold
 /// exactly out.size() * voxelSize(type) bytes. 32- and 64-bit values beyond 2^24 lose precision,
 /// as float does.
-void convertToFloat(std::span<const std::byte> bytes, VoxelType type, ByteOrder order,
-                    std::span<float> out) noexcept;
+void convertToFloat(std::span<const std::byte> bytes, VoxelType type, ByteOrder order, std::span<float> out) noexcept;
 
 /// Converts float values to `type` in host byte order, rounding to nearest and clamping to the
 /// type's range. `bytes` must hold in.size() * voxelSize(type) bytes.

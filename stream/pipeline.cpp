@@ -14,12 +14,14 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 }  // namespace
 
-PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& sink,
-                           const MeshHeader& header, const PipelineOptions& options) {
+PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& sink, const MeshHeader& header,
+                           const PipelineOptions& options) {
   const auto start = Clock::now();
   const VolumeInfo& info = source.info();
   const std::int64_t nz = info.dims[2];

@@ -28,7 +28,7 @@ struct PipelineResult {
 
 /// Runs the whole volume. The sink gets begin(header), a chunk per slab, and finish(). Throws
 /// isoslab::Error from the source or the sink, or if the mesh exceeds 2^32 - 1 vertices.
-PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& sink,
-                           const MeshHeader& header, const PipelineOptions& options = {});
+PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& sink, const MeshHeader& header,
+                           const PipelineOptions& options = {});
 
 }  // namespace isoslab

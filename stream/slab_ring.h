@@ -51,9 +51,7 @@ class SlabRing {
   std::size_t bytes() const noexcept { return storage_.size() * sizeof(float); }
 
  private:
-  std::size_t slotOf(std::int64_t k) const noexcept {
-    return static_cast<std::size_t>(k % capacity_);
-  }
+  std::size_t slotOf(std::int64_t k) const noexcept { return static_cast<std::size_t>(k % capacity_); }
 
   std::size_t sliceVoxels_;
   int capacity_;

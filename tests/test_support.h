@@ -20,7 +20,8 @@ class VectorSource final : public SliceSource {
  public:
   VectorSource(std::array<std::int64_t, 3> dims, std::vector<float> values);
   /// Fills by a function of the lattice point.
-  VectorSource(std::array<std::int64_t, 3> dims, const std::function<float(std::int64_t, std::int64_t, std::int64_t)>& f);
+  VectorSource(std::array<std::int64_t, 3> dims,
+               const std::function<float(std::int64_t, std::int64_t, std::int64_t)>& f);
   VolumeInfo& mutableInfo() { return info_; }
   const VolumeInfo& info() const noexcept override { return info_; }
   bool readSlice(std::span<float> slice) override;

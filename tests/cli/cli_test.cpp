@@ -23,14 +23,14 @@ std::string slurp(const std::string& path) {
 
 TEST(Cli, ExtractWritesMeshAndReport) {
   const std::string dir = testing::tempDir();
-  const auto r = runCli("extract 'phantom:sphere?n=64&r=20&field=distance' --iso 800 -o " + dir +
-                        "/s.ply --report " + dir + "/r.json --quiet");
+  const auto r = runCli("extract 'phantom:sphere?n=64&r=20&field=distance' --iso 800 -o " + dir + "/s.ply --report " +
+                        dir + "/r.json --quiet");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_EQ(r.err, "");
   const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
-  for (const char* key : {"method", "iso", "dims", "spacing", "vertices", "triangles", "bounds", "area", "volume",
-                          "boundary_edges", "nonmanifold_edges", "euler", "seconds", "peak_rss_mib", "output",
-                          "degenerate_triangles", "volume_cells"}) {
+  for (const char* key :
+       {"method", "iso", "dims", "spacing", "vertices", "triangles", "bounds", "area", "volume", "boundary_edges",
+        "nonmanifold_edges", "euler", "seconds", "peak_rss_mib", "output", "degenerate_triangles", "volume_cells"}) {
     EXPECT_TRUE(report.contains(key)) << key;
   }
   for (const char* key : {"read", "extract", "write", "total"}) EXPECT_TRUE(report["seconds"].contains(key)) << key;
@@ -48,11 +48,15 @@ TEST(Cli, PhantomStreamedFromMemoryOrFromItsRawFileGivesTheSameBytes) {
   const std::string spec = "'phantom:head?n=48,40,36'";
   const auto p = runCli("phantom " + spec + " -o " + dir + "/head.raw");
   ASSERT_EQ(p.exitCode, 0) << p.err;
-  EXPECT_EQ(p.out, dir + "/head.raw: 138240 bytes; read it back with --raw-dims 48,40,36 --raw-type i16 --spacing 1,1,1\n");
+  EXPECT_EQ(p.out,
+            dir + "/head.raw: 138240 bytes; read it back with --raw-dims 48,40,36 --raw-type i16 --spacing 1,1,1\n");
   for (const char* method : {"mc", "mt5", "mt6", "bcc12"}) {
     const std::string m = std::string(" --method ") + method;
     ASSERT_EQ(runCli("extract " + spec + " --iso -400 --normals -q -o " + dir + "/a.ply" + m).exitCode, 0);
-    ASSERT_EQ(runCli("extract " + dir + "/head.raw --raw-dims 48,40,36 --raw-type i16 --iso -400 --normals -q -o " + dir + "/b.ply" + m).exitCode, 0);
+    ASSERT_EQ(runCli("extract " + dir + "/head.raw --raw-dims 48,40,36 --raw-type i16 --iso -400 --normals -q -o " +
+                     dir + "/b.ply" + m)
+                  .exitCode,
+              0);
     const std::string a = slurp(dir + "/a.ply");
     EXPECT_GT(a.size(), 10000u);
     EXPECT_EQ(a, slurp(dir + "/b.ply")) << method;
@@ -90,8 +94,10 @@ TEST(Cli, BadInputGivesOneLineANonZeroExitAndNoOutput) {
       {"extract " + dir + "/short.raw --iso 1" + out,
        dir + "/short.raw: unrecognised input format; for raw data give --raw-dims X,Y[,Z] and --raw-type"},
       {"extract 'phantom:sphere?n=16' -o " + dir + "/no/such/folder/out.ply",
-       dir + "/no/such/folder/out.ply: cannot create the output: the folder '" + dir + "/no/such/folder' does not exist"},
-      {"extract 'phantom:sphere?n=16' --method mt7" + out, "--method: unknown method 'mt7' (use mc, mt5, mt6 or bcc12)"},
+       dir + "/no/such/folder/out.ply: cannot create the output: the folder '" + dir +
+           "/no/such/folder' does not exist"},
+      {"extract 'phantom:sphere?n=16' --method mt7" + out,
+       "--method: unknown method 'mt7' (use mc, mt5, mt6 or bcc12)"},
       {"extract 'phantom:sphere?n=16'" + out.substr(0, out.size() - 3) + "obj",
        dir + "/out.obj: unknown mesh format '.obj' (use .ply or .stl)"},
   };

@@ -42,7 +42,7 @@ TEST(RealData, CtHeadBigEndianSlicesAtIso600IsClosedWhereInterior) {
   EXPECT_EQ(x.stats.interiorBoundaryEdges, 0u);
   EXPECT_EQ(x.stats.nonManifoldEdges, 0u);
   EXPECT_EQ(x.stats.inconsistentEdges, 0u);
-  EXPECT_GT(x.stats.degenerateTriangles, 0u);  // integer data: values exactly at 600 occur
+  EXPECT_GT(x.stats.degenerateTriangles, 0u);                       // integer data: values exactly at 600 occur
   EXPECT_NEAR(x.stats.bounds[5] - x.stats.bounds[2], 224.0, 10.0);  // about 113 slices x 2
 }
 

@@ -17,7 +17,9 @@ namespace {
 using testing::Extraction;
 using testing::kAllMethods;
 
-std::string name(Method m) { return std::string(methodName(m)); }
+std::string name(Method m) {
+  return std::string(methodName(m));
+}
 
 const char* kBlock = "phantom:box?n=10&lo=2,2,2&hi=7,7,7";
 
@@ -249,7 +251,8 @@ TEST(ExtractFrame, LeftHandedFrameKeepsNormalsOutward) {
 }
 
 TEST(ExtractFrame, PhysicalFramePlacesVerticesByOriginDirectionAndSpacing) {
-  testing::VectorSource source({4, 4, 4}, [](std::int64_t i, std::int64_t, std::int64_t) { return static_cast<float>(i); });
+  testing::VectorSource source({4, 4, 4},
+                               [](std::int64_t i, std::int64_t, std::int64_t) { return static_cast<float>(i); });
   VolumeInfo& info = source.mutableInfo();
   info.origin = {10, 20, 30};
   info.spacing = {2, 3, 4};

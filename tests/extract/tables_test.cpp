@@ -12,7 +12,9 @@
 namespace isoslab {
 namespace {
 
-int coord(int corner, int axis) { return (corner >> axis) & 1; }
+int coord(int corner, int axis) {
+  return (corner >> axis) & 1;
+}
 
 // Edges of face (axis, side).
 std::set<int> faceEdges(int axis, int side) {
@@ -241,8 +243,9 @@ TEST(CellSchemes, Mt6TetrahedraAllShareTheMainDiagonal) {
 }
 
 // The diagonals a scheme draws on the face (axis, side) of a cell, in global half-unit coordinates.
-std::set<std::pair<std::array<int, 3>, std::array<int, 3>>> faceDiagonals(const CellScheme& s, const std::vector<Tetrahedron>& tets,
-                                                                         int axis, int side, std::array<int, 3> cell) {
+std::set<std::pair<std::array<int, 3>, std::array<int, 3>>> faceDiagonals(const CellScheme& s,
+                                                                          const std::vector<Tetrahedron>& tets,
+                                                                          int axis, int side, std::array<int, 3> cell) {
   std::set<std::pair<std::array<int, 3>, std::array<int, 3>>> out;
   for (const Tetrahedron& t : tets) {
     for (int a = 0; a < 4; ++a) {
@@ -297,7 +300,8 @@ TEST(CellSchemes, Bcc12TetrahedraAreCongruentAndTwelvePerInteriorCell) {
       for (int b = a + 1; b < 4; ++b) {
         const LatticeNode& na = s.nodes[t.nodes[static_cast<std::size_t>(a)]];
         const LatticeNode& nb = s.nodes[t.nodes[static_cast<std::size_t>(b)]];
-        lengths.insert((na.hx - nb.hx) * (na.hx - nb.hx) + (na.hy - nb.hy) * (na.hy - nb.hy) + (na.hz - nb.hz) * (na.hz - nb.hz));
+        lengths.insert((na.hx - nb.hx) * (na.hx - nb.hx) + (na.hy - nb.hy) * (na.hy - nb.hy) +
+                       (na.hz - nb.hz) * (na.hz - nb.hz));
       }
     }
     // Centre-centre and face edge: 2 (a voxel); the four centre-corner edges: sqrt(3) half-units.

@@ -41,8 +41,8 @@ TEST(Phantom, BinaryFieldsAndDefaults) {
   EXPECT_EQ(s->info().suggestedIso, 50.0);
   // The default centre (9.5, 9.5, 9.5) is off the lattice.
   EXPECT_EQ(s->value(10, 10, 10), 100.0);
-  EXPECT_EQ(s->value(9, 9, 14), 100.0);   // distance 4.53
-  EXPECT_EQ(s->value(9, 9, 15), 0.0);     // distance 5.52
+  EXPECT_EQ(s->value(9, 9, 14), 100.0);  // distance 4.53
+  EXPECT_EQ(s->value(9, 9, 15), 0.0);    // distance 5.52
   auto b = PhantomSource::open("phantom:box?n=10&lo=2,2,2&hi=7,7,7");
   EXPECT_EQ(b->value(2, 7, 5), 100.0);
   EXPECT_EQ(b->value(1, 5, 5), 0.0);
@@ -65,9 +65,12 @@ TEST(Phantom, BadSpecsNameTheProblem) {
   EXPECT_EQ(errorOf("phantom:blob"), "phantom:blob: unknown phantom 'blob' (known: sphere, box, torus, head)");
   EXPECT_EQ(errorOf("phantom:sphere?q=1"),
             "phantom:sphere?q=1: unknown key 'q' for phantom 'sphere' (known: c, field, n, r, spacing, type)");
-  EXPECT_EQ(errorOf("phantom:sphere?r=abc"), "phantom:sphere?r=abc: key 'r' has the value 'abc', which is not a number");
-  EXPECT_EQ(errorOf("phantom:sphere?n=1"), "phantom:sphere?n=1: dims 1x1x1 are invalid: every axis needs at least 2 points");
-  EXPECT_EQ(errorOf("phantom:sphere?type=q8"), "phantom:sphere?type=q8: unknown voxel type 'q8' (use u8 i8 u16 i16 u32 i32 f32 f64)");
+  EXPECT_EQ(errorOf("phantom:sphere?r=abc"),
+            "phantom:sphere?r=abc: key 'r' has the value 'abc', which is not a number");
+  EXPECT_EQ(errorOf("phantom:sphere?n=1"),
+            "phantom:sphere?n=1: dims 1x1x1 are invalid: every axis needs at least 2 points");
+  EXPECT_EQ(errorOf("phantom:sphere?type=q8"),
+            "phantom:sphere?type=q8: unknown voxel type 'q8' (use u8 i8 u16 i16 u32 i32 f32 f64)");
   EXPECT_EQ(errorOf("phantom:sphere?n"), "phantom:sphere?n: 'n' is not key=value");
   EXPECT_EQ(errorOf("phantom:torus?R=5&r=6"), "phantom:torus?R=5&r=6: the minor radius r must be smaller than R");
 }

@@ -98,19 +98,23 @@ TEST(RawReader, BadInputsGiveOneClearMessage) {
   writeBytes(dir + "/short.raw", std::vector<std::uint8_t>(10, 0));
   EXPECT_EQ(openError(dir + "/short.raw", u16Options(3)),
             dir + "/short.raw: holds 10 bytes, but dims 2x2x3 of u16 after a 0-byte header need 24");
-  EXPECT_EQ(openError(dir + "/missing.raw", u16Options(3)), dir + "/missing.raw: cannot open: No such file or directory");
+  EXPECT_EQ(openError(dir + "/missing.raw", u16Options(3)),
+            dir + "/missing.raw: cannot open: No such file or directory");
   RawOptions zero = u16Options(3);
   zero.dims[0] = 0;
-  EXPECT_EQ(openError(dir + "/short.raw", zero), dir + "/short.raw: dims 0x2x3 are invalid: every axis needs at least 2 points");
+  EXPECT_EQ(openError(dir + "/short.raw", zero),
+            dir + "/short.raw: dims 0x2x3 are invalid: every axis needs at least 2 points");
   RawOptions negative = u16Options(3);
   negative.dims[1] = -4;
-  EXPECT_EQ(openError(dir + "/short.raw", negative), dir + "/short.raw: dims 2x-4x3 are invalid: every axis needs at least 2 points");
+  EXPECT_EQ(openError(dir + "/short.raw", negative),
+            dir + "/short.raw: dims 2x-4x3 are invalid: every axis needs at least 2 points");
   RawOptions huge = u16Options(2000000000);
   huge.dims[0] = 2000000000;
   huge.dims[1] = 2000000000;
   EXPECT_EQ(openError(dir + "/short.raw", huge),
             dir + "/short.raw: dims 2000000000x2000000000x2000000000 are invalid: the voxel count overflows");
-  EXPECT_EQ(openError(dir + "/none.%d", u16Options(0)), dir + "/none.%d: the pattern matches no file (tried indices 0 and 1)");
+  EXPECT_EQ(openError(dir + "/none.%d", u16Options(0)),
+            dir + "/none.%d: the pattern matches no file (tried indices 0 and 1)");
 }
 
 }  // namespace
