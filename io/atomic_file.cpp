@@ -1,6 +1,7 @@
 #include "io/atomic_file.h"
 
 #include <fmt/format.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -52,6 +53,10 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   if (file_ == nullptr) {
     throw Error(fmt::format("{}: cannot create the output: {}", path_, std::strerror(errno)));
   }
+  // mkstemp creates the file private; give the output the permissions a plain creat() would.
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  ::fchmod(::fileno(file_), 0666 & ~mask);
   std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
 }
 

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -124,6 +126,23 @@ TEST(Writers, ErrorsNameTheOutput) {
     EXPECT_EQ(std::string(e.what()),
               dir + "/nope/mesh.ply: cannot create the output: the folder '" + dir + "/nope' does not exist");
   }
+}
+
+}  // namespace
+}  // namespace isoslab
+
+namespace isoslab {
+namespace {
+
+TEST(Writers, OutputsGetTheUsualPermissions) {
+  const std::string dir = testing::tempDir();
+  auto w = makeMeshWriter(dir + "/p.ply");
+  w->begin(MeshHeader{});
+  w->finish();
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  const auto perms = fs::status(dir + "/p.ply").permissions();
+  EXPECT_EQ(static_cast<unsigned>(perms) & 0777u, 0666u & ~static_cast<unsigned>(mask));
 }
 
 }  // namespace
