@@ -251,28 +251,39 @@ double PhantomSource::value(std::int64_t i, std::int64_t j, std::int64_t k) cons
     case Kind::kBox:
       return (i >= lo_[0] && i <= hi_[0] && j >= lo_[1] && j <= hi_[1] && k >= lo_[2] && k <= hi_[2]) ? 100.0 : 0.0;
     case Kind::kHead: {
-      // Semi-axes in voxels, relative to the grid's half extents.
+      // Shapes in units of the grid's half extents; +y is the face, +z the top of the head.
       const std::array<double, 3> half{0.5 * static_cast<double>(info_.dims[0] - 1),
                                        0.5 * static_cast<double>(info_.dims[1] - 1),
                                        0.5 * static_cast<double>(info_.dims[2] - 1)};
-      auto axes = [&](double fx, double fy, double fz) {
-        return std::array<double, 3>{fx * half[0], fy * half[1], fz * half[2]};
+      // Cover of the ellipsoid centred at (cx, cy, cz) with semi-axes (ax, ay, az).
+      auto blob = [&](double cx, double cy, double cz, double ax, double ay, double az) {
+        return cover(ellipsoidDistance(x - cx * half[0], y - cy * half[1], z - cz * half[2],
+                                       {ax * half[0], ay * half[1], az * half[2]}));
       };
-      const double skin = cover(ellipsoidDistance(x, y, z, axes(0.80, 0.88, 0.85)));
-      const double nose = cover(ellipsoidDistance(x, y - 0.80 * half[1], z + 0.05 * half[2], axes(0.10, 0.18, 0.16)));
-      const double bone = cover(ellipsoidDistance(x, y, z, axes(0.74, 0.82, 0.79)));
-      const double brain = cover(ellipsoidDistance(x, y, z, axes(0.68, 0.76, 0.73)));
-      const double ventricle = std::max(cover(ellipsoidDistance(x - 0.12 * half[0], y, z, axes(0.06, 0.25, 0.12))),
-                                        cover(ellipsoidDistance(x + 0.12 * half[0], y, z, axes(0.06, 0.25, 0.12))));
-      const double eye = std::max(
-          cover(ellipsoidDistance(x - 0.3 * half[0], y - 0.62 * half[1], z - 0.1 * half[2], axes(0.12, 0.12, 0.12))),
-          cover(ellipsoidDistance(x + 0.3 * half[0], y - 0.62 * half[1], z - 0.1 * half[2], axes(0.12, 0.12, 0.12))));
-      double v = -1000.0;
-      v += (40.0 + 1000.0) * std::max(skin, nose);
-      v += (700.0 - 40.0) * bone;
-      v += (35.0 - 700.0) * brain;
-      v += (5.0 - 35.0) * ventricle;
-      v += (10.0 - 40.0) * eye * (1.0 - bone);
+      // Cover of a vertical cylinder through (cx, cy) of radius r, below height top.
+      auto column = [&](double cx, double cy, double r, double top) {
+        const double dx = x / half[0] - cx, dy = y / half[1] - cy;
+        const double radial = (std::sqrt(dx * dx + dy * dy) - r) * std::min(half[0], half[1]);
+        return cover(std::max(radial, (z / half[2] - top) * half[2]));
+      };
+      auto lerp = [](double v, double target, double w) { return v + (target - v) * w; };
+      const double skin = std::max({blob(0, 0, 0.15, 0.72, 0.84, 0.74),      // cranium
+                                    blob(0, 0.22, -0.32, 0.50, 0.56, 0.45),  // face and jaw
+                                    blob(0, 0.86, -0.12, 0.09, 0.14, 0.17),  // nose
+                                    blob(0.71, 0, 0, 0.07, 0.13, 0.20),      // ears
+                                    blob(-0.71, 0, 0, 0.07, 0.13, 0.20), column(0, -0.05, 0.36, -0.30)});  // neck
+      const double skull = blob(0, 0, 0.15, 0.67, 0.79, 0.69);
+      const double brain = blob(0, 0, 0.16, 0.61, 0.73, 0.63);
+      const double jaw = std::max(0.0, blob(0, 0.24, -0.34, 0.42, 0.48, 0.36) - blob(0, 0.20, -0.30, 0.34, 0.42, 0.30));
+      const double spine = column(0, -0.18, 0.09, -0.45);
+      const double ventricles =
+          std::max(blob(0.10, -0.02, 0.18, 0.05, 0.22, 0.10), blob(-0.10, -0.02, 0.18, 0.05, 0.22, 0.10));
+      const double eyes = std::max(blob(0.28, 0.66, 0.02, 0.11, 0.11, 0.11), blob(-0.28, 0.66, 0.02, 0.11, 0.11, 0.11));
+      double v = lerp(-1000.0, 40.0, skin);
+      v = lerp(v, 700.0, std::max({skull, jaw, spine}));
+      v = lerp(v, 35.0, brain);
+      v = lerp(v, 5.0, ventricles);
+      v = lerp(v, 10.0, eyes);
       return v + noise_ * gaussianNoise(seed_, i, j, k);
     }
   }
