@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -18,6 +19,7 @@
 #include "extract/frame.h"
 #include "extract/mesh_stats.h"
 #include "io/atomic_file.h"
+#include "io/dicom_series.h"
 #include "io/error.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
@@ -30,6 +32,10 @@ namespace {
 constexpr const char* kVersion = "0.1.0";
 
 struct RawArgs {
+  std::string series;
+  bool strict = false;
+  bool skipBad = false;
+  int channel = -1;
   std::string dims;
   std::string type = "u8";
   std::string endian = "little";
@@ -38,6 +44,14 @@ struct RawArgs {
 };
 
 void addRawOptions(CLI::App* cmd, RawArgs& raw) {
+  cmd->add_option("--series", raw.series,
+                  "DICOM: the series to read, by SeriesInstanceUID or index (default: the largest)")
+      ->group("DICOM input");
+  cmd->add_flag("--strict", raw.strict, "DICOM: treat series warnings (gaps, duplicates) as errors")
+      ->group("DICOM input");
+  cmd->add_flag("--skip-bad", raw.skipBad, "DICOM: skip corrupt or unreadable files with a warning")
+      ->group("DICOM input");
+  cmd->add_option("--channel", raw.channel, "Colour input: the sample (channel) to use, from 0")->group("DICOM input");
   cmd->add_option("--raw-dims", raw.dims, "Raw input: lattice points X,Y,Z (Z may be left out for per-slice files)")
       ->group("Raw input");
   cmd->add_option("--raw-type", raw.type, "Raw input: voxel type u8 i8 u16 i16 u32 i32 f32 f64")
@@ -72,6 +86,10 @@ std::vector<double> parseList(const std::string& text, const std::string& option
 
 SourceOptions sourceOptions(const RawArgs& raw) {
   SourceOptions options;
+  options.dicom.series = raw.series;
+  options.dicom.strict = raw.strict;
+  options.dicom.skipBad = raw.skipBad;
+  options.dicom.channel = raw.channel;
   if (raw.dims.empty()) {
     if (!raw.spacing.empty()) throw Error("--spacing: only raw input takes a spacing here; give --raw-dims too");
     return options;
@@ -117,7 +135,8 @@ void writeText(const std::string& path, const std::string& text) {
 }
 
 struct ExtractArgs {
-  std::string input;
+  std::vector<std::string> inputs;
+  std::string space = "physical";
   std::optional<double> iso;
   std::string method = "mc";
   std::string output;
@@ -131,7 +150,11 @@ int runExtract(const ExtractArgs& args) {
   const auto method = parseMethod(args.method);
   if (!method) throw Error(fmt::format("--method: unknown method '{}' (use mc, mt5, mt6 or bcc12)", args.method));
   auto writer = makeMeshWriter(args.output);
-  auto source = openSource(args.input, sourceOptions(args.raw));
+  std::vector<std::string> notes;
+  auto source = openSource(args.inputs, sourceOptions(args.raw), &notes);
+  if (!args.quiet) {
+    for (const std::string& n : notes) std::fprintf(stderr, "isoslab: %s\n", n.c_str());
+  }
   const VolumeInfo& info = source->info();
   double iso = 0;
   if (args.iso) {
@@ -139,10 +162,10 @@ int runExtract(const ExtractArgs& args) {
   } else if (info.suggestedIso) {
     iso = *info.suggestedIso;
   } else {
-    throw Error(fmt::format("{}: --iso is required for this input", args.input));
+    throw Error(fmt::format("{}: --iso is required for this input", args.inputs.front()));
   }
 
-  const LatticeFrame frame = LatticeFrame::physical(info);
+  const LatticeFrame frame = LatticeFrame::forSpace(info, args.space);
   ExtractOptions options;
   options.method = *method;
   options.iso = iso;
@@ -155,17 +178,7 @@ int runExtract(const ExtractArgs& args) {
   header.iso = iso;
   header.space = frame.name();
   header.cellVolumes = extractor->cellVolumes();
-  {
-    const auto lo = frame.map(0, 0, 0);
-    const auto hi = frame.map(static_cast<double>(info.dims[0] - 1), static_cast<double>(info.dims[1] - 1),
-                              static_cast<double>(info.dims[2] - 1));
-    for (int a = 0; a < 3; ++a) {
-      header.volumeBounds[static_cast<std::size_t>(a)] =
-          std::min(lo[static_cast<std::size_t>(a)], hi[static_cast<std::size_t>(a)]);
-      header.volumeBounds[static_cast<std::size_t>(a + 3)] =
-          std::max(lo[static_cast<std::size_t>(a)], hi[static_cast<std::size_t>(a)]);
-    }
-  }
+  header.volumeBounds = frame.bounds(info.dims);
 
   MeshStatsSink stats;
   TeeSink tee({writer.get(), &stats});
@@ -177,12 +190,14 @@ int runExtract(const ExtractArgs& args) {
   if (!args.report.empty()) {
     nlohmann::ordered_json r;
     r["generator"] = fmt::format("isoslab {}", kVersion);
-    r["input"] = args.input;
+    r["input"] =
+        args.inputs.size() == 1 ? nlohmann::ordered_json(args.inputs.front()) : nlohmann::ordered_json(args.inputs);
     r["reader"] = info.reader;
     r["method"] = header.method;
     r["iso"] = iso;
     r["dims"] = {info.dims[0], info.dims[1], info.dims[2]};
     r["spacing"] = array3(info.spacing);
+    r["volume_bounds"] = header.volumeBounds;
     r["voxel_type"] = std::string(voxelTypeName(info.type));
     r["space"] = header.space;
     r["normals"] = args.normals;
@@ -223,32 +238,73 @@ int runExtract(const ExtractArgs& args) {
   return 0;
 }
 
-int runInfo(const std::string& input, const RawArgs& raw) {
-  auto source = openSource(input, sourceOptions(raw));
-  const VolumeInfo& info = source->info();
-  std::vector<float> slice(static_cast<std::size_t>(info.sliceVoxels()));
+std::array<double, 2> valueRange(SliceSource& source) {
+  std::vector<float> slice(static_cast<std::size_t>(source.info().sliceVoxels()));
   double lo = std::numeric_limits<double>::infinity();
   double hi = -lo;
-  std::int64_t slices = 0;
-  while (source->readSlice(slice)) {
+  while (source.readSlice(slice)) {
     for (float v : slice) {
       lo = std::min(lo, static_cast<double>(v));
       hi = std::max(hi, static_cast<double>(v));
     }
-    ++slices;
   }
+  return {lo, hi};
+}
+
+void printGeometry(const VolumeInfo& info) {
   const auto& d = info.direction;
-  std::printf("input      %s\n", input.c_str());
   std::printf("reader     %s\n", info.reader.c_str());
   std::printf("dims       %lld x %lld x %lld\n", static_cast<long long>(info.dims[0]),
               static_cast<long long>(info.dims[1]), static_cast<long long>(info.dims[2]));
   std::printf("type       %s\n", std::string(voxelTypeName(info.type)).c_str());
   std::printf("spacing    %g %g %g\n", info.spacing[0], info.spacing[1], info.spacing[2]);
   std::printf("origin     %g %g %g\n", info.origin[0], info.origin[1], info.origin[2]);
-  std::printf("direction  %g %g %g  %g %g %g  %g %g %g\n", d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8]);
-  std::printf("range      %g .. %g\n", lo, hi);
-  if (info.suggestedIso) std::printf("iso        %g (suggested)\n", *info.suggestedIso);
-  (void)slices;
+  std::printf("direction  %g %g %g  %g %g %g  %g %g %g\n", d[0], d[3], d[6], d[1], d[4], d[7], d[2], d[5], d[8]);
+  std::printf("frame      %s\n", info.frame.c_str());
+}
+
+int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
+  const SourceOptions options = sourceOptions(raw);
+  const bool dicom = !options.raw && !PhantomSource::isPhantom(inputs.front()) &&
+                     std::all_of(inputs.begin(), inputs.end(), [](const std::string& in) { return isDicomInput(in); });
+  if (!dicom) {
+    auto source = openSource(inputs, options);
+    std::printf("input      %s\n", inputs.front().c_str());
+    printGeometry(source->info());
+    const auto range = valueRange(*source);
+    std::printf("range      %g .. %g\n", range[0], range[1]);
+    if (source->info().suggestedIso) std::printf("iso        %g (suggested)\n", *source->info().suggestedIso);
+    return 0;
+  }
+  const DicomScan scan = scanDicom(inputs, options.dicom);
+  std::printf("%zu DICOM series; %d files skipped (not DICOM images)\n", scan.series.size(), scan.skipped);
+  for (const std::string& w : scan.warnings) std::printf("warning: %s\n", w.c_str());
+  for (std::size_t n = 0; n < scan.series.size(); ++n) {
+    const DicomSeries& s = scan.series[n];
+    std::printf("\nseries %zu   %s\n", n, s.uid.c_str());
+    std::printf("  description    %s\n", s.description.c_str());
+    std::printf("  modality       %s\n", s.modality.c_str());
+    std::printf("  images         %zu%s\n", s.slices.size(), s.multiFrame ? " (frames of a multi-frame file)" : "");
+    std::printf("  size           %u x %u (columns x rows), %u bits (%u stored), %s, %s\n", s.columns, s.rows,
+                s.bitsAllocated, s.bitsStored, s.pixelRepresentation ? "signed" : "unsigned", s.photometric.c_str());
+    std::printf("  pixel spacing  %g %g (row, column)\n", s.pixelSpacing[0], s.pixelSpacing[1]);
+    if (!s.gaps.empty()) {
+      std::vector<double> g = s.gaps;
+      std::sort(g.begin(), g.end());
+      std::printf("  slice spacing  min %g, median %g, max %g\n", g.front(), g[g.size() / 2], g.back());
+    }
+    const auto& o = s.orientation;
+    std::printf("  orientation    %g %g %g  %g %g %g\n", o[0], o[1], o[2], o[3], o[4], o[5]);
+    std::printf("  transfer       %s (%s)\n", s.transferSyntax.c_str(), s.transferSyntaxUid.c_str());
+    for (const std::string& w : s.warnings) std::printf("  warning        %s\n", w.c_str());
+    try {
+      auto source = openDicomSeries(s, options.dicom);
+      const auto range = valueRange(*source);
+      std::printf("  value range    %g .. %g (after rescale)\n", range[0], range[1]);
+    } catch (const Error& e) {
+      std::printf("  unreadable     %s\n", e.what());
+    }
+  }
   return 0;
 }
 
@@ -278,8 +334,15 @@ int main(int argc, char** argv) {
 
   ExtractArgs ex;
   auto* extract = app.add_subcommand("extract", "Extract an iso-surface mesh from a volume");
-  extract->add_option("INPUT", ex.input, "Volume: a raw file, pattern or folder, or phantom:NAME?key=value&...")
+  extract
+      ->add_option(
+          "INPUT", ex.inputs,
+          "Volume: DICOM folders, DICOMDIRs or files; a raw file, pattern or folder; or phantom:NAME?key=value&...")
       ->required();
+  extract
+      ->add_option("--space", ex.space,
+                   "Output coordinates: physical (the input's frame; LPS for DICOM), lps, ras or voxel")
+      ->capture_default_str();
   extract->add_option("--iso", ex.iso,
                       "Iso value; voxels with value >= iso are inside (default: the input's suggestion, for phantoms)");
   extract->add_option("--method", ex.method, "mc, mt5, mt6 or bcc12")->capture_default_str();
@@ -289,10 +352,10 @@ int main(int argc, char** argv) {
   extract->add_flag("-q,--quiet", ex.quiet, "No progress line and no summary on stderr");
   addRawOptions(extract, ex.raw);
 
-  std::string infoInput;
+  std::vector<std::string> infoInputs;
   RawArgs infoRaw;
-  auto* info = app.add_subcommand("info", "Print a volume's geometry and value range");
-  info->add_option("INPUT", infoInput, "Volume")->required();
+  auto* info = app.add_subcommand("info", "Print a volume's geometry and value range; list DICOM series");
+  info->add_option("INPUT", infoInputs, "Volume")->required();
   addRawOptions(info, infoRaw);
 
   std::string phantomSpec;
@@ -316,7 +379,7 @@ int main(int argc, char** argv) {
 
   try {
     if (*extract) return runExtract(ex);
-    if (*info) return runInfo(infoInput, infoRaw);
+    if (*info) return runInfo(infoInputs, infoRaw);
     if (*phantom) return runPhantom(phantomSpec, phantomOut);
   } catch (const Error& e) {
     std::fprintf(stderr, "isoslab: error: %s\n", e.what());

@@ -1,6 +1,11 @@
 #include "extract/frame.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cmath>
+
+#include "io/error.h"
 
 namespace isoslab {
 
@@ -8,9 +13,32 @@ LatticeFrame LatticeFrame::voxel() {
   return LatticeFrame();
 }
 
+LatticeFrame LatticeFrame::forSpace(const VolumeInfo& info, const std::string& space) {
+  if (space == "voxel") return voxel();
+  if (space == "physical" || space == "lps") {
+    LatticeFrame f = physical(info);
+    if (space == "lps") f.name_ = "lps";
+    return f;
+  }
+  if (space == "ras") {
+    // Negating x and y is a rotation by 180 degrees about z: the handedness is unchanged.
+    VolumeInfo ras = info;
+    for (int c = 0; c < 3; ++c) {
+      ras.direction[static_cast<std::size_t>(c)] = -info.direction[static_cast<std::size_t>(c)];
+      ras.direction[static_cast<std::size_t>(3 + c)] = -info.direction[static_cast<std::size_t>(3 + c)];
+    }
+    ras.origin = {-info.origin[0], -info.origin[1], info.origin[2]};
+    for (auto& o : ras.sliceOrigins) o = {-o[0], -o[1], o[2]};
+    LatticeFrame f = physical(ras);
+    f.name_ = "ras";
+    return f;
+  }
+  throw Error(fmt::format("--space: unknown space '{}' (use voxel, physical, lps or ras)", space));
+}
+
 LatticeFrame LatticeFrame::physical(const VolumeInfo& info) {
   LatticeFrame f;
-  f.name_ = "physical";
+  f.name_ = info.frame;
   f.origin_ = info.origin;
   const auto& d = info.direction;
   for (int r = 0; r < 3; ++r) {
@@ -41,6 +69,20 @@ Vec3d LatticeFrame::map(double i, double j, double k) const noexcept {
   const Vec3d& b = sliceOrigins_[k0 + 1];
   Vec3d o{a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
   return {o[0] + m[0] * i + m[1] * j, o[1] + m[3] * i + m[4] * j, o[2] + m[6] * i + m[7] * j};
+}
+
+std::array<double, 6> LatticeFrame::bounds(const std::array<std::int64_t, 3>& dims) const noexcept {
+  std::array<double, 6> b{};
+  for (int c = 0; c < 8; ++c) {
+    const Vec3d p =
+        map((c & 1) ? static_cast<double>(dims[0] - 1) : 0.0, (c & 2) ? static_cast<double>(dims[1] - 1) : 0.0,
+            (c & 4) ? static_cast<double>(dims[2] - 1) : 0.0);
+    for (std::size_t a = 0; a < 3; ++a) {
+      b[a] = c == 0 ? p[a] : std::min(b[a], p[a]);
+      b[a + 3] = c == 0 ? p[a] : std::max(b[a + 3], p[a]);
+    }
+  }
+  return b;
 }
 
 Vec3d LatticeFrame::gradient(const Vec3d& g) const noexcept {

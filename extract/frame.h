@@ -19,6 +19,11 @@ class LatticeFrame {
   /// per-slice origins when the source has them.
   static LatticeFrame physical(const VolumeInfo& info);
 
+  /// The frame named by --space: "voxel"; "physical" (the source's frame); "lps" or "ras", which
+  /// take the source's frame as LPS (DICOM's patient frame) and, for "ras", negate x and y.
+  /// Throws isoslab::Error for another name.
+  static LatticeFrame forSpace(const VolumeInfo& info, const std::string& space);
+
   /// Position of lattice point (i, j, k); k may be fractional between slices.
   Vec3d map(double i, double j, double k) const noexcept;
 
@@ -29,6 +34,9 @@ class LatticeFrame {
   /// True if the frame is left-handed, so that triangle winding must be reversed to keep normals
   /// pointing from high to low values.
   bool flipsWinding() const noexcept { return determinant_ < 0; }
+
+  /// The box around the lattice's eight corners in output coordinates: xmin ymin zmin xmax ymax zmax.
+  std::array<double, 6> bounds(const std::array<std::int64_t, 3>& dims) const noexcept;
 
   /// Output volume of one unit lattice cube.
   double cellVolume() const noexcept { return determinant_ < 0 ? -determinant_ : determinant_; }

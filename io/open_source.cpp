@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -14,12 +15,40 @@
 
 namespace isoslab {
 
-std::unique_ptr<SliceSource> openSource(const std::string& input, const SourceOptions& options) {
-  if (PhantomSource::isPhantom(input)) return PhantomSource::open(input);
-  if (options.raw) return RawReader::open(input, *options.raw);
+std::unique_ptr<SliceSource> openSource(const std::string& input, const SourceOptions& options,
+                                        std::vector<std::string>* notes) {
+  return openSource(std::vector<std::string>{input}, options, notes);
+}
+
+std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, const SourceOptions& options,
+                                        std::vector<std::string>* notes) {
+  if (inputs.empty()) throw Error("no input given");
+  const std::string& input = inputs.front();
+  if (inputs.size() == 1 && PhantomSource::isPhantom(input)) return PhantomSource::open(input);
+  if (options.raw) {
+    if (inputs.size() > 1) throw Error(fmt::format("{}: raw input takes one file, pattern or folder", inputs[1]));
+    return RawReader::open(input, *options.raw);
+  }
   std::error_code ec;
-  if (!std::filesystem::exists(input, ec) && !isSlicePattern(input)) {
-    throw Error(fmt::format("{}: cannot open: {}", input, std::strerror(ENOENT)));
+  for (const std::string& in : inputs) {
+    if (!std::filesystem::exists(in, ec) && !isSlicePattern(in)) {
+      throw Error(fmt::format("{}: cannot open: {}", in, std::strerror(ENOENT)));
+    }
+  }
+  if (std::all_of(inputs.begin(), inputs.end(), [](const std::string& in) { return isDicomInput(in); })) {
+    const DicomScan scan = scanDicom(inputs, options.dicom);
+    if (scan.series.empty()) {
+      throw Error(fmt::format("{}: no DICOM image found ({} files skipped)", input, scan.skipped));
+    }
+    std::string chosen;
+    const DicomSeries& series = chooseSeries(scan, options.dicom, &chosen);
+    if (notes != nullptr) {
+      if (!chosen.empty()) notes->push_back(chosen);
+      if (scan.skipped > 0) notes->push_back(fmt::format("skipped {} files that are not DICOM images", scan.skipped));
+      for (const std::string& w : scan.warnings) notes->push_back("warning: " + w);
+      for (const std::string& w : series.warnings) notes->push_back("warning: " + w);
+    }
+    return openDicomSeries(series, options.dicom);
   }
   throw Error(fmt::format("{}: unrecognised input format; for raw data give --raw-dims X,Y[,Z] and --raw-type", input));
 }

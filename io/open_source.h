@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 
+#include "io/dicom_series.h"
 #include "io/raw_reader.h"
 #include "io/slice_source.h"
 
@@ -14,10 +15,17 @@ namespace isoslab {
 struct SourceOptions {
   /// Set when the user described raw data (--raw-dims and friends).
   std::optional<RawOptions> raw;
+  DicomOptions dicom;
 };
 
-/// Throws isoslab::Error naming the input and the problem.
-std::unique_ptr<SliceSource> openSource(const std::string& input, const SourceOptions& options);
+/// Opens `inputs`: one phantom spec; raw data when options.raw is set; otherwise DICOM (folders,
+/// DICOMDIRs, files, or a list of files). Notes for the user (which series was chosen, files
+/// skipped, series warnings) are appended to `notes` when given. Throws isoslab::Error naming the
+/// input and the problem.
+std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, const SourceOptions& options,
+                                        std::vector<std::string>* notes = nullptr);
+std::unique_ptr<SliceSource> openSource(const std::string& input, const SourceOptions& options,
+                                        std::vector<std::string>* notes = nullptr);
 
 /// Writes every remaining slice of `source` to `path` as raw voxels of `type`, little-endian, x
 /// fastest, through an AtomicFile. Returns the bytes written.

@@ -46,7 +46,10 @@ struct VolumeInfo {
   std::optional<double> suggestedIso;
   /// The analytic surface at suggestedIso, where there is one.
   std::optional<AnalyticSphere> sphere;
-  /// Which reader made this source ("raw", "phantom", ...) and what it read.
+  /// The physical frame the coordinates are in: "physical" (unspecified), or "lps" (DICOM patient
+  /// coordinates, millimetres).
+  std::string frame = "physical";
+  /// Which reader made this source ("raw", "phantom", "dicom", ...) and what it read.
   std::string reader;
   std::string source;
 

@@ -1,0 +1,675 @@
+#include "io/dicom_series.h"
+
+// DCMTK
+#include <dcmtk/config/osconfig.h>
+#include <dcmtk/dcmdata/dcdeftag.h>
+#include <dcmtk/dcmdata/dcfcache.h>
+#include <dcmtk/dcmdata/dcfilefo.h>
+#include <dcmtk/dcmdata/dcpixel.h>
+#include <dcmtk/dcmdata/dcpixseq.h>
+#include <dcmtk/dcmdata/dcpxitem.h>
+#include <dcmtk/dcmdata/dcrledrg.h>
+#include <dcmtk/dcmdata/dcxfer.h>
+#include <dcmtk/dcmjpeg/djdecode.h>
+#include <dcmtk/dcmjpls/djdecode.h>
+#include <dcmtk/oflog/oflog.h>
+#include <fmt/format.h>
+#include <openjpeg.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <numeric>
+#include <set>
+
+#include "io/error.h"
+#include "io/file_list.h"
+
+namespace fs = std::filesystem;
+
+namespace isoslab {
+namespace {
+
+using Vec3 = std::array<double, 3>;
+
+void initDcmtk() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    // DCMTK's own log lines would be library noise; its conditions are reported by isoslab.
+    OFLog::configure(OFLogger::OFF_LOG_LEVEL);
+    DcmRLEDecoderRegistration::registerCodecs();
+    DJDecoderRegistration::registerCodecs();
+    DJLSDecoderRegistration::registerCodecs();
+  });
+}
+
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double dot(const Vec3& a, const Vec3& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+std::string getString(DcmItem* item, const DcmTagKey& tag) {
+  OFString s;
+  if (item != nullptr && item->findAndGetOFStringArray(tag, s).good()) return std::string(s.c_str());
+  return {};
+}
+
+bool getDoubles(DcmItem* item, const DcmTagKey& tag, double* out, int n) {
+  if (item == nullptr) return false;
+  for (int i = 0; i < n; ++i) {
+    Float64 v = 0;
+    if (item->findAndGetFloat64(tag, v, static_cast<unsigned long>(i)).bad()) return false;
+    out[i] = v;
+  }
+  return true;
+}
+
+std::uint16_t getU16(DcmItem* item, const DcmTagKey& tag, std::uint16_t fallback = 0) {
+  Uint16 v = 0;
+  return item->findAndGetUint16(tag, v).good() ? v : fallback;
+}
+
+// The first item of sequence `seq` inside `group`, or null.
+DcmItem* subItem(DcmItem* group, const DcmTagKey& seq) {
+  DcmItem* item = nullptr;
+  if (group == nullptr || group->findAndGetSequenceItem(seq, item, 0).bad()) return nullptr;
+  return item;
+}
+
+// Geometry and rescale of one frame, from a plain image or the functional groups of a
+// multi-frame image (per-frame group first, then the shared group).
+struct FrameGeometry {
+  std::optional<Vec3> position;
+  std::optional<std::array<double, 6>> orientation;
+  std::optional<std::array<double, 2>> spacing;
+  double slope = 1;
+  double intercept = 0;
+};
+
+FrameGeometry frameGeometry(DcmItem* plain, DcmItem* perFrame, DcmItem* shared) {
+  FrameGeometry g;
+  for (DcmItem* level : {shared, perFrame}) {  // per-frame values override shared ones
+    if (level == nullptr) continue;
+    double v[6];
+    if (getDoubles(subItem(level, DCM_PlanePositionSequence), DCM_ImagePositionPatient, v, 3))
+      g.position = Vec3{v[0], v[1], v[2]};
+    if (getDoubles(subItem(level, DCM_PlaneOrientationSequence), DCM_ImageOrientationPatient, v, 6)) {
+      g.orientation = std::array<double, 6>{v[0], v[1], v[2], v[3], v[4], v[5]};
+    }
+    if (getDoubles(subItem(level, DCM_PixelMeasuresSequence), DCM_PixelSpacing, v, 2))
+      g.spacing = std::array<double, 2>{v[0], v[1]};
+    DcmItem* transform = subItem(level, DCM_PixelValueTransformationSequence);
+    if (getDoubles(transform, DCM_RescaleSlope, v, 1)) g.slope = v[0];
+    if (getDoubles(transform, DCM_RescaleIntercept, v, 1)) g.intercept = v[0];
+  }
+  if (plain != nullptr) {
+    double v[6];
+    if (!g.position && getDoubles(plain, DCM_ImagePositionPatient, v, 3)) g.position = Vec3{v[0], v[1], v[2]};
+    if (!g.orientation && getDoubles(plain, DCM_ImageOrientationPatient, v, 6)) {
+      g.orientation = std::array<double, 6>{v[0], v[1], v[2], v[3], v[4], v[5]};
+    }
+    if (!g.spacing && getDoubles(plain, DCM_PixelSpacing, v, 2)) g.spacing = std::array<double, 2>{v[0], v[1]};
+    if (getDoubles(plain, DCM_RescaleSlope, v, 1)) g.slope = v[0];
+    if (getDoubles(plain, DCM_RescaleIntercept, v, 1)) g.intercept = v[0];
+  }
+  return g;
+}
+
+// What the header pass keeps of one image file.
+struct FileHeader {
+  DicomSeries series;  // the series fields, with this file's slices
+};
+
+std::vector<std::string> dicomdirFiles(const std::string& path) {
+  initDcmtk();
+  DcmFileFormat ff;
+  const OFCondition c = ff.loadFile(path.c_str());
+  if (c.bad()) throw Error(fmt::format("{}: not a readable DICOMDIR: {}", path, c.text()));
+  std::vector<std::string> files;
+  DcmDataset* ds = ff.getDataset();
+  const fs::path base = fs::path(path).parent_path();
+  for (unsigned long i = 0;; ++i) {
+    DcmItem* record = nullptr;
+    if (ds->findAndGetSequenceItem(DCM_DirectoryRecordSequence, record, static_cast<signed long>(i)).bad()) break;
+    OFString id;
+    if (record->findAndGetOFStringArray(DCM_ReferencedFileID, id).bad() || id.empty()) continue;
+    std::string rel(id.c_str());
+    std::replace(rel.begin(), rel.end(), '\\', '/');
+    files.push_back((base / rel).string());
+  }
+  return files;
+}
+
+std::string seriesLabel(const DicomSeries& s) {
+  return fmt::format("series {}", s.uid);
+}
+
+}  // namespace
+
+bool looksLikeDicom(const std::string& path) {
+  if (fs::path(path).filename() == "DICOMDIR") return true;
+  std::ifstream f(path, std::ios::binary);
+  char magic[132] = {};
+  if (!f.read(magic, 132)) return false;
+  return std::memcmp(magic + 128, "DICM", 4) == 0;
+}
+
+bool isDicomInput(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    for (fs::recursive_directory_iterator it(path, ec), end; it != end; it.increment(ec)) {
+      if (ec) break;
+      if (it->is_regular_file(ec) && looksLikeDicom(it->path().string())) return true;
+    }
+    return false;
+  }
+  return fs::is_regular_file(path, ec) && looksLikeDicom(path);
+}
+
+DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& options) {
+  initDcmtk();
+  DicomScan scan;
+  // 1. The files, in a deterministic order.
+  std::vector<std::string> files;
+  for (const std::string& input : inputs) {
+    std::error_code ec;
+    if (fs::is_directory(input, ec)) {
+      std::vector<std::string> found;
+      for (fs::recursive_directory_iterator it(input, ec), end; it != end; it.increment(ec)) {
+        if (ec) throw Error(fmt::format("{}: cannot read folder: {}", input, ec.message()));
+        if (it->is_regular_file(ec)) found.push_back(it->path().string());
+      }
+      std::sort(found.begin(), found.end(),
+                [](const std::string& a, const std::string& b) { return naturalLess(a, b); });
+      files.insert(files.end(), found.begin(), found.end());
+    } else if (fs::path(input).filename() == "DICOMDIR") {
+      const auto listed = dicomdirFiles(input);
+      files.insert(files.end(), listed.begin(), listed.end());
+    } else if (fs::exists(input, ec)) {
+      files.push_back(input);
+    } else {
+      throw Error(fmt::format("{}: cannot open: {}", input, std::strerror(ENOENT)));
+    }
+  }
+
+  // 2. The header pass: headers only, large elements (pixel data) stay on disk.
+  std::map<std::string, std::size_t> seriesIndex;
+  std::vector<DicomSeries> series;
+  std::map<std::string, std::vector<std::string>> filesOfSeries;
+  for (const std::string& path : files) {
+    if (fs::path(path).filename() == "DICOMDIR" || !looksLikeDicom(path)) {
+      ++scan.skipped;
+      continue;
+    }
+    DcmFileFormat ff;
+    const OFCondition c = ff.loadFile(path.c_str(), EXS_Unknown, EGL_noChange, 1024);
+    if (c.bad()) {
+      const std::string msg = fmt::format("{}: not a readable DICOM file: {}", path, c.text());
+      if (!options.skipBad) throw Error(msg);
+      scan.warnings.push_back(msg + " (skipped)");
+      continue;
+    }
+    DcmDataset* ds = ff.getDataset();
+    if (!ds->tagExists(DCM_PixelData) || getU16(ds, DCM_Rows) == 0 || getU16(ds, DCM_Columns) == 0) {
+      ++scan.skipped;
+      continue;
+    }
+    DicomSeries s;
+    s.uid = getString(ds, DCM_SeriesInstanceUID);
+    if (s.uid.empty()) s.uid = "(no SeriesInstanceUID)";
+    s.description = getString(ds, DCM_SeriesDescription);
+    s.modality = getString(ds, DCM_Modality);
+    const DcmXfer xfer(ds->getOriginalXfer());
+    s.transferSyntax = xfer.getXferName();
+    s.transferSyntaxUid = xfer.getXferID();
+    s.rows = getU16(ds, DCM_Rows);
+    s.columns = getU16(ds, DCM_Columns);
+    s.bitsAllocated = getU16(ds, DCM_BitsAllocated, 16);
+    s.bitsStored = getU16(ds, DCM_BitsStored, s.bitsAllocated);
+    s.pixelRepresentation = getU16(ds, DCM_PixelRepresentation);
+    s.samplesPerPixel = getU16(ds, DCM_SamplesPerPixel, 1);
+    s.planarConfiguration = getU16(ds, DCM_PlanarConfiguration);
+    s.photometric = getString(ds, DCM_PhotometricInterpretation);
+    Sint32 frames = 1;
+    if (ds->findAndGetSint32(DCM_NumberOfFrames, frames).bad() || frames < 1) frames = 1;
+    DcmItem* shared = subItem(ds, DCM_SharedFunctionalGroupsSequence);
+    s.multiFrame = frames > 1 || shared != nullptr;
+    Sint32 instance = 0;
+    ds->findAndGetSint32(DCM_InstanceNumber, instance);
+    for (Sint32 f = 0; f < frames; ++f) {
+      DcmItem* perFrame = nullptr;
+      if (s.multiFrame) ds->findAndGetSequenceItem(DCM_PerFrameFunctionalGroupsSequence, perFrame, f);
+      const FrameGeometry g = frameGeometry(s.multiFrame ? nullptr : ds, perFrame, shared);
+      if (s.multiFrame && !g.position) {
+        // Legacy multi-frame without functional groups: fall back to the top-level attributes.
+      }
+      if (f == 0 || !s.multiFrame) {
+        if (g.orientation) s.orientation = *g.orientation;
+        if (g.spacing) s.pixelSpacing = *g.spacing;
+      } else if (g.orientation) {
+        for (int k = 0; k < 6; ++k) {
+          if (std::abs((*g.orientation)[static_cast<std::size_t>(k)] - s.orientation[static_cast<std::size_t>(k)]) >
+              1e-4) {
+            throw Error(
+                fmt::format("{}: frames have different orientations (several stacks in one file); "
+                            "split the file into one stack per series",
+                            path));
+          }
+        }
+      }
+      DicomSlice slice;
+      slice.path = path;
+      slice.frame = static_cast<std::uint32_t>(f);
+      slice.position = g.position;
+      slice.instanceNumber = s.multiFrame ? f + 1 : instance;
+      slice.slope = g.slope;
+      slice.intercept = g.intercept;
+      s.slices.push_back(slice);
+    }
+    auto [it, added] = seriesIndex.emplace(s.uid, series.size());
+    if (added) {
+      series.push_back(std::move(s));
+      continue;
+    }
+    // 3. Consistency within a series.
+    DicomSeries& into = series[it->second];
+    const std::string& first = into.slices.front().path;
+    if (s.rows != into.rows || s.columns != into.columns) {
+      throw Error(fmt::format("{}: {} has {}x{} pixels but {} has {}x{} (mixed sizes in one series)", seriesLabel(into),
+                              path, s.columns, s.rows, first, into.columns, into.rows));
+    }
+    for (int k = 0; k < 6; ++k) {
+      if (std::abs(s.orientation[static_cast<std::size_t>(k)] - into.orientation[static_cast<std::size_t>(k)]) > 1e-4) {
+        throw Error(
+            fmt::format("{}: {} and {} have different ImageOrientationPatient (mixed orientations in one series)",
+                        seriesLabel(into), path, first));
+      }
+    }
+    if (s.samplesPerPixel != into.samplesPerPixel) {
+      throw Error(fmt::format("{}: {} has {} samples per pixel but {} has {} (mixed pixel types in one series)",
+                              seriesLabel(into), path, s.samplesPerPixel, first, into.samplesPerPixel));
+    }
+    if (s.bitsAllocated != into.bitsAllocated || s.bitsStored != into.bitsStored ||
+        s.pixelRepresentation != into.pixelRepresentation || s.photometric != into.photometric) {
+      into.warnings.push_back(
+          fmt::format("{} and {} differ in pixel type; each is converted by its own header", path, first));
+    }
+    into.slices.insert(into.slices.end(), s.slices.begin(), s.slices.end());
+  }
+
+  // 4. Sort each series, drop duplicates, find gaps.
+  for (DicomSeries& s : series) {
+    const Vec3 row{s.orientation[0], s.orientation[1], s.orientation[2]};
+    const Vec3 col{s.orientation[3], s.orientation[4], s.orientation[5]};
+    const Vec3 normal = cross(row, col);
+    const bool positioned =
+        std::all_of(s.slices.begin(), s.slices.end(), [](const DicomSlice& d) { return d.position.has_value(); });
+    auto key = [&](const DicomSlice& d) {
+      return positioned ? dot(*d.position, normal) : static_cast<double>(d.instanceNumber);
+    };
+    std::stable_sort(s.slices.begin(), s.slices.end(), [&](const DicomSlice& a, const DicomSlice& b) {
+      const double ka = key(a), kb = key(b);
+      if (ka != kb) return ka < kb;
+      if (a.instanceNumber != b.instanceNumber) return a.instanceNumber < b.instanceNumber;
+      return a.path != b.path ? naturalLess(a.path, b.path) : a.frame < b.frame;
+    });
+    if (!positioned) {
+      s.warnings.push_back(
+          "ImagePositionPatient is missing; slices are sorted by InstanceNumber and spaced 1 mm apart");
+    }
+    std::vector<DicomSlice> kept;
+    for (const DicomSlice& d : s.slices) {
+      if (!kept.empty() && std::abs(key(d) - key(kept.back())) < (positioned ? 1e-3 : 0.5)) {
+        s.warnings.push_back(fmt::format("duplicate position: {} dropped, {} kept", d.path, kept.back().path));
+        continue;
+      }
+      kept.push_back(d);
+    }
+    s.slices = std::move(kept);
+    if (positioned) {
+      for (std::size_t k = 1; k < s.slices.size(); ++k) s.gaps.push_back(key(s.slices[k]) - key(s.slices[k - 1]));
+      if (!s.gaps.empty()) {
+        std::vector<double> sorted = s.gaps;
+        std::sort(sorted.begin(), sorted.end());
+        const double median = sorted[sorted.size() / 2];
+        // One warning per run of consecutive large gaps.
+        for (std::size_t k = 0; k < s.gaps.size();) {
+          if (s.gaps[k] <= 1.5 * median) {
+            ++k;
+            continue;
+          }
+          std::size_t end = k;
+          double widest = 0;
+          while (end < s.gaps.size() && s.gaps[end] > 1.5 * median) widest = std::max(widest, s.gaps[end++]);
+          if (end - k == 1) {
+            s.warnings.push_back(
+                fmt::format("gap of {:.3g} mm between {} and {} (median spacing {:.3g} mm): a slice may be missing",
+                            widest, s.slices[k].path, s.slices[k + 1].path, median));
+          } else {
+            s.warnings.push_back(fmt::format(
+                "{} gaps of up to {:.3g} mm from {} to {} (median spacing {:.3g} mm): slices may be missing", end - k,
+                widest, s.slices[k].path, s.slices[end].path, median));
+          }
+          k = end;
+        }
+      }
+    }
+    if (options.strict && !s.warnings.empty()) {
+      throw Error(fmt::format("{}: {} (--strict)", seriesLabel(s), s.warnings.front()));
+    }
+  }
+  scan.series = std::move(series);
+  return scan;
+}
+
+const DicomSeries& chooseSeries(const DicomScan& scan, const DicomOptions& options, std::string* chosenNote) {
+  if (scan.series.empty()) throw Error("no DICOM image series found");
+  if (!options.series.empty()) {
+    for (const DicomSeries& s : scan.series) {
+      if (s.uid == options.series) return s;
+    }
+    char* end = nullptr;
+    const long index = std::strtol(options.series.c_str(), &end, 10);
+    if (end == options.series.c_str() + options.series.size() && index >= 0 &&
+        static_cast<std::size_t>(index) < scan.series.size()) {
+      return scan.series[static_cast<std::size_t>(index)];
+    }
+    throw Error(fmt::format("--series: no series '{}' (give a SeriesInstanceUID or an index 0..{}; see isoslab info)",
+                            options.series, scan.series.size() - 1));
+  }
+  std::size_t best = 0;
+  for (std::size_t i = 1; i < scan.series.size(); ++i) {
+    if (scan.series[i].slices.size() > scan.series[best].slices.size()) best = i;
+  }
+  if (chosenNote != nullptr && scan.series.size() > 1) {
+    *chosenNote = fmt::format("{} series found; using series {} ({}, {} images), the largest; choose with --series",
+                              scan.series.size(), best, scan.series[best].uid, scan.series[best].slices.size());
+  }
+  return scan.series[best];
+}
+
+namespace {
+
+// OpenJPEG reads the codestream from memory.
+struct MemoryStream {
+  const std::uint8_t* data;
+  std::size_t size;
+  std::size_t pos;
+};
+
+OPJ_SIZE_T j2kRead(void* buffer, OPJ_SIZE_T n, void* user) {
+  auto* m = static_cast<MemoryStream*>(user);
+  if (m->pos >= m->size) return static_cast<OPJ_SIZE_T>(-1);
+  const std::size_t k = std::min<std::size_t>(n, m->size - m->pos);
+  std::memcpy(buffer, m->data + m->pos, k);
+  m->pos += k;
+  return k;
+}
+OPJ_OFF_T j2kSkip(OPJ_OFF_T n, void* user) {
+  auto* m = static_cast<MemoryStream*>(user);
+  const auto target = static_cast<OPJ_OFF_T>(m->pos) + n;
+  if (target < 0) return -1;
+  m->pos = static_cast<std::size_t>(std::min<OPJ_OFF_T>(target, static_cast<OPJ_OFF_T>(m->size)));
+  return n;
+}
+OPJ_BOOL j2kSeek(OPJ_OFF_T n, void* user) {
+  auto* m = static_cast<MemoryStream*>(user);
+  if (n < 0 || static_cast<std::size_t>(n) > m->size) return OPJ_FALSE;
+  m->pos = static_cast<std::size_t>(n);
+  return OPJ_TRUE;
+}
+
+// Decodes one JPEG 2000 frame into 32-bit samples, component `channel`.
+std::vector<std::int32_t> decodeJpeg2000(const std::string& path, const std::vector<std::uint8_t>& code, int channel,
+                                         std::uint32_t columns, std::uint32_t rows) {
+  const bool jp2 = code.size() > 12 && code[4] == 'j' && code[5] == 'P';
+  opj_codec_t* codec = opj_create_decompress(jp2 ? OPJ_CODEC_JP2 : OPJ_CODEC_J2K);
+  opj_dparameters_t params;
+  opj_set_default_decoder_parameters(&params);
+  opj_setup_decoder(codec, &params);
+  MemoryStream mem{code.data(), code.size(), 0};
+  opj_stream_t* stream = opj_stream_default_create(OPJ_TRUE);
+  opj_stream_set_user_data(stream, &mem, nullptr);
+  opj_stream_set_user_data_length(stream, code.size());
+  opj_stream_set_read_function(stream, j2kRead);
+  opj_stream_set_skip_function(stream, j2kSkip);
+  opj_stream_set_seek_function(stream, j2kSeek);
+  opj_image_t* image = nullptr;
+  const bool ok =
+      opj_read_header(stream, codec, &image) && opj_decode(codec, stream, image) && opj_end_decompress(codec, stream);
+  std::vector<std::int32_t> out;
+  std::string problem;
+  if (!ok || image == nullptr) {
+    problem = "the JPEG 2000 data cannot be decoded";
+  } else if (static_cast<std::uint32_t>(channel) >= image->numcomps) {
+    problem = fmt::format("the JPEG 2000 frame has {} components", image->numcomps);
+  } else {
+    const opj_image_comp_t& comp = image->comps[channel];
+    if (comp.w != columns || comp.h != rows) {
+      problem = fmt::format("the JPEG 2000 frame is {}x{} but the header says {}x{}", comp.w, comp.h, columns, rows);
+    } else {
+      out.assign(comp.data, comp.data + static_cast<std::size_t>(columns) * rows);
+    }
+  }
+  if (image != nullptr) opj_image_destroy(image);
+  opj_stream_destroy(stream);
+  opj_destroy_codec(codec);
+  if (!problem.empty()) throw Error(fmt::format("{}: {}", path, problem));
+  return out;
+}
+
+class DicomSource final : public SliceSource {
+ public:
+  DicomSource(const DicomSeries& series, const DicomOptions& options) : series_(series), options_(options) {
+    const std::string first = series.slices.front().path;
+    if (series.slices.size() < 2) {
+      throw Error(fmt::format("{}: {} has one image; a surface needs at least two slices", first, seriesLabel(series)));
+    }
+    if (series.samplesPerPixel > 1) {
+      if (options.channel < 0) {
+        throw Error(fmt::format("{}: colour images ({}, {} samples per pixel); choose a channel with --channel 0..{}",
+                                first, series.photometric, series.samplesPerPixel, series.samplesPerPixel - 1));
+      }
+      if (options.channel >= series.samplesPerPixel) {
+        throw Error(fmt::format("--channel: {} has {} samples per pixel", first, series.samplesPerPixel));
+      }
+    }
+    if (series.bitsAllocated != 8 && series.bitsAllocated != 16 && series.bitsAllocated != 32) {
+      throw Error(fmt::format("{}: BitsAllocated {} is not supported (8, 16 or 32)", first, series.bitsAllocated));
+    }
+    const auto& o = series.orientation;
+    const Vec3 row{o[0], o[1], o[2]};
+    const Vec3 col{o[3], o[4], o[5]};
+    const Vec3 normal = cross(row, col);
+    VolumeInfo& info = info_;
+    info.dims = {series.columns, series.rows, static_cast<std::int64_t>(series.slices.size())};
+    info.reader = "dicom";
+    info.source = first;
+    info.frame = "lps";
+    const bool positioned = series.slices.front().position.has_value();
+    Vec3 kdir = normal;
+    double kspacing = 1;
+    if (positioned) {
+      const Vec3& a = *series.slices.front().position;
+      const Vec3& b = *series.slices.back().position;
+      const Vec3 d{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+      const double len = std::sqrt(dot(d, d));
+      if (len > 0) {
+        kdir = {d[0] / len, d[1] / len, d[2] / len};
+        kspacing = len / static_cast<double>(series.slices.size() - 1);
+      }
+      for (const DicomSlice& s : series.slices) info.sliceOrigins.push_back(*s.position);
+      info.origin = a;
+    } else {
+      for (std::size_t k = 0; k < series.slices.size(); ++k) {
+        info.sliceOrigins.push_back({normal[0] * static_cast<double>(k), normal[1] * static_cast<double>(k),
+                                     normal[2] * static_cast<double>(k)});
+      }
+    }
+    info.spacing = {series.pixelSpacing[1], series.pixelSpacing[0], kspacing};
+    info.direction = {row[0], col[0], kdir[0], row[1], col[1], kdir[1], row[2], col[2], kdir[2]};
+    const bool sign = series.pixelRepresentation == 1;
+    info.type = series.bitsAllocated == 8    ? (sign ? VoxelType::kI8 : VoxelType::kU8)
+                : series.bitsAllocated == 16 ? (sign ? VoxelType::kI16 : VoxelType::kU16)
+                                             : (sign ? VoxelType::kI32 : VoxelType::kU32);
+  }
+
+  const VolumeInfo& info() const noexcept override { return info_; }
+
+  bool readSlice(std::span<float> out) override {
+    if (next_ >= series_.slices.size()) return false;
+    const DicomSlice& slice = series_.slices[next_++];
+    if (slice.path != openPath_) {
+      file_ = std::make_unique<DcmFileFormat>();
+      cache_ = std::make_unique<DcmFileCache>();
+      const OFCondition c = file_->loadFile(slice.path.c_str(), EXS_Unknown, EGL_noChange, 4096);
+      if (c.bad()) throw Error(fmt::format("{}: not a readable DICOM file: {}", slice.path, c.text()));
+      openPath_ = slice.path;
+      startFragment_ = 0;
+    }
+    DcmDataset* ds = file_->getDataset();
+    const std::uint16_t rows = getU16(ds, DCM_Rows);
+    const std::uint16_t columns = getU16(ds, DCM_Columns);
+    if (rows != series_.rows || columns != series_.columns) {
+      throw Error(fmt::format("{}: the image is {}x{} but the series is {}x{}", slice.path, columns, rows,
+                              series_.columns, series_.rows));
+    }
+    const std::uint16_t bitsAllocated = getU16(ds, DCM_BitsAllocated, 16);
+    const std::uint16_t bitsStored = getU16(ds, DCM_BitsStored, bitsAllocated);
+    const bool sign = getU16(ds, DCM_PixelRepresentation) == 1;
+    const std::uint16_t spp = getU16(ds, DCM_SamplesPerPixel, 1);
+    const bool planar = getU16(ds, DCM_PlanarConfiguration) == 1;
+    const bool mono1 = getString(ds, DCM_PhotometricInterpretation) == "MONOCHROME1";
+    const std::size_t pixels = static_cast<std::size_t>(rows) * columns;
+    const int channel = std::max(0, options_.channel);
+
+    std::vector<std::int64_t> samples(pixels);
+    const E_TransferSyntax xfer = ds->getOriginalXfer();
+    if (xfer == EXS_JPEG2000LosslessOnly || xfer == EXS_JPEG2000 || xfer == EXS_JPEG2000MulticomponentLosslessOnly ||
+        xfer == EXS_JPEG2000Multicomponent) {
+      const auto decoded = decodeJpeg2000(slice.path, jpeg2000Frame(ds, slice), channel, columns, rows);
+      std::copy(decoded.begin(), decoded.end(), samples.begin());
+    } else {
+      DcmElement* pixelData = nullptr;
+      if (ds->findAndGetElement(DCM_PixelData, pixelData).bad() || pixelData == nullptr) {
+        throw Error(fmt::format("{}: has no pixel data", slice.path));
+      }
+      Uint32 frameSize = 0;
+      if (pixelData->getUncompressedFrameSize(ds, frameSize).bad()) {
+        throw Error(fmt::format("{}: cannot determine the frame size", slice.path));
+      }
+      const std::size_t bytesPerSample = bitsAllocated / 8u;
+      if (frameSize < pixels * spp * bytesPerSample) {
+        throw Error(
+            fmt::format("{}: frame of {} bytes is shorter than {}x{} pixels", slice.path, frameSize, columns, rows));
+      }
+      frameBytes_.resize(frameSize + (frameSize & 1u));
+      OFString colorModel;
+      const OFCondition c =
+          pixelData->getUncompressedFrame(ds, slice.frame, startFragment_, frameBytes_.data(),
+                                          static_cast<Uint32>(frameBytes_.size()), colorModel, cache_.get());
+      if (c.bad()) {
+        if (c == EC_CannotChangeRepresentation || DcmXfer(xfer).isEncapsulated()) {
+          throw Error(fmt::format("{}: transfer syntax '{}' ({}) cannot be decoded: {}", slice.path,
+                                  DcmXfer(xfer).getXferName(), DcmXfer(xfer).getXferID(), c.text()));
+        }
+        throw Error(fmt::format("{}: cannot read frame {}: {}", slice.path, slice.frame, c.text()));
+      }
+      for (std::size_t p = 0; p < pixels; ++p) {
+        const std::size_t index =
+            planar ? static_cast<std::size_t>(channel) * pixels + p : p * spp + static_cast<std::size_t>(channel);
+        const std::uint8_t* b = frameBytes_.data() + index * bytesPerSample;
+        std::uint32_t raw = 0;
+        if (bytesPerSample == 1) {
+          raw = b[0];
+        } else if (bytesPerSample == 2) {
+          std::uint16_t v;
+          std::memcpy(&v, b, 2);
+          raw = v;
+        } else {
+          std::memcpy(&raw, b, 4);
+        }
+        std::int64_t v = raw;
+        if (bitsStored < 32) {
+          const std::uint32_t mask = (1u << bitsStored) - 1u;
+          v = raw & mask;
+          if (sign && (raw & (1u << (bitsStored - 1)))) v -= std::int64_t{1} << bitsStored;
+        } else if (sign) {
+          v = static_cast<std::int32_t>(raw);
+        }
+        samples[p] = v;
+      }
+    }
+    // MONOCHROME1 stores darker-is-higher: invert within the stored range.
+    std::int64_t lo = sign ? -(std::int64_t{1} << (bitsStored - 1)) : 0;
+    std::int64_t hi = sign ? (std::int64_t{1} << (bitsStored - 1)) - 1 : (std::int64_t{1} << bitsStored) - 1;
+    for (std::size_t p = 0; p < pixels; ++p) {
+      const std::int64_t v = mono1 ? lo + hi - samples[p] : samples[p];
+      out[p] = static_cast<float>(static_cast<double>(v) * slice.slope + slice.intercept);
+    }
+    return true;
+  }
+
+ private:
+  // The compressed bytes of one frame from the encapsulated pixel data.
+  std::vector<std::uint8_t> jpeg2000Frame(DcmDataset* ds, const DicomSlice& slice) {
+    DcmElement* element = nullptr;
+    if (ds->findAndGetElement(DCM_PixelData, element).bad() || element == nullptr) {
+      throw Error(fmt::format("{}: has no pixel data", slice.path));
+    }
+    auto* pixelData = static_cast<DcmPixelData*>(element);
+    DcmPixelSequence* sequence = nullptr;
+    if (pixelData->getEncapsulatedRepresentation(ds->getOriginalXfer(), nullptr, sequence).bad() ||
+        sequence == nullptr) {
+      throw Error(fmt::format("{}: the JPEG 2000 pixel data is not encapsulated", slice.path));
+    }
+    const unsigned long fragments = sequence->card() - 1;  // item 0 is the offset table
+    Sint32 frames = 1;
+    ds->findAndGetSint32(DCM_NumberOfFrames, frames);
+    unsigned long first = 1;
+    unsigned long last = fragments;
+    if (frames > 1) {
+      if (fragments != static_cast<unsigned long>(frames)) {
+        throw Error(fmt::format("{}: multi-frame JPEG 2000 needs one fragment per frame ({} fragments, {} frames)",
+                                slice.path, fragments, frames));
+      }
+      first = last = slice.frame + 1;
+    }
+    std::vector<std::uint8_t> code;
+    for (unsigned long i = first; i <= last; ++i) {
+      DcmPixelItem* item = nullptr;
+      Uint8* data = nullptr;
+      if (sequence->getItem(item, i).bad() || item->getUint8Array(data).bad()) {
+        throw Error(fmt::format("{}: cannot read JPEG 2000 fragment {}", slice.path, i));
+      }
+      code.insert(code.end(), data, data + item->getLength());
+      item->compact();
+    }
+    return code;
+  }
+
+  DicomSeries series_;
+  DicomOptions options_;
+  VolumeInfo info_;
+  std::size_t next_ = 0;
+  std::unique_ptr<DcmFileFormat> file_;
+  std::unique_ptr<DcmFileCache> cache_;
+  std::string openPath_;
+  Uint32 startFragment_ = 0;
+  std::vector<std::uint8_t> frameBytes_;
+};
+
+}  // namespace
+
+std::unique_ptr<SliceSource> openDicomSeries(const DicomSeries& series, const DicomOptions& options) {
+  initDcmtk();
+  return std::make_unique<DicomSource>(series, options);
+}
+
+}  // namespace isoslab
