@@ -464,6 +464,29 @@ std::vector<std::int32_t> decodeJpeg2000(const std::string& path, const std::vec
   return out;
 }
 
+bool supportedTransferSyntax(E_TransferSyntax x) {
+  switch (x) {
+    case EXS_LittleEndianImplicit:
+    case EXS_LittleEndianExplicit:
+    case EXS_BigEndianExplicit:
+    case EXS_DeflatedLittleEndianExplicit:
+    case EXS_RLELossless:
+    case EXS_JPEGProcess1:
+    case EXS_JPEGProcess2_4:
+    case EXS_JPEGProcess14:
+    case EXS_JPEGProcess14SV1:
+    case EXS_JPEGLSLossless:
+    case EXS_JPEGLSLossy:
+    case EXS_JPEG2000LosslessOnly:
+    case EXS_JPEG2000:
+    case EXS_JPEG2000MulticomponentLosslessOnly:
+    case EXS_JPEG2000Multicomponent:
+      return true;
+    default:
+      return false;
+  }
+}
+
 class DicomSource final : public SliceSource {
  public:
   DicomSource(const DicomSeries& series, const DicomOptions& options) : series_(series), options_(options) {
@@ -551,6 +574,10 @@ class DicomSource final : public SliceSource {
 
     std::vector<std::int64_t> samples(pixels);
     const E_TransferSyntax xfer = ds->getOriginalXfer();
+    if (!supportedTransferSyntax(xfer)) {
+      throw Error(fmt::format("{}: unsupported transfer syntax '{}' ({})", slice.path, DcmXfer(xfer).getXferName(),
+                              DcmXfer(xfer).getXferID()));
+    }
     if (xfer == EXS_JPEG2000LosslessOnly || xfer == EXS_JPEG2000 || xfer == EXS_JPEG2000MulticomponentLosslessOnly ||
         xfer == EXS_JPEG2000Multicomponent) {
       const auto decoded = decodeJpeg2000(slice.path, jpeg2000Frame(ds, slice), channel, columns, rows);
@@ -568,6 +595,14 @@ class DicomSource final : public SliceSource {
       if (frameSize < pixels * spp * bytesPerSample) {
         throw Error(
             fmt::format("{}: frame of {} bytes is shorter than {}x{} pixels", slice.path, frameSize, columns, rows));
+      }
+      if (!DcmXfer(xfer).isEncapsulated()) {
+        const std::uint64_t need = std::uint64_t{frameSize} * (slice.frame + 1);
+        if (pixelData->getLength() < need) {
+          throw Error(fmt::format("{}: the pixel data holds {} bytes, but {}x{} pixels of {} bits{} need {}", slice.path,
+                                  pixelData->getLength(), columns, rows, bitsAllocated,
+                                  slice.frame > 0 ? fmt::format(" up to frame {}", slice.frame + 1) : std::string(), need));
+        }
       }
       frameBytes_.resize(frameSize + (frameSize & 1u));
       OFString colorModel;
