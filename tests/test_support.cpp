@@ -85,6 +85,21 @@ CliResult runCli(const std::string& args) {
   return r;
 }
 
+namespace {
+
+// Removes this process's temporary folders when the test program ends.
+class TempRoot final : public ::testing::Environment {
+ public:
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(fs::temp_directory_path() / ("isoslab-test-" + std::to_string(::getpid())), ec);
+  }
+};
+
+[[maybe_unused]] ::testing::Environment* const kTempRoot = ::testing::AddGlobalTestEnvironment(new TempRoot);
+
+}  // namespace
+
 std::string tempDir() {
   static std::atomic<int> counter{0};
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();

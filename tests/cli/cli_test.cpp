@@ -131,6 +131,27 @@ TEST(Cli, AFullDiskLeavesNoPartialFile) {
   EXPECT_EQ(testing::fileCount(dir), 1);  // only the captured stderr
 }
 
+TEST(Cli, DicomFolderChoosesTheLargestSeriesAndSaysSo) {
+  const std::string dir = testing::sharedData("ct-ge-tilt");
+  if (dir.empty()) GTEST_SKIP() << "../shared/data/ct-ge-tilt is absent";
+  const std::string out = testing::tempDir();
+  const auto r = runCli("extract " + dir + " --iso 300 --space ras -o " + out + "/ge.stl --report " + out + "/r.json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.err.find("isoslab: skipped 1 files that are not DICOM images\n"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("isoslab: warning: 13 gaps of up to 7 mm"), std::string::npos) << r.err;
+  const auto report = nlohmann::json::parse(slurp(out + "/r.json"));
+  EXPECT_EQ(report["reader"], "dicom");
+  EXPECT_EQ(report["space"], "ras");
+  const auto info = runCli("info " + dir);
+  EXPECT_EQ(info.exitCode, 0);
+  EXPECT_NE(info.out.find("1 DICOM series; 1 files skipped (not DICOM images)\n"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("  value range    -1500 .. 2121 (after rescale)\n"), std::string::npos) << info.out;
+  const auto strict = runCli("extract " + dir + " --iso 300 --strict -o " + out + "/x.ply");
+  EXPECT_EQ(strict.exitCode, 1);
+  EXPECT_EQ(strict.err.rfind("isoslab: error: series 1.2.826.0.1.3680043.9.4245.", 0), 0u) << strict.err;
+  EXPECT_FALSE(fs::exists(out + "/x.ply"));
+}
+
 TEST(Cli, InfoPrintsGeometryAndRange) {
   const auto r = runCli("info 'phantom:box?n=10,12,14&lo=2,2,2&hi=5,5,5'");
   ASSERT_EQ(r.exitCode, 0);

@@ -1,6 +1,7 @@
 // DICOM series written with DCMTK's API from a phantom of known geometry, read back through
 // isoslab's DICOM reader; plus the real series in ../shared/data.
 #include <dcmtk/config/osconfig.h>
+#include <dcmtk/dcmdata/dcddirif.h>
 #include <dcmtk/dcmdata/dcdeftag.h>
 #include <dcmtk/dcmdata/dcfilefo.h>
 #include <dcmtk/dcmdata/dcpixel.h>
@@ -51,7 +52,7 @@ std::vector<float> phantomValues() {
   return all;
 }
 
-enum class Codec { kNone, kRle, kJpegLossless, kJpegLs, kJpeg2000 };
+enum class Codec { kNone, kImplicit, kBigEndian, kDeflated, kRle, kJpegLossless, kJpegLs, kJpeg2000 };
 
 struct SeriesSpec {
   std::string uid = "1.2.826.0.1.3680043.9.7777.1";
@@ -67,6 +68,7 @@ struct SeriesSpec {
   bool shuffledNames = false;
   bool multiFrame = false;
   int slices = static_cast<int>(kDims[2]);
+  int samplesPerPixel = 1;  // 3: RGB with the phantom in the green channel
 };
 
 void registerEncoders() {
@@ -132,7 +134,8 @@ std::vector<std::uint8_t> encodeJ2k(const std::vector<std::uint16_t>& stored, bo
     static_cast<Out*>(user)->pos = static_cast<std::size_t>(n);
     return OPJ_TRUE;
   });
-  const bool ok = opj_start_compress(codec, image, stream) && opj_encode(codec, stream) && opj_end_compress(codec, stream);
+  const bool ok =
+      opj_start_compress(codec, image, stream) && opj_encode(codec, stream) && opj_end_compress(codec, stream);
   opj_stream_destroy(stream);
   opj_destroy_codec(codec);
   opj_image_destroy(image);
@@ -169,6 +172,13 @@ void writeSeries(const std::string& dir, const SeriesSpec& spec) {
     d->putAndInsertString(DCM_StudyInstanceUID, "1.2.826.0.1.3680043.9.7777");
     d->putAndInsertString(DCM_SeriesInstanceUID, spec.uid.c_str());
     d->putAndInsertString(DCM_Modality, "CT");
+    d->putAndInsertString(DCM_PatientName, "Phantom^Head");
+    d->putAndInsertString(DCM_PatientID, "ISOSLAB1");
+    d->putAndInsertString(DCM_StudyDate, "20261122");
+    d->putAndInsertString(DCM_StudyTime, "120000");
+    d->putAndInsertString(DCM_StudyID, "1");
+    d->putAndInsertString(DCM_AccessionNumber, "");
+    d->putAndInsertString(DCM_SeriesNumber, "1");
     d->putAndInsertUint16(DCM_Rows, static_cast<Uint16>(kDims[1]));
     d->putAndInsertUint16(DCM_Columns, static_cast<Uint16>(kDims[0]));
     d->putAndInsertUint16(DCM_SamplesPerPixel, 1);
@@ -241,9 +251,22 @@ void writeSeries(const std::string& dir, const SeriesSpec& spec) {
       d->insert(pixels, true);
       xfer = EXS_JPEG2000LosslessOnly;
     } else {
-      d->putAndInsertUint16Array(DCM_PixelData, s.data(), static_cast<unsigned long>(s.size()));
-      if (spec.codec != Codec::kNone) {
-        xfer = spec.codec == Codec::kRle ? EXS_RLELossless
+      if (spec.samplesPerPixel == 3) {
+        std::vector<std::uint16_t> rgb;
+        for (std::uint16_t v : s)
+          rgb.insert(rgb.end(), {static_cast<std::uint16_t>(0), v, static_cast<std::uint16_t>(7)});
+        d->putAndInsertUint16(DCM_SamplesPerPixel, 3);
+        d->putAndInsertUint16(DCM_PlanarConfiguration, 0);
+        d->putAndInsertString(DCM_PhotometricInterpretation, "RGB");
+        d->putAndInsertUint16Array(DCM_PixelData, rgb.data(), static_cast<unsigned long>(rgb.size()));
+      } else {
+        d->putAndInsertUint16Array(DCM_PixelData, s.data(), static_cast<unsigned long>(s.size()));
+      }
+      if (spec.codec == Codec::kImplicit) xfer = EXS_LittleEndianImplicit;
+      if (spec.codec == Codec::kBigEndian) xfer = EXS_BigEndianExplicit;
+      if (spec.codec == Codec::kDeflated) xfer = EXS_DeflatedLittleEndianExplicit;
+      if (spec.codec >= Codec::kRle) {
+        xfer = spec.codec == Codec::kRle            ? EXS_RLELossless
                : spec.codec == Codec::kJpegLossless ? EXS_JPEGProcess14SV1
                                                     : EXS_JPEGLSLossless;
         DJ_RPLossless jpegParams;
@@ -251,7 +274,8 @@ void writeSeries(const std::string& dir, const SeriesSpec& spec) {
         ASSERT_TRUE(d->canWriteXfer(xfer));
       }
     }
-    const std::string name = spec.shuffledNames ? fmt::format("{}/im{:08x}", dir, rng()) : fmt::format("{}/s{:03d}.dcm", dir, k);
+    const std::string name =
+        spec.shuffledNames ? fmt::format("{}/im{:08x}", dir, rng()) : fmt::format("{}/s{:03d}.dcm", dir, k);
     ASSERT_TRUE(ff.saveFile(name.c_str(), xfer).good()) << name;
   }
 }
@@ -281,7 +305,8 @@ Vec3 toPatient(const SeriesSpec& spec, const Vec3f& v) {
   const auto& o = spec.orientation;
   Vec3 p;
   for (int c = 0; c < 3; ++c) {
-    p[static_cast<std::size_t>(c)] = a[static_cast<std::size_t>(c)] + t * (b[static_cast<std::size_t>(c)] - a[static_cast<std::size_t>(c)]) +
+    p[static_cast<std::size_t>(c)] = a[static_cast<std::size_t>(c)] +
+                                     t * (b[static_cast<std::size_t>(c)] - a[static_cast<std::size_t>(c)]) +
                                      v.x * spec.pixelSpacing[1] * o[static_cast<std::size_t>(c)] +
                                      v.y * spec.pixelSpacing[0] * o[static_cast<std::size_t>(3 + c)];
   }
@@ -336,11 +361,75 @@ TEST(Dicom, ShuffledNamesAndInterleavedSeriesGiveThePhantomsMesh) {
   std::string note;
   const DicomSeries& chosen = chooseSeries(scan, {}, &note);
   EXPECT_EQ(chosen.uid, main.uid);
-  EXPECT_EQ(note, fmt::format("2 series found; using series 0 ({}, 30 images), the largest; choose with --series", main.uid));
+  EXPECT_EQ(note,
+            fmt::format("2 series found; using series 0 ({}, 30 images), the largest; choose with --series", main.uid));
   checkSeries(main, dir);
   DicomOptions pick;
   pick.series = "1";
   EXPECT_EQ(chooseSeries(scan, pick, nullptr).uid, other.uid);
+  pick.series = main.uid;
+  EXPECT_EQ(chooseSeries(scan, pick, nullptr).uid, main.uid);
+  pick.series = "7";
+  try {
+    chooseSeries(scan, pick, nullptr);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "--series: no series '7' (give a SeriesInstanceUID or an index 0..1; see isoslab info)");
+  }
+  // A list of files is an input too.
+  std::vector<std::string> some;
+  for (const std::string& f : {dir + "/notes.txt"}) some.push_back(f);
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (some.size() < 4 && e.path().filename().string().rfind("im", 0) == 0) some.push_back(e.path().string());
+  }
+  EXPECT_EQ(scanDicom(some, {}).skipped, 1);
+  std::size_t listed = 0;
+  for (const DicomSeries& s : scanDicom(some, {}).series) listed += s.slices.size();
+  EXPECT_EQ(listed, 3u);
+}
+
+TEST(Dicom, ADicomdirListsTheSeriesFiles) {
+  const std::string dir = testing::tempDir();
+  const std::string staging = testing::tempDir();
+  SeriesSpec spec;
+  writeSeries(staging, spec);
+  fs::create_directories(dir + "/DATA");
+  DicomDirInterface dicomdir;
+  dicomdir.enableInventMode(OFTrue);
+  dicomdir.enableInventPatientIDMode(OFTrue);
+  ASSERT_TRUE(
+      dicomdir.createNewDicomDir(DicomDirInterface::AP_GeneralPurpose, (dir + "/DICOMDIR").c_str(), "ISOSLAB").good());
+  for (int k = 0; k < spec.slices; ++k) {
+    const std::string name = fmt::format("DATA/IM{:04d}", k);
+    fs::copy_file(fmt::format("{}/s{:03d}.dcm", staging, k), dir + "/" + name);
+    const OFCondition added = dicomdir.addDicomFile(name.c_str(), dir.c_str());
+    ASSERT_TRUE(added.good()) << name << ": " << added.text();
+  }
+  ASSERT_TRUE(dicomdir.writeDicomDir().good());
+  const DicomScan scan = scanDicom({dir + "/DICOMDIR"}, {});
+  ASSERT_EQ(scan.series.size(), 1u);
+  EXPECT_EQ(scan.series.front().slices.size(), static_cast<std::size_t>(spec.slices));
+  const testing::Extraction x = extractDicom(dir + "/DICOMDIR", "voxel");
+  EXPECT_TRUE(x.mesh.positions == reference().mesh.positions);
+}
+
+TEST(Dicom, ColourImagesNeedAChannel) {
+  SeriesSpec rgb;
+  rgb.samplesPerPixel = 3;
+  rgb.slices = 30;
+  const std::string dir = testing::tempDir();
+  writeSeries(dir, rgb);
+  try {
+    extractDicom(dir, "voxel");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              dir + "/s000.dcm: colour images (RGB, 3 samples per pixel); choose a channel with --channel 0..2");
+  }
+  DicomOptions green;
+  green.channel = 1;
+  const testing::Extraction x = extractDicom(dir, "voxel", green);
+  EXPECT_TRUE(x.mesh.positions == reference().mesh.positions);
 }
 
 TEST(Dicom, TiltedObliqueAndUnevenSeriesArePlacedExactly) {
@@ -382,7 +471,8 @@ TEST(Dicom, PixelEncodingsAndRescaleGiveTheSameMesh) {
 }
 
 TEST(Dicom, CompressedCopiesGiveExactlyTheSameMesh) {
-  for (Codec codec : {Codec::kRle, Codec::kJpegLossless, Codec::kJpegLs, Codec::kJpeg2000}) {
+  for (Codec codec : {Codec::kImplicit, Codec::kBigEndian, Codec::kDeflated, Codec::kRle, Codec::kJpegLossless,
+                      Codec::kJpegLs, Codec::kJpeg2000}) {
     for (bool isSigned : {true, false}) {
       SeriesSpec spec;
       spec.codec = codec;
@@ -391,7 +481,8 @@ TEST(Dicom, CompressedCopiesGiveExactlyTheSameMesh) {
       const std::string dir = testing::tempDir();
       writeSeries(dir, spec);
       const testing::Extraction voxel = extractDicom(dir, "voxel");
-      EXPECT_TRUE(voxel.mesh.positions == reference().mesh.positions) << static_cast<int>(codec) << " signed " << isSigned;
+      EXPECT_TRUE(voxel.mesh.positions == reference().mesh.positions)
+          << static_cast<int>(codec) << " signed " << isSigned;
       EXPECT_TRUE(voxel.mesh.triangles == reference().mesh.triangles) << static_cast<int>(codec);
     }
   }
@@ -434,8 +525,10 @@ TEST(Dicom, BadInputsNameTheFileAndTheProblem) {
     ff.getDataset()->putAndInsertUint16(DCM_Rows, 20);
     ff.getDataset()->putAndInsertUint16(DCM_Columns, 20);
     ASSERT_TRUE(ff.saveFile((dir + "/s003.dcm").c_str(), EXS_LittleEndianExplicit).good());
-    EXPECT_EQ(openError(dir), fmt::format("series {}: {}/s003.dcm has 20x20 pixels but {}/s000.dcm has 40x36 (mixed sizes in one series)",
-                                          spec.uid, dir, dir));
+    EXPECT_EQ(
+        openError(dir),
+        fmt::format("series {}: {}/s003.dcm has 20x20 pixels but {}/s000.dcm has 40x36 (mixed sizes in one series)",
+                    spec.uid, dir, dir));
   }
   {
     const std::string dir = testing::tempDir();
@@ -462,7 +555,9 @@ TEST(Dicom, BadInputsNameTheFileAndTheProblem) {
     pixels->putOriginalRepresentation(EXS_MPEG2MainProfileAtMainLevel, nullptr, sequence);
     ff.getDataset()->insert(pixels, true);
     ASSERT_TRUE(ff.saveFile((dir + "/s000.dcm").c_str(), EXS_MPEG2MainProfileAtMainLevel).good());
-    EXPECT_EQ(openError(dir), dir + "/s000.dcm: unsupported transfer syntax 'MPEG2 Main Profile @ Main Level' (1.2.840.10008.1.2.4.100)");
+    EXPECT_EQ(
+        openError(dir),
+        dir + "/s000.dcm: unsupported transfer syntax 'MPEG2 Main Profile @ Main Level' (1.2.840.10008.1.2.4.100)");
   }
   {
     const std::string dir = testing::tempDir();
@@ -472,11 +567,14 @@ TEST(Dicom, BadInputsNameTheFileAndTheProblem) {
     writeSeries(dir, gap);
     const DicomScan scan = scanDicom({dir}, {});
     ASSERT_EQ(scan.series.front().warnings.size(), 1u);
-    EXPECT_EQ(scan.series.front().warnings.front(),
-              fmt::format("gap of 6 mm between {0}/s002.dcm and {0}/s003.dcm (median spacing 2 mm): a slice may be missing", dir));
+    EXPECT_EQ(
+        scan.series.front().warnings.front(),
+        fmt::format("gap of 6 mm between {0}/s002.dcm and {0}/s003.dcm (median spacing 2 mm): a slice may be missing",
+                    dir));
     DicomOptions strict;
     strict.strict = true;
-    EXPECT_EQ(openError(dir, strict), fmt::format("series {}: {} (--strict)", gap.uid, scan.series.front().warnings.front()));
+    EXPECT_EQ(openError(dir, strict),
+              fmt::format("series {}: {} (--strict)", gap.uid, scan.series.front().warnings.front()));
   }
 }
 
