@@ -242,23 +242,26 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
     s.multiFrame = frames > 1 || shared != nullptr;
     Sint32 instance = 0;
     ds->findAndGetSint32(DCM_InstanceNumber, instance);
+    // Frames by stack (FrameContentSequence > StackID): a file with several stacks becomes one
+    // series per stack, "<SeriesInstanceUID>/stack <id>".
+    std::map<std::string, DicomSeries> stacks;
     for (Sint32 f = 0; f < frames; ++f) {
       DcmItem* perFrame = nullptr;
       if (s.multiFrame) ds->findAndGetSequenceItem(DCM_PerFrameFunctionalGroupsSequence, perFrame, f);
       const FrameGeometry g = frameGeometry(s.multiFrame ? nullptr : ds, perFrame, shared);
-      if (s.multiFrame && !g.position) {
-        // Legacy multi-frame without functional groups: fall back to the top-level attributes.
-      }
-      if (f == 0 || !s.multiFrame) {
-        if (g.orientation) s.orientation = *g.orientation;
-        if (g.spacing) s.pixelSpacing = *g.spacing;
+      const std::string stack = getString(subItem(perFrame, DCM_FrameContentSequence), DCM_StackID);
+      auto [entry, first] = stacks.try_emplace(stack, s);
+      DicomSeries& into = entry->second;
+      if (first) {
+        if (g.orientation) into.orientation = *g.orientation;
+        if (g.spacing) into.pixelSpacing = *g.spacing;
       } else if (g.orientation) {
         for (int k = 0; k < 6; ++k) {
-          if (std::abs((*g.orientation)[static_cast<std::size_t>(k)] - s.orientation[static_cast<std::size_t>(k)]) >
+          if (std::abs((*g.orientation)[static_cast<std::size_t>(k)] - into.orientation[static_cast<std::size_t>(k)]) >
               1e-4) {
             throw Error(
-                fmt::format("{}: frames have different orientations (several stacks in one file); "
-                            "split the file into one stack per series",
+                fmt::format("{}: frames of one stack have different orientations; "
+                            "choose a single-orientation export of this series",
                             path));
           }
         }
@@ -270,8 +273,17 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
       slice.instanceNumber = s.multiFrame ? f + 1 : instance;
       slice.slope = g.slope;
       slice.intercept = g.intercept;
-      s.slices.push_back(slice);
+      into.slices.push_back(slice);
     }
+    if (stacks.size() > 1) {
+      for (auto& [id, stack] : stacks) {
+        stack.uid = fmt::format("{}/stack {}", s.uid, id);
+        seriesIndex.emplace(stack.uid, series.size());
+        series.push_back(std::move(stack));
+      }
+      continue;
+    }
+    s = std::move(stacks.begin()->second);
     auto [it, added] = seriesIndex.emplace(s.uid, series.size());
     if (added) {
       series.push_back(std::move(s));
@@ -599,9 +611,10 @@ class DicomSource final : public SliceSource {
       if (!DcmXfer(xfer).isEncapsulated()) {
         const std::uint64_t need = std::uint64_t{frameSize} * (slice.frame + 1);
         if (pixelData->getLength() < need) {
-          throw Error(fmt::format("{}: the pixel data holds {} bytes, but {}x{} pixels of {} bits{} need {}", slice.path,
-                                  pixelData->getLength(), columns, rows, bitsAllocated,
-                                  slice.frame > 0 ? fmt::format(" up to frame {}", slice.frame + 1) : std::string(), need));
+          throw Error(fmt::format("{}: the pixel data holds {} bytes, but {}x{} pixels of {} bits{} need {}",
+                                  slice.path, pixelData->getLength(), columns, rows, bitsAllocated,
+                                  slice.frame > 0 ? fmt::format(" up to frame {}", slice.frame + 1) : std::string(),
+                                  need));
         }
       }
       frameBytes_.resize(frameSize + (frameSize & 1u));

@@ -69,6 +69,7 @@ struct SeriesSpec {
   bool multiFrame = false;
   int slices = static_cast<int>(kDims[2]);
   int samplesPerPixel = 1;  // 3: RGB with the phantom in the green channel
+  int stacks = 1;           // multi-frame: the volume repeated as stacks "1", "2", ..., 500 mm apart in x
 };
 
 void registerEncoders() {
@@ -197,7 +198,7 @@ void writeSeries(const std::string& dir, const SeriesSpec& spec) {
     common(d);
     d->putAndInsertString(DCM_SOPClassUID, UID_EnhancedCTImageStorage);
     d->putAndInsertString(DCM_SOPInstanceUID, (spec.uid + ".9").c_str());
-    d->putAndInsertString(DCM_NumberOfFrames, std::to_string(spec.slices).c_str());
+    d->putAndInsertString(DCM_NumberOfFrames, std::to_string(spec.slices * spec.stacks).c_str());
     DcmItem* shared = nullptr;
     DcmItem* sub = nullptr;
     d->findOrCreateSequenceItem(DCM_SharedFunctionalGroupsSequence, shared, 0);
@@ -210,14 +211,21 @@ void writeSeries(const std::string& dir, const SeriesSpec& spec) {
     sub->putAndInsertString(DCM_RescaleIntercept, fmt::format("{}", rescale[1]).c_str());
     std::vector<std::uint16_t> all;
     // Frames in shuffled order too: the reader must sort by position.
-    for (int k : order) {
-      DcmItem* frame = nullptr;
-      d->findOrCreateSequenceItem(DCM_PerFrameFunctionalGroupsSequence, frame, -2);
-      frame->findOrCreateSequenceItem(DCM_PlanePositionSequence, sub, 0);
-      const Vec3 pos = spec.position(k);
-      sub->putAndInsertString(DCM_ImagePositionPatient, ds(pos.data(), 3).c_str());
-      const auto s = stored(k);
-      all.insert(all.end(), s.begin(), s.end());
+    for (int stack = 0; stack < spec.stacks; ++stack) {
+      for (int k : order) {
+        DcmItem* frame = nullptr;
+        d->findOrCreateSequenceItem(DCM_PerFrameFunctionalGroupsSequence, frame, -2);
+        frame->findOrCreateSequenceItem(DCM_PlanePositionSequence, sub, 0);
+        Vec3 pos = spec.position(k);
+        pos[0] += 500.0 * stack;
+        sub->putAndInsertString(DCM_ImagePositionPatient, ds(pos.data(), 3).c_str());
+        if (spec.stacks > 1) {
+          frame->findOrCreateSequenceItem(DCM_FrameContentSequence, sub, 0);
+          sub->putAndInsertString(DCM_StackID, std::to_string(stack + 1).c_str());
+        }
+        const auto s = stored(k);
+        all.insert(all.end(), s.begin(), s.end());
+      }
     }
     d->putAndInsertUint16Array(DCM_PixelData, all.data(), static_cast<unsigned long>(all.size()));
     ASSERT_TRUE(ff.saveFile((dir + "/enhanced.dcm").c_str(), EXS_LittleEndianExplicit).good());
@@ -411,6 +419,24 @@ TEST(Dicom, ADicomdirListsTheSeriesFiles) {
   EXPECT_EQ(scan.series.front().slices.size(), static_cast<std::size_t>(spec.slices));
   const testing::Extraction x = extractDicom(dir + "/DICOMDIR", "voxel");
   EXPECT_TRUE(x.mesh.positions == reference().mesh.positions);
+}
+
+TEST(Dicom, AMultiFrameFileWithTwoStacksBecomesTwoSeries) {
+  SeriesSpec spec;
+  spec.multiFrame = true;
+  spec.stacks = 2;
+  const std::string dir = testing::tempDir();
+  writeSeries(dir, spec);
+  const DicomScan scan = scanDicom({dir}, {});
+  ASSERT_EQ(scan.series.size(), 2u);
+  EXPECT_EQ(scan.series[0].uid, spec.uid + "/stack 1");
+  EXPECT_EQ(scan.series[1].uid, spec.uid + "/stack 2");
+  for (const char* pick : {"0", "1"}) {
+    DicomOptions o;
+    o.series = pick;
+    const testing::Extraction x = extractDicom(dir, "voxel", o);
+    EXPECT_TRUE(x.mesh.positions == reference().mesh.positions) << pick;
+  }
 }
 
 TEST(Dicom, ColourImagesNeedAChannel) {
