@@ -14,7 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "encode/indexed_mesh.h"
 #include "encode/mesh_writer.h"
+#include "encode/ply_writer.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
 #include "extract/mesh_stats.h"
@@ -143,13 +145,15 @@ struct ExtractArgs {
   bool normals = false;
   std::string report;
   bool quiet = false;
+  int dracoLevel = 7;
+  int quantBits = 0;
+  std::int64_t chunkTriangles = 1 << 20;
   RawArgs raw;
 };
 
 int runExtract(const ExtractArgs& args) {
   const auto method = parseMethod(args.method);
   if (!method) throw Error(fmt::format("--method: unknown method '{}' (use mc, mt5, mt6 or bcc12)", args.method));
-  auto writer = makeMeshWriter(args.output);
   std::vector<std::string> notes;
   auto source = openSource(args.inputs, sourceOptions(args.raw), &notes);
   if (!args.quiet) {
@@ -166,6 +170,12 @@ int runExtract(const ExtractArgs& args) {
   }
 
   const LatticeFrame frame = LatticeFrame::forSpace(info, args.space);
+  WriterOptions writerOptions;
+  writerOptions.dracoLevel = args.dracoLevel;
+  writerOptions.quantBits = args.quantBits;
+  writerOptions.chunkTriangles = args.chunkTriangles;
+  writerOptions.voxelSize = args.space == "voxel" ? 1.0 : std::min({info.spacing[0], info.spacing[1], info.spacing[2]});
+  auto writer = makeMeshWriter(args.output, writerOptions);
   ExtractOptions options;
   options.method = *method;
   options.iso = iso;
@@ -225,7 +235,13 @@ int runExtract(const ExtractArgs& args) {
                     {"total", run.totalSeconds}};
     r["ring_bytes"] = run.ringBytes;
     r["peak_rss_mib"] = peakRssMib();
-    r["output"] = {{"path", args.output}, {"bytes", writer->bytes()}};
+    nlohmann::ordered_json output = {{"path", args.output}, {"bytes", writer->bytes()}};
+    if (s.triangles > 0)
+      output["bits_per_triangle"] = 8.0 * static_cast<double>(writer->bytes()) / static_cast<double>(s.triangles);
+    const std::int64_t plyBytes = PlyWriter::binaryBytes(s.vertices, s.triangles, header);
+    output["ratio_to_binary_ply"] = static_cast<double>(writer->bytes()) / static_cast<double>(plyBytes);
+    for (const auto& [key, value] : writer->details()) output[key] = value;
+    r["output"] = output;
     writeText(args.report, r.dump(2) + "\n");
   }
   if (!args.quiet) {
@@ -308,6 +324,18 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
   return 0;
 }
 
+int runDecode(const std::string& input, const std::string& output) {
+  const IndexedMesh mesh = readMesh(input);
+  auto writer = makeMeshWriter(output);
+  MeshHeader header;
+  header.normals = !mesh.normals.empty();
+  header.method = "decoded";
+  feedMesh(mesh, header, *writer);
+  std::fprintf(stderr, "isoslab: %zu triangles, %zu vertices -> %s\n", mesh.triangles.size(), mesh.positions.size(),
+               output.c_str());
+  return 0;
+}
+
 int runPhantom(const std::string& spec, const std::string& output) {
   if (!PhantomSource::isPhantom(spec))
     throw Error(fmt::format("{}: not a phantom spec (phantom:NAME?key=value&...)", spec));
@@ -350,6 +378,25 @@ int main(int argc, char** argv) {
   extract->add_flag("--normals", ex.normals, "Write vertex normals from the field's gradient (PLY)");
   extract->add_option("--report", ex.report, "Write a JSON report of the run");
   extract->add_flag("-q,--quiet", ex.quiet, "No progress line and no summary on stderr");
+  extract->add_option("--draco-level", ex.dracoLevel, "Draco (.glb, .drc): 0 fastest .. 10 smallest")
+      ->capture_default_str()
+      ->group("Draco output");
+  extract
+      ->add_option("--quant-bits", ex.quantBits,
+                   "Draco: bits per position component (default: the fewest whose step is at most 1/64 voxel)")
+      ->group("Draco output");
+  extract
+      ->add_option("--chunk-triangles", ex.chunkTriangles,
+                   "Draco .glb: triangles per chunk, closed at the next slab boundary. .drc holds the whole mesh "
+                   "in memory (about 28 bytes per triangle) to encode it at the end")
+      ->capture_default_str()
+      ->group("Draco output");
+
+  std::string decodeInput;
+  std::string decodeOutput;
+  auto* decode = app.add_subcommand("decode", "Decode a .glb or .drc mesh (welding chunk seams) to .ply, .stl or .obj");
+  decode->add_option("INPUT", decodeInput, "A .glb written by isoslab (Draco chunks) or a .drc")->required();
+  decode->add_option("-o,--output", decodeOutput, "Output mesh: .ply, .stl or .obj")->required();
   addRawOptions(extract, ex.raw);
 
   std::vector<std::string> infoInputs;
@@ -381,6 +428,7 @@ int main(int argc, char** argv) {
     if (*extract) return runExtract(ex);
     if (*info) return runInfo(infoInputs, infoRaw);
     if (*phantom) return runPhantom(phantomSpec, phantomOut);
+    if (*decode) return runDecode(decodeInput, decodeOutput);
   } catch (const Error& e) {
     std::fprintf(stderr, "isoslab: error: %s\n", e.what());
     return 1;

@@ -44,9 +44,9 @@ class MemoryMeshSink final : public MeshSink {
 /// Sends `mesh` to `sink` as a single chunk: begin, consume, finish.
 void feedMesh(const IndexedMesh& mesh, const MeshHeader& header, MeshSink& sink);
 
-/// Reads a mesh file: binary or ASCII PLY (vertex x, y, z as float or double, optional nx, ny, nz;
-/// faces as a list of int/uint indices, polygons fanned into triangles) or binary STL (corners
-/// welded by exact position). Throws isoslab::Error naming the file and the problem.
+/// Reads a mesh file: a .glb of Draco primitives (seams welded by exact position), a .drc, binary or ASCII PLY (vertex
+/// x, y, z as float or double, optional nx, ny, nz; faces as a list of int/uint indices, polygons fanned into
+/// triangles) or binary STL (corners welded by exact position). Throws isoslab::Error naming the file and the problem.
 IndexedMesh readMesh(const std::string& path);
 
 }  // namespace isoslab

@@ -7,6 +7,9 @@
 #include <sstream>
 #include <unordered_map>
 
+#include <nlohmann/json.hpp>
+
+#include "encode/draco_codec.h"
 #include "encode/indexed_mesh.h"
 #include "io/error.h"
 
@@ -198,6 +201,104 @@ IndexedMesh readStl(const std::string& path, const std::string& data) {
   return mesh;
 }
 
+// Wavefront OBJ: "v" and "vn" lines and triangular or polygonal "f" lines (v, v/t, v//n, v/t/n).
+IndexedMesh readObj(const std::string& path, const std::string& data) {
+  IndexedMesh mesh;
+  std::istringstream in(data);
+  std::string line;
+  int lineNo = 0;
+  while (std::getline(in, line)) {
+    ++lineNo;
+    std::istringstream s(line);
+    std::string word;
+    s >> word;
+    if (word == "v" || word == "vn") {
+      float x, y, z;
+      if (!(s >> x >> y >> z)) throw Error(fmt::format("{}: line {}: a vertex needs three numbers", path, lineNo));
+      (word == "v" ? mesh.positions : mesh.normals).push_back({x, y, z});
+    } else if (word == "f") {
+      std::vector<std::uint64_t> poly;
+      std::string item;
+      while (s >> item) {
+        const long long v = std::stoll(item.substr(0, item.find('/')));
+        poly.push_back(static_cast<std::uint64_t>(v > 0 ? v - 1 : static_cast<long long>(mesh.positions.size()) + v));
+      }
+      addPolygon(mesh, poly, path);
+    }
+  }
+  if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) mesh.normals.clear();
+  return mesh;
+}
+
+// A .glb of Draco-compressed primitives: every primitive is decoded, and a vertex of a later
+// primitive whose position equals (bit for bit) a vertex of an earlier one is welded to it, which
+// rejoins the chunks along their seams. Vertices within one primitive are never merged.
+IndexedMesh readGlb(const std::string& path, const std::string& data) {
+  auto u32 = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    if (at + 4 > data.size()) throw Error(fmt::format("{}: the glTF binary is truncated", path));
+    std::memcpy(&v, data.data() + at, 4);
+    return v;
+  };
+  if (data.size() < 20 || data.compare(0, 4, "glTF") != 0 || u32(4) != 2) {
+    throw Error(fmt::format("{}: not a glTF 2.0 binary file", path));
+  }
+  const std::uint32_t jsonLength = u32(12);
+  if (u32(16) != 0x4E4F534A || 20 + std::uint64_t{jsonLength} > data.size()) {
+    throw Error(fmt::format("{}: the glTF binary has no JSON chunk", path));
+  }
+  nlohmann::json gltf;
+  try {
+    gltf = nlohmann::json::parse(data.begin() + 20, data.begin() + 20 + jsonLength);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(fmt::format("{}: the glTF JSON is invalid: {}", path, e.what()));
+  }
+  const std::size_t binStart = 20 + jsonLength + 8;
+  const std::size_t binLength = data.size() >= binStart ? u32(20 + jsonLength) : 0;
+  if (binStart + binLength > data.size()) throw Error(fmt::format("{}: the glTF binary is truncated", path));
+  IndexedMesh mesh;
+  struct Key {
+    std::uint32_t x, y, z;
+    bool operator==(const Key&) const = default;
+  };
+  struct Hash {
+    std::size_t operator()(const Key& k) const {
+      return (std::size_t{k.x} * 73856093u) ^ (std::size_t{k.y} * 19349663u) ^ (std::size_t{k.z} * 83492791u);
+    }
+  };
+  std::unordered_map<Key, VertexId, Hash> earlier;
+  try {
+    for (const auto& m : gltf.value("meshes", nlohmann::json::array())) {
+      for (const auto& p : m.at("primitives")) {
+        const auto& draco = p.at("extensions").at("KHR_draco_mesh_compression");
+        const auto& view = gltf.at("bufferViews").at(draco.at("bufferView").get<std::size_t>());
+        const std::size_t offset = view.value("byteOffset", std::size_t{0});
+        const std::size_t length = view.at("byteLength").get<std::size_t>();
+        if (offset + length > binLength) throw Error(fmt::format("{}: a bufferView lies outside the BIN chunk", path));
+        const IndexedMesh part = dracoDecode(data.data() + binStart + offset, length, path);
+        std::vector<VertexId> ids(part.positions.size());
+        std::vector<Key> keys(part.positions.size());
+        for (std::size_t v = 0; v < part.positions.size(); ++v) {
+          std::memcpy(&keys[v], &part.positions[v], sizeof(Key));
+          auto found = earlier.find(keys[v]);
+          if (found != earlier.end()) {
+            ids[v] = found->second;
+          } else {
+            ids[v] = static_cast<VertexId>(mesh.positions.size());
+            mesh.positions.push_back(part.positions[v]);
+            if (!part.normals.empty()) mesh.normals.push_back(part.normals[v]);
+          }
+        }
+        for (std::size_t v = 0; v < part.positions.size(); ++v) earlier.emplace(keys[v], ids[v]);
+        for (const Triangle& t : part.triangles) mesh.triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
+      }
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(fmt::format("{}: the glTF JSON lacks a Draco primitive's fields: {}", path, e.what()));
+  }
+  return mesh;
+}
+
 }  // namespace
 
 IndexedMesh readMesh(const std::string& path) {
@@ -210,7 +311,10 @@ IndexedMesh readMesh(const std::string& path) {
   std::string ext = dot == std::string::npos ? "" : path.substr(dot);
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".stl") return readStl(path, data);
-  throw Error(fmt::format("{}: unknown mesh format (PLY or binary STL expected)", path));
+  if (ext == ".obj") return readObj(path, data);
+  if (data.compare(0, 4, "glTF") == 0) return readGlb(path, data);
+  if (data.compare(0, 5, "DRACO") == 0) return dracoDecode(data.data(), data.size(), path);
+  throw Error(fmt::format("{}: unknown mesh format (PLY, binary STL, .glb or .drc expected)", path));
 }
 
 void feedMesh(const IndexedMesh& mesh, const MeshHeader& header, MeshSink& sink) {

@@ -6,19 +6,24 @@
 #include <cctype>
 #include <filesystem>
 
+#include "encode/draco_writers.h"
+#include "encode/obj_writer.h"
 #include "encode/ply_writer.h"
 #include "encode/stl_writer.h"
 #include "io/error.h"
 
 namespace isoslab {
 
-std::unique_ptr<MeshFileSink> makeMeshWriter(const std::string& path) {
+std::unique_ptr<MeshFileSink> makeMeshWriter(const std::string& path, const WriterOptions& options) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (ext == ".ply") return std::make_unique<PlyWriter>(path);
   if (ext == ".stl") return std::make_unique<StlWriter>(path);
-  throw Error(fmt::format("{}: unknown mesh format '{}' (use .ply or .stl)", path, ext));
+  if (ext == ".obj") return std::make_unique<ObjWriter>(path);
+  if (ext == ".glb") return std::make_unique<GlbDracoWriter>(path, options);
+  if (ext == ".drc") return std::make_unique<DrcWriter>(path, options);
+  throw Error(fmt::format("{}: unknown mesh format '{}' (use .ply, .stl, .obj, .glb or .drc)", path, ext));
 }
 
 }  // namespace isoslab

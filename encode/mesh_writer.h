@@ -3,6 +3,8 @@
 
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "extract/mesh_sink.h"
 
@@ -12,9 +14,23 @@ namespace isoslab {
 class MeshFileSink : public MeshSink {
  public:
   virtual std::int64_t bytes() const noexcept = 0;
+  /// Format-specific numbers for the report (for Draco: chunks, encode seconds, ...), after finish().
+  virtual std::vector<std::pair<std::string, double>> details() const { return {}; }
 };
 
-/// .ply or .stl (case-insensitive). Throws isoslab::Error for any other extension.
-std::unique_ptr<MeshFileSink> makeMeshWriter(const std::string& path);
+struct WriterOptions {
+  /// Draco: compression level 0 (fastest) .. 10 (smallest).
+  int dracoLevel = 7;
+  /// Draco: bits per position component; 0 picks the smallest whose step is at most 1/64 voxel.
+  int quantBits = 0;
+  /// .glb: a chunk closes at the first slab boundary after it holds this many triangles.
+  std::int64_t chunkTriangles = 1 << 20;
+  /// The smallest voxel edge in output units, for the default quantization.
+  double voxelSize = 1;
+};
+
+/// .ply, .stl, .obj, .glb (chunked Draco in glTF 2.0) or .drc (one Draco mesh), by extension
+/// (case-insensitive). Throws isoslab::Error for any other extension.
+std::unique_ptr<MeshFileSink> makeMeshWriter(const std::string& path, const WriterOptions& options = {});
 
 }  // namespace isoslab

@@ -39,6 +39,14 @@ std::string PlyWriter::header(std::uint64_t vertices, std::uint64_t faces, std::
   return head + pad + "\n" + tail;
 }
 
+std::int64_t PlyWriter::binaryBytes(std::uint64_t vertices, std::uint64_t triangles, const MeshHeader& header) {
+  PlyWriter w("");
+  w.meshHeader_ = header;
+  const auto headerBytes = static_cast<std::int64_t>(w.header(kMaxCount, kMaxCount, 0).size());
+  return headerBytes + static_cast<std::int64_t>(vertices) * (header.normals ? 24 : 12) +
+         static_cast<std::int64_t>(triangles) * 13;
+}
+
 void PlyWriter::begin(const MeshHeader& header) {
   if constexpr (std::endian::native != std::endian::little) {
     throw Error(fmt::format("{}: PLY output is implemented for little-endian hosts only", path_));

@@ -21,6 +21,9 @@ class PlyWriter final : public MeshFileSink {
   void consume(const MeshChunk& chunk) override;
   void finish() override;
 
+  /// Size of the binary PLY this writer makes for a mesh of these counts.
+  static std::int64_t binaryBytes(std::uint64_t vertices, std::uint64_t triangles, const MeshHeader& header);
+
   /// Size of the finished file.
   std::int64_t bytes() const noexcept override { return bytes_; }
 

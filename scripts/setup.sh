@@ -6,8 +6,11 @@ packages=(
   build-essential cmake ninja-build pkg-config git
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev
-  libdcmtk-dev libopenjp2-7-dev
+  libdcmtk-dev libopenjp2-7-dev libdraco-dev libeigen3-dev draco
 )
+# Node.js runs the real glTF clients in the tests; use the machine's own when it has one.
+command -v node >/dev/null 2>&1 || packages+=(nodejs)
+command -v npm >/dev/null 2>&1 || packages+=(npm)
 
 missing=()
 for p in "${packages[@]}"; do

@@ -98,8 +98,8 @@ TEST(Cli, BadInputGivesOneLineANonZeroExitAndNoOutput) {
            "/no/such/folder' does not exist"},
       {"extract 'phantom:sphere?n=16' --method mt7" + out,
        "--method: unknown method 'mt7' (use mc, mt5, mt6 or bcc12)"},
-      {"extract 'phantom:sphere?n=16'" + out.substr(0, out.size() - 3) + "obj",
-       dir + "/out.obj: unknown mesh format '.obj' (use .ply or .stl)"},
+      {"extract 'phantom:sphere?n=16'" + out.substr(0, out.size() - 3) + "xyz",
+       dir + "/out.xyz: unknown mesh format '.xyz' (use .ply, .stl, .obj, .glb or .drc)"},
   };
   for (const BadCase& c : cases) {
     const auto r = runCli(c.args);

@@ -116,7 +116,8 @@ TEST(Writers, ErrorsNameTheOutput) {
     makeMeshWriter(dir + "/mesh.xyz");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), dir + "/mesh.xyz: unknown mesh format '.xyz' (use .ply or .stl)");
+    EXPECT_EQ(std::string(e.what()),
+              dir + "/mesh.xyz: unknown mesh format '.xyz' (use .ply, .stl, .obj, .glb or .drc)");
   }
   try {
     auto w = makeMeshWriter(dir + "/nope/mesh.ply");

@@ -1,0 +1,262 @@
+#include "encode/draco_writers.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <nlohmann/json.hpp>
+
+#include "io/error.h"
+
+namespace isoslab {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr VertexId kNone = std::numeric_limits<VertexId>::max();
+
+std::string folderOf(const std::string& path) {
+  const std::string f = std::filesystem::path(path).parent_path().string();
+  return f.empty() ? "." : f;
+}
+
+std::string unitsOf(const std::string& space) {
+  if (space == "lps" || space == "ras") return "millimetre";
+  if (space == "voxel") return "voxel";
+  return "input units";
+}
+
+// The largest distance between a position and its quantized value.
+double quantizationError(const IndexedMesh& mesh, const DracoSettings& s) {
+  double worst = 0;
+  for (const Vec3f& p : mesh.positions) {
+    const float c[3] = {p.x, p.y, p.z};
+    for (int a = 0; a < 3; ++a) {
+      const float q = dracoDequantized(c[a], s.origin[static_cast<std::size_t>(a)], s);
+      worst = std::max(worst, std::abs(static_cast<double>(q) - static_cast<double>(c[a])));
+    }
+  }
+  return worst;
+}
+
+}  // namespace
+
+DracoSettings dracoSettingsFor(const std::array<double, 6>& box, const WriterOptions& options) {
+  DracoSettings s;
+  s.level = options.dracoLevel;
+  double range = 0;
+  for (int a = 0; a < 3; ++a) {
+    // A little margin so that no vertex rounds outside the grid.
+    s.origin[static_cast<std::size_t>(a)] =
+        static_cast<float>(box[static_cast<std::size_t>(a)] - 1e-3 * options.voxelSize);
+    range = std::max(range, box[static_cast<std::size_t>(a + 3)] - box[static_cast<std::size_t>(a)]);
+  }
+  s.range = static_cast<float>(range + 2e-3 * options.voxelSize);
+  s.quantBits = options.quantBits > 0 ? options.quantBits : defaultQuantBits(s.range, options.voxelSize);
+  return s;
+}
+
+GlbDracoWriter::GlbDracoWriter(std::string path, const WriterOptions& options)
+    : path_(std::move(path)), options_(options) {
+  if (options.dracoLevel < 0 || options.dracoLevel > 10)
+    throw Error(fmt::format("--draco-level: {} is not in 0..10", options.dracoLevel));
+  if (options.quantBits < 0 || options.quantBits > 30)
+    throw Error(fmt::format("--quant-bits: {} is not in 1..30", options.quantBits));
+  if (options.chunkTriangles < 1)
+    throw Error(fmt::format("--chunk-triangles: {} must be positive", options.chunkTriangles));
+}
+
+GlbDracoWriter::~GlbDracoWriter() = default;
+
+void GlbDracoWriter::begin(const MeshHeader& header) {
+  header_ = header;
+  settings_ = dracoSettingsFor(header.volumeBounds, options_);
+  // Fail early on an unwritable destination, before any work.
+  AtomicFile probe(path_);
+  spool_ = std::make_unique<SpoolFile>(folderOf(path_), path_);
+}
+
+VertexId GlbDracoWriter::localVertex(VertexId id) {
+  VertexId* slot = nullptr;
+  if (id >= chunkFirst_) {
+    slot = &local_[id - chunkFirst_];
+  } else {
+    slot = &seam_.try_emplace(id, kNone).first->second;
+  }
+  if (*slot == kNone) {
+    *slot = static_cast<VertexId>(current_.positions.size());
+    current_.positions.push_back(window_.position(id));
+    if (header_.normals) current_.normals.push_back(window_.normal(id));
+  }
+  return *slot;
+}
+
+void GlbDracoWriter::consume(const MeshChunk& chunk) {
+  window_.push(chunk);
+  vertices_ += chunk.positions.size();
+  local_.resize(chunk.endVertex() - chunkFirst_, kNone);
+  for (const Triangle& t : chunk.triangles) {
+    current_.triangles.push_back({localVertex(t[0]), localVertex(t[1]), localVertex(t[2])});
+  }
+  triangles_ += chunk.triangles.size();
+  if (static_cast<std::int64_t>(current_.triangles.size()) >= options_.chunkTriangles) {
+    flush();
+    chunkFirst_ = chunk.endVertex();
+  }
+}
+
+void GlbDracoWriter::flush() {
+  if (current_.triangles.empty()) return;
+  const auto start = Clock::now();
+  const std::vector<char> bytes = dracoEncode(current_, settings_, path_);
+  encodeSeconds_ += std::chrono::duration<double>(Clock::now() - start).count();
+  Primitive p;
+  p.points = current_.positions.size();
+  p.triangles = current_.triangles.size();
+  p.min = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
+  p.max = {-p.min[0], -p.min[1], -p.min[2]};
+  for (const Vec3f& v : current_.positions) {
+    const float c[3] = {v.x, v.y, v.z};
+    for (std::size_t a = 0; a < 3; ++a) {
+      const float q = dracoDequantized(c[a], settings_.origin[a], settings_);
+      p.min[a] = std::min(p.min[a], q);
+      p.max[a] = std::max(p.max[a], q);
+    }
+  }
+  worstError_ = std::max(worstError_, quantizationError(current_, settings_));
+  p.offset = spool_->size();
+  p.length = static_cast<std::int64_t>(bytes.size());
+  spool_->write(bytes.data(), bytes.size());
+  const char zeros[4] = {0, 0, 0, 0};
+  spool_->write(zeros, (4 - bytes.size() % 4) % 4);
+  primitives_.push_back(p);
+  current_ = IndexedMesh{};
+  local_.clear();
+  seam_.clear();
+}
+
+void GlbDracoWriter::finish() {
+  flush();
+  nlohmann::ordered_json gltf;
+  gltf["asset"] = {{"version", "2.0"},
+                   {"generator", "isoslab"},
+                   {"extras",
+                    {{"method", header_.method},
+                     {"iso", header_.iso},
+                     {"space", header_.space},
+                     {"units", unitsOf(header_.space)},
+                     {"quantization_bits", settings_.quantBits},
+                     {"chunks", primitives_.size()}}}};
+  gltf["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+  gltf["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+  gltf["scene"] = 0;
+  nlohmann::ordered_json accessors = nlohmann::ordered_json::array();
+  nlohmann::ordered_json views = nlohmann::ordered_json::array();
+  nlohmann::ordered_json primitives = nlohmann::ordered_json::array();
+  for (const Primitive& p : primitives_) {
+    nlohmann::ordered_json attributes;
+    nlohmann::ordered_json dracoAttributes;
+    attributes["POSITION"] = accessors.size();
+    dracoAttributes["POSITION"] = 0;
+    accessors.push_back({{"componentType", 5126},
+                         {"count", p.points},
+                         {"type", "VEC3"},
+                         {"min", {p.min[0], p.min[1], p.min[2]}},
+                         {"max", {p.max[0], p.max[1], p.max[2]}}});
+    if (header_.normals) {
+      attributes["NORMAL"] = accessors.size();
+      dracoAttributes["NORMAL"] = 1;
+      accessors.push_back({{"componentType", 5126}, {"count", p.points}, {"type", "VEC3"}});
+    }
+    const std::size_t indices = accessors.size();
+    accessors.push_back({{"componentType", 5125}, {"count", 3 * p.triangles}, {"type", "SCALAR"}});
+    primitives.push_back(
+        {{"attributes", attributes},
+         {"indices", indices},
+         {"mode", 4},
+         {"extensions",
+          {{"KHR_draco_mesh_compression", {{"bufferView", views.size()}, {"attributes", dracoAttributes}}}}}});
+    views.push_back({{"buffer", 0}, {"byteOffset", p.offset}, {"byteLength", p.length}});
+  }
+  if (primitives_.empty()) {
+    gltf["scenes"] = {{{"nodes", nlohmann::ordered_json::array()}}};
+  } else {
+    gltf["scenes"] = {{{"nodes", {0}}}};
+    gltf["nodes"] = {{{"mesh", 0}, {"name", "isosurface"}}};
+    gltf["meshes"] = {{{"name", "isosurface"}, {"primitives", primitives}}};
+    gltf["accessors"] = accessors;
+    gltf["bufferViews"] = views;
+    gltf["buffers"] = {{{"byteLength", spool_->size()}}};
+  }
+  std::string json = gltf.dump();
+  json.append((4 - json.size() % 4) % 4, ' ');
+  const auto binLength = static_cast<std::uint32_t>(spool_->size());
+  const bool hasBin = binLength > 0;
+  const std::uint32_t total = 12 + 8 + static_cast<std::uint32_t>(json.size()) + (hasBin ? 8 + binLength : 0);
+  AtomicFile out(path_);
+  auto u32 = [&out](std::uint32_t v) { out.write(&v, 4); };
+  out.write("glTF", 4);
+  u32(2);
+  u32(total);
+  u32(static_cast<std::uint32_t>(json.size()));
+  u32(0x4E4F534A);  // JSON
+  out.write(json.data(), json.size());
+  if (hasBin) {
+    u32(binLength);
+    u32(0x004E4942);  // BIN
+    spool_->copyTo(out);
+  }
+  bytes_ = out.size();
+  out.commit();
+  spool_.reset();
+}
+
+std::vector<std::pair<std::string, double>> GlbDracoWriter::details() const {
+  return {{"chunks", static_cast<double>(primitives_.size())},
+          {"encode_seconds", encodeSeconds_},
+          {"quantization_bits", settings_.quantBits},
+          {"quantization_step", settings_.range / (std::ldexp(1.0, settings_.quantBits) - 1)},
+          {"worst_quantization_error", worstError_},
+          {"draco_level", settings_.level}};
+}
+
+DrcWriter::DrcWriter(std::string path, const WriterOptions& options) : path_(std::move(path)), options_(options) {
+  if (options.dracoLevel < 0 || options.dracoLevel > 10)
+    throw Error(fmt::format("--draco-level: {} is not in 0..10", options.dracoLevel));
+}
+
+void DrcWriter::begin(const MeshHeader& header) {
+  header_ = header;
+  settings_ = dracoSettingsFor(header.volumeBounds, options_);
+  file_ = std::make_unique<AtomicFile>(path_);
+}
+
+void DrcWriter::consume(const MeshChunk& chunk) {
+  mesh_.positions.insert(mesh_.positions.end(), chunk.positions.begin(), chunk.positions.end());
+  if (header_.normals) mesh_.normals.insert(mesh_.normals.end(), chunk.normals.begin(), chunk.normals.end());
+  mesh_.triangles.insert(mesh_.triangles.end(), chunk.triangles.begin(), chunk.triangles.end());
+}
+
+void DrcWriter::finish() {
+  const auto start = Clock::now();
+  const std::vector<char> bytes = dracoEncode(mesh_, settings_, path_);
+  encodeSeconds_ = std::chrono::duration<double>(Clock::now() - start).count();
+  worstError_ = quantizationError(mesh_, settings_);
+  mesh_ = IndexedMesh{};
+  file_->write(bytes.data(), bytes.size());
+  bytes_ = file_->size();
+  file_->commit();
+  file_.reset();
+}
+
+std::vector<std::pair<std::string, double>> DrcWriter::details() const {
+  return {{"chunks", 1},
+          {"encode_seconds", encodeSeconds_},
+          {"quantization_bits", settings_.quantBits},
+          {"quantization_step", settings_.range / (std::ldexp(1.0, settings_.quantBits) - 1)},
+          {"worst_quantization_error", worstError_},
+          {"draco_level", settings_.level}};
+}
+
+}  // namespace isoslab

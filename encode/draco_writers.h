@@ -1,0 +1,93 @@
+// Draco output.
+//
+// GlbDracoWriter: a glTF 2.0 binary file with one mesh whose primitives are independently
+// compressed chunks (KHR_draco_mesh_compression, listed in extensionsRequired). A chunk closes at
+// the first slab boundary after it reaches WriterOptions::chunkTriangles; it is encoded at once
+// and its bytes appended to a spool beside the output, so memory stays at about one chunk. Every
+// chunk is quantized on one grid (explicit quantization with the volume's box), so a vertex on a
+// seam decodes to bit-identical floats in both chunks, and welding by position restores the mesh.
+//
+// DrcWriter: one standard Draco mesh (readable by draco_decoder). Draco's encoder needs the whole
+// mesh, so this writer holds every vertex and triangle until finish(): about 28 bytes per
+// triangle, plus Draco's own working memory while encoding.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "encode/draco_codec.h"
+#include "encode/indexed_mesh.h"
+#include "encode/mesh_writer.h"
+#include "io/atomic_file.h"
+
+namespace isoslab {
+
+class GlbDracoWriter final : public MeshFileSink {
+ public:
+  GlbDracoWriter(std::string path, const WriterOptions& options);
+  ~GlbDracoWriter() override;
+  void begin(const MeshHeader& header) override;
+  void consume(const MeshChunk& chunk) override;
+  void finish() override;
+  std::int64_t bytes() const noexcept override { return bytes_; }
+  std::vector<std::pair<std::string, double>> details() const override;
+
+ private:
+  struct Primitive {
+    std::uint64_t points = 0;
+    std::uint64_t triangles = 0;
+    std::array<float, 3> min{};
+    std::array<float, 3> max{};
+    std::int64_t offset = 0;
+    std::int64_t length = 0;
+  };
+  VertexId localVertex(VertexId id);
+  void flush();
+
+  std::string path_;
+  WriterOptions options_;
+  MeshHeader header_;
+  DracoSettings settings_;
+  std::unique_ptr<SpoolFile> spool_;
+  VertexWindow window_;
+  IndexedMesh current_;
+  VertexId chunkFirst_ = 0;
+  std::vector<VertexId> local_;                  // for ids >= chunkFirst_
+  std::unordered_map<VertexId, VertexId> seam_;  // for ids < chunkFirst_
+  std::vector<Primitive> primitives_;
+  std::uint64_t triangles_ = 0;
+  std::uint64_t vertices_ = 0;
+  double encodeSeconds_ = 0;
+  double worstError_ = 0;
+  std::int64_t bytes_ = 0;
+};
+
+class DrcWriter final : public MeshFileSink {
+ public:
+  DrcWriter(std::string path, const WriterOptions& options);
+  void begin(const MeshHeader& header) override;
+  void consume(const MeshChunk& chunk) override;
+  void finish() override;
+  std::int64_t bytes() const noexcept override { return bytes_; }
+  std::vector<std::pair<std::string, double>> details() const override;
+
+ private:
+  std::string path_;
+  WriterOptions options_;
+  MeshHeader header_;
+  DracoSettings settings_;
+  std::unique_ptr<AtomicFile> file_;
+  IndexedMesh mesh_;
+  double encodeSeconds_ = 0;
+  double worstError_ = 0;
+  std::int64_t bytes_ = 0;
+};
+
+/// Quantization settings for a volume box (xmin ymin zmin xmax ymax zmax) and writer options.
+DracoSettings dracoSettingsFor(const std::array<double, 6>& box, const WriterOptions& options);
+
+}  // namespace isoslab
