@@ -147,7 +147,7 @@ struct ExtractArgs {
   bool quiet = false;
   int dracoLevel = 7;
   int quantBits = 0;
-  std::int64_t chunkTriangles = 1 << 20;
+  std::int64_t chunkTriangles = 1 << 19;
   RawArgs raw;
 };
 

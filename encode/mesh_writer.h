@@ -24,7 +24,7 @@ struct WriterOptions {
   /// Draco: bits per position component; 0 picks the smallest whose step is at most 1/64 voxel.
   int quantBits = 0;
   /// .glb: a chunk closes at the first slab boundary after it holds this many triangles.
-  std::int64_t chunkTriangles = 1 << 20;
+  std::int64_t chunkTriangles = 1 << 19;
   /// The smallest voxel edge in output units, for the default quantization.
   double voxelSize = 1;
 };
