@@ -31,7 +31,7 @@
 namespace isoslab {
 namespace {
 
-constexpr const char* kVersion = "0.1.0";
+constexpr const char* kVersion = ISOSLAB_VERSION;
 
 struct RawArgs {
   std::string series;

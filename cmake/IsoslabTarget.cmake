@@ -23,4 +23,5 @@ function(isoslab_library name)
   set_target_properties(isoslab_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON
                                                   EXPORT_NAME ${name})
   isoslab_warnings(isoslab_${name})
+  target_compile_definitions(isoslab_${name} PRIVATE ISOSLAB_VERSION="${PROJECT_VERSION}")
 endfunction()

@@ -140,7 +140,7 @@ void GlbDracoWriter::finish() {
   flush();
   nlohmann::ordered_json gltf;
   gltf["asset"] = {{"version", "2.0"},
-                   {"generator", "isoslab"},
+                   {"generator", "isoslab " ISOSLAB_VERSION},
                    {"extras",
                     {{"method", header_.method},
                      {"iso", header_.iso},
