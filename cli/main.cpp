@@ -14,17 +14,21 @@
 #include <string>
 #include <vector>
 
+#include "cli/compare.h"
+#include "cli/report.h"
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_writer.h"
 #include "encode/ply_writer.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
 #include "extract/mesh_stats.h"
+#include "extract/sphere_metrics.h"
 #include "io/atomic_file.h"
 #include "io/dicom_series.h"
 #include "io/error.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
+#include "stream/measure.h"
 #include "stream/pipeline.h"
 #include "stream/progress.h"
 
@@ -136,6 +140,12 @@ void writeText(const std::string& path, const std::string& text) {
   f.commit();
 }
 
+Sphere parseSphere(const std::string& text) {
+  const auto v = parseList(text, "--sphere");
+  if (v.size() != 4 || !(v[3] > 0)) throw Error(fmt::format("--sphere: '{}' needs cx,cy,cz,r with r > 0", text));
+  return Sphere{{v[0], v[1], v[2]}, v[3]};
+}
+
 struct ExtractArgs {
   std::vector<std::string> inputs;
   std::string space = "physical";
@@ -145,6 +155,7 @@ struct ExtractArgs {
   bool normals = false;
   std::string report;
   bool quiet = false;
+  std::string sphere;
   int dracoLevel = 7;
   int quantBits = 0;
   std::int64_t chunkTriangles = 1 << 19;
@@ -190,8 +201,16 @@ int runExtract(const ExtractArgs& args) {
   header.cellVolumes = extractor->cellVolumes();
   header.volumeBounds = frame.bounds(info.dims);
 
+  std::optional<Sphere> sphere = phantomSphere(info);
+  if (!args.sphere.empty()) sphere = parseSphere(args.sphere);
   MeshStatsSink stats;
-  TeeSink tee({writer.get(), &stats});
+  std::optional<SphereErrorSink> sphereErrors;
+  std::vector<MeshSink*> sinks{writer.get(), &stats};
+  if (sphere) {
+    sphereErrors.emplace(*sphere);
+    sinks.push_back(&*sphereErrors);
+  }
+  TeeSink tee(sinks);
   PipelineOptions pipelineOptions;
   pipelineOptions.progress = !args.quiet;
   const PipelineResult run = runPipeline(*source, *extractor, tee, header, pipelineOptions);
@@ -229,6 +248,7 @@ int runExtract(const ExtractArgs& args) {
     r["inconsistent_edges"] = s.inconsistentEdges;
     r["euler"] = s.euler;
     r["closed"] = s.closed();
+    if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *sphereErrors));
     r["seconds"] = {{"read", run.readSeconds},
                     {"extract", run.extractSeconds},
                     {"write", run.writeSeconds},
@@ -324,6 +344,44 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
   return 0;
 }
 
+int runMetrics(const std::string& input, const std::string& sphereText, const std::string& reportPath) {
+  const IndexedMesh mesh = readMesh(input);
+  MeshStatsSink stats;
+  std::optional<SphereErrorSink> errors;
+  std::vector<MeshSink*> sinks{&stats};
+  std::optional<Sphere> sphere;
+  if (!sphereText.empty()) {
+    sphere = parseSphere(sphereText);
+    errors.emplace(*sphere);
+    sinks.push_back(&*errors);
+  }
+  TeeSink tee(sinks);
+  feedMesh(mesh, MeshHeader{}, tee);
+  const MeshStats& s = stats.stats();
+  nlohmann::ordered_json r;
+  r["input"] = input;
+  r["vertices"] = s.vertices;
+  r["triangles"] = s.triangles;
+  r["degenerate_triangles"] = s.degenerateTriangles;
+  r["bounds"] = s.bounds;
+  r["area"] = s.area;
+  r["volume"] = s.volume;
+  r["edges"] = s.edges;
+  r["boundary_edges"] = s.boundaryEdges;
+  r["nonmanifold_edges"] = s.nonManifoldEdges;
+  r["inconsistent_edges"] = s.inconsistentEdges;
+  r["euler"] = s.euler;
+  r["closed"] = s.closed();
+  if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *errors));
+  const std::string text = r.dump(2) + "\n";
+  if (reportPath.empty()) {
+    std::fputs(text.c_str(), stdout);
+  } else {
+    writeText(reportPath, text);
+  }
+  return 0;
+}
+
 int runDecode(const std::string& input, const std::string& output) {
   const IndexedMesh mesh = readMesh(input);
   auto writer = makeMeshWriter(output);
@@ -392,6 +450,34 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->group("Draco output");
 
+  extract->add_option(
+      "--sphere", ex.sphere,
+      "Measure the mesh against the sphere cx,cy,cz,r (output coordinates); phantom spheres are measured "
+      "by themselves");
+
+  std::string metricsInput;
+  std::string metricsSphere;
+  std::string metricsReport;
+  auto* metrics =
+      app.add_subcommand("metrics", "Measure a mesh file (.ply, .stl, .obj, .glb, .drc), optionally against a sphere");
+  metrics->add_option("MESH", metricsInput, "Mesh file")->required();
+  metrics->add_option("--sphere", metricsSphere, "cx,cy,cz,r: add the paper's radius, area and volume errors");
+  metrics->add_option("--report", metricsReport, "Write the JSON here instead of stdout");
+
+  CompareArgs cmp;
+  auto* compare =
+      app.add_subcommand("compare", "Run the paper's experiments: spheres51, paper (Tables 2 and 3) or cubes");
+  compare->add_option("--suite", cmp.suite, "spheres51, paper or cubes")->capture_default_str();
+  compare->add_option("--out", cmp.out, "Output folder")->capture_default_str();
+  compare->add_option("--radii", cmp.radii,
+                      "spheres51: radii to run, e.g. 5,10,20 (default: the 51 radii 0.1 .. 50.1)");
+  compare->add_option("--centre", cmp.centre, "spheres51: centre offset from a grid point (default 0.5,0.5,0.5)");
+  compare->add_option("--methods", cmp.methods, "Methods to compare")->capture_default_str();
+  compare->add_option("--engine", cmp.engine, "paper: the engine CT (raw 256x256x128 u8, gzip allowed)");
+  compare->add_option("--cthead", cmp.cthead, "paper: the CThead slices folder (u16 big-endian)");
+  compare->add_flag("!--no-charts", cmp.charts, "spheres51: skip the PNG charts");
+  compare->add_flag("-q,--quiet", cmp.quiet, "No notes on stderr");
+
   std::string decodeInput;
   std::string decodeOutput;
   auto* decode = app.add_subcommand("decode", "Decode a .glb or .drc mesh (welding chunk seams) to .ply, .stl or .obj");
@@ -429,6 +515,8 @@ int main(int argc, char** argv) {
     if (*info) return runInfo(infoInputs, infoRaw);
     if (*phantom) return runPhantom(phantomSpec, phantomOut);
     if (*decode) return runDecode(decodeInput, decodeOutput);
+    if (*metrics) return runMetrics(metricsInput, metricsSphere, metricsReport);
+    if (*compare) return runCompare(cmp);
   } catch (const Error& e) {
     std::fprintf(stderr, "isoslab: error: %s\n", e.what());
     return 1;

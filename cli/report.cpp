@@ -1,0 +1,38 @@
+#include "cli/report.h"
+
+namespace isoslab {
+namespace {
+
+nlohmann::ordered_json errorJson(const ErrorStats& e, std::uint64_t triangles) {
+  nlohmann::ordered_json j;
+  j["count"] = e.count;
+  j["sum"] = e.sum;
+  j["sum_per_triangle"] = triangles ? e.sum / static_cast<double>(triangles) : 0.0;
+  j["mean"] = e.mean();
+  j["mean_abs"] = e.meanAbs();
+  j["rms"] = e.rms();
+  j["max_abs"] = e.maxAbs;
+  return j;
+}
+
+}  // namespace
+
+nlohmann::ordered_json sphereJson(const SphereReport& r) {
+  nlohmann::ordered_json j;
+  j["centre"] = r.sphere.centre;
+  j["radius"] = r.sphere.radius;
+  j["triangles"] = r.triangles;
+  j["vertices"] = r.vertices;
+  j["radius_error_vertex"] = errorJson(r.vertex, r.triangles);
+  j["radius_error_centroid"] = errorJson(r.centroid, r.triangles);
+  j["area_error"] = r.areaError;
+  j["volume_error"] = r.volumeError;
+  if (r.volumeCellsError) {
+    j["volume_cells_error"] = *r.volumeCellsError;
+  } else {
+    j["volume_cells_error"] = nullptr;
+  }
+  return j;
+}
+
+}  // namespace isoslab

@@ -1,0 +1,30 @@
+// Runs a source through an extractor into measuring sinks only (no output file): what the
+// precision study and `isoslab metrics`-style checks need.
+#pragma once
+
+#include <optional>
+
+#include "extract/extractor.h"
+#include "extract/mesh_stats.h"
+#include "extract/sphere_metrics.h"
+#include "io/slice_source.h"
+#include "stream/pipeline.h"
+
+namespace isoslab {
+
+struct Measurement {
+  MeshStats stats;
+  std::optional<SphereReport> sphere;
+  PipelineResult run;
+};
+
+/// Extracts `source` with `options` in its physical frame, measuring the mesh (and its errors
+/// against `sphere`, in output coordinates, when given). Extra sinks (writers) may be appended.
+Measurement measureExtraction(SliceSource& source, const ExtractOptions& options, const std::optional<Sphere>& sphere,
+                              std::vector<MeshSink*> extraSinks = {});
+
+/// The sphere a phantom describes, in the output coordinates of `frame`, if the frame maps spheres
+/// to spheres (equal spacing on every axis, orthonormal directions).
+std::optional<Sphere> phantomSphere(const VolumeInfo& info);
+
+}  // namespace isoslab
