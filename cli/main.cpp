@@ -28,6 +28,8 @@
 #include "io/error.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
+#include "io/volume_formats.h"
+#include "io/volume_writer.h"
 #include "stream/measure.h"
 #include "stream/pipeline.h"
 #include "stream/progress.h"
@@ -57,7 +59,9 @@ void addRawOptions(CLI::App* cmd, RawArgs& raw) {
       ->group("DICOM input");
   cmd->add_flag("--skip-bad", raw.skipBad, "DICOM: skip corrupt or unreadable files with a warning")
       ->group("DICOM input");
-  cmd->add_option("--channel", raw.channel, "Colour input: the sample (channel) to use, from 0")->group("DICOM input");
+  cmd->add_option("--channel", raw.channel,
+                  "Colour or multi-component input (DICOM, image stacks, NRRD, MetaImage): the channel to use, from 0")
+      ->group("DICOM input");
   cmd->add_option("--raw-dims", raw.dims, "Raw input: lattice points X,Y,Z (Z may be left out for per-slice files)")
       ->group("Raw input");
   cmd->add_option("--raw-type", raw.type, "Raw input: voxel type u8 i8 u16 i16 u32 i32 f32 f64")
@@ -69,7 +73,8 @@ void addRawOptions(CLI::App* cmd, RawArgs& raw) {
   cmd->add_option("--raw-offset", raw.offset, "Raw input: header bytes to skip in each file")
       ->group("Raw input")
       ->capture_default_str();
-  cmd->add_option("--spacing", raw.spacing, "Voxel spacing sx,sy,sz (raw input; default 1,1,1)")->group("Raw input");
+  cmd->add_option("--spacing", raw.spacing, "Voxel spacing sx,sy,sz (raw input and image stacks; default 1,1,1)")
+      ->group("Raw input");
 }
 
 std::vector<double> parseList(const std::string& text, const std::string& option) {
@@ -97,7 +102,13 @@ SourceOptions sourceOptions(const RawArgs& raw) {
   options.dicom.skipBad = raw.skipBad;
   options.dicom.channel = raw.channel;
   if (raw.dims.empty()) {
-    if (!raw.spacing.empty()) throw Error("--spacing: only raw input takes a spacing here; give --raw-dims too");
+    if (!raw.spacing.empty()) {
+      const auto sp = parseList(raw.spacing, "--spacing");
+      if (sp.size() != 3 || !(sp[0] > 0 && sp[1] > 0 && sp[2] > 0)) {
+        throw Error(fmt::format("--spacing: '{}' needs three positive values", raw.spacing));
+      }
+      options.spacing = std::array<double, 3>{sp[0], sp[1], sp[2]};
+    }
     return options;
   }
   RawOptions r;
@@ -394,12 +405,19 @@ int runDecode(const std::string& input, const std::string& output) {
   return 0;
 }
 
-int runPhantom(const std::string& spec, const std::string& output) {
+int runPhantom(const std::string& spec, const std::string& output, bool compress) {
   if (!PhantomSource::isPhantom(spec))
     throw Error(fmt::format("{}: not a phantom spec (phantom:NAME?key=value&...)", spec));
   auto source = PhantomSource::open(spec);
   const VolumeInfo& info = source->info();
-  const std::int64_t bytes = writeRaw(*source, output, info.type);
+  VolumeWriteOptions write;
+  write.type = info.type;
+  write.compress = compress;
+  const std::int64_t bytes = writeVolume(*source, output, write);
+  if (isVolumeFormat(output)) {
+    std::printf("%s: %lld bytes\n", output.c_str(), static_cast<long long>(bytes));
+    return 0;
+  }
   std::printf("%s: %lld bytes; read it back with --raw-dims %lld,%lld,%lld --raw-type %s --spacing %g,%g,%g\n",
               output.c_str(), static_cast<long long>(bytes), static_cast<long long>(info.dims[0]),
               static_cast<long long>(info.dims[1]), static_cast<long long>(info.dims[2]),
@@ -495,7 +513,12 @@ int main(int argc, char** argv) {
   std::string phantomOut;
   auto* phantom = app.add_subcommand("phantom", "Write a phantom to a raw file");
   phantom->add_option("SPEC", phantomSpec, "phantom:NAME?key=value&...")->required();
-  phantom->add_option("-o,--output", phantomOut, "Raw output file")->required();
+  bool phantomCompress = false;
+  phantom
+      ->add_option("-o,--output", phantomOut,
+                   "Output volume: .nii, .nii.gz, .nrrd, .mha, or raw voxels for any other name")
+      ->required();
+  phantom->add_flag("--compress", phantomCompress, "NRRD and MetaImage: deflate the data");
 
   try {
     app.parse(argc, argv);
@@ -513,7 +536,7 @@ int main(int argc, char** argv) {
   try {
     if (*extract) return runExtract(ex);
     if (*info) return runInfo(infoInputs, infoRaw);
-    if (*phantom) return runPhantom(phantomSpec, phantomOut);
+    if (*phantom) return runPhantom(phantomSpec, phantomOut, phantomCompress);
     if (*decode) return runDecode(decodeInput, decodeOutput);
     if (*metrics) return runMetrics(metricsInput, metricsSphere, metricsReport);
     if (*compare) return runCompare(cmp);

@@ -11,7 +11,9 @@
 #include "io/atomic_file.h"
 #include "io/error.h"
 #include "io/file_list.h"
+#include "io/image_stack.h"
 #include "io/phantom.h"
+#include "io/volume_formats.h"
 
 namespace isoslab {
 
@@ -28,6 +30,13 @@ std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, 
   if (options.raw) {
     if (inputs.size() > 1) throw Error(fmt::format("{}: raw input takes one file, pattern or folder", inputs[1]));
     return RawReader::open(input, *options.raw);
+  }
+  if (inputs.size() == 1 && isVolumeFormat(input)) return openVolumeFormat(input, options.dicom.channel, notes);
+  if (isImageStack(inputs) || (inputs.size() == 1 && isImageFile(input) && !std::filesystem::exists(input))) {
+    ImageStackOptions stack;
+    stack.channel = options.dicom.channel;
+    stack.spacing = options.spacing;
+    return openImageStack(inputs, stack, notes);
   }
   std::error_code ec;
   for (const std::string& in : inputs) {

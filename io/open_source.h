@@ -16,6 +16,8 @@ struct SourceOptions {
   /// Set when the user described raw data (--raw-dims and friends).
   std::optional<RawOptions> raw;
   DicomOptions dicom;
+  /// Spacing given by the user for inputs that lack one (image stacks).
+  std::optional<std::array<double, 3>> spacing;
 };
 
 /// Opens `inputs`: one phantom spec; raw data when options.raw is set; otherwise DICOM (folders,

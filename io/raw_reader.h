@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "io/volume_file.h"
+
 #include "io/slice_source.h"
 
 namespace isoslab {
@@ -22,30 +24,11 @@ struct RawOptions {
   std::array<double, 3> spacing{1.0, 1.0, 1.0};
 };
 
-class RawReader final : public SliceSource {
+class RawReader {
  public:
   /// Opens `input`: a file (gzip is recognised by its magic bytes and inflated as a stream), a
   /// printf pattern, or a folder. Checks dims and, for plain files, that every file is long enough.
-  static std::unique_ptr<RawReader> open(const std::string& input, const RawOptions& options);
-
-  ~RawReader() override;
-
-  const VolumeInfo& info() const noexcept override { return info_; }
-  bool readSlice(std::span<float> slice) override;
-
- private:
-  RawReader() = default;
-  void openFile(const std::string& path);
-  void readBytes(const std::string& path, std::byte* dst, std::int64_t n, std::int64_t alreadyRead,
-                 std::int64_t expected);
-
-  VolumeInfo info_;
-  RawOptions options_;
-  std::vector<std::string> files_;  // one file, or one per slice
-  std::vector<std::byte> bytes_;    // one slice of raw bytes
-  void* gz_ = nullptr;              // gzFile of the open file
-  std::string openPath_;
-  std::int64_t nextSlice_ = 0;
+  static std::unique_ptr<SliceSource> open(const std::string& input, const RawOptions& options);
 };
 
 }  // namespace isoslab

@@ -1,0 +1,605 @@
+// NRRD: http://teem.sourceforge.net/nrrd/format.html. MetaImage: ITK's MetaIO documentation.
+// NIfTI-1 and NIfTI-2: the nifti1.h and nifti2.h header definitions of the NIfTI DFWG.
+#include "io/volume_formats.h"
+
+#include <fmt/format.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "io/error.h"
+#include "io/file_list.h"
+#include "io/volume_file.h"
+
+namespace fs = std::filesystem;
+
+namespace isoslab {
+namespace {
+
+using Vec3 = std::array<double, 3>;
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return {};
+  return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
+}
+
+bool endsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && lower(s.substr(s.size() - suffix.size())) == suffix;
+}
+
+std::vector<double> numbersIn(const std::string& path, const std::string& key, const std::string& text) {
+  std::vector<double> v;
+  std::string cleaned = text;
+  for (char& c : cleaned) {
+    if (c == '(' || c == ')' || c == ',') c = ' ';
+  }
+  std::istringstream s(cleaned);
+  std::string item;
+  while (s >> item) {
+    char* end = nullptr;
+    const double x = std::strtod(item.c_str(), &end);
+    if (end != item.c_str() + item.size())
+      throw Error(fmt::format("{}: field '{}' has a bad number '{}'", path, key, item));
+    v.push_back(x);
+  }
+  return v;
+}
+
+// Resolves a data file named in a header relative to the header's folder.
+std::string besides(const std::string& header, const std::string& name) {
+  const fs::path p(name);
+  if (p.is_absolute()) return name;
+  return (fs::path(header).parent_path() / p).string();
+}
+
+// "pattern min max step": the files of a printf pattern.
+std::vector<std::string> patternFiles(const std::string& header, const std::string& spec) {
+  std::istringstream s(spec);
+  std::string pattern;
+  long first = 0, last = 0, step = 1;
+  s >> pattern >> first >> last >> step;
+  if (!isSlicePattern(pattern) || step == 0) throw Error(fmt::format("{}: bad data file pattern '{}'", header, spec));
+  std::vector<std::string> files;
+  for (long i = first; step > 0 ? i <= last : i >= last; i += step)
+    files.push_back(besides(header, formatPattern(pattern, i)));
+  return files;
+}
+
+void setGeometry(VolumeInfo& info, const std::array<Vec3, 3>& axes, const Vec3& origin) {
+  for (int a = 0; a < 3; ++a) {
+    const Vec3& v = axes[static_cast<std::size_t>(a)];
+    const double len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(len > 0)) throw Error(fmt::format("{}: axis {} has a zero direction", info.source, a));
+    info.spacing[static_cast<std::size_t>(a)] = len;
+    for (int r = 0; r < 3; ++r)
+      info.direction[static_cast<std::size_t>(3 * r + a)] = v[static_cast<std::size_t>(r)] / len;
+  }
+  info.origin = origin;
+}
+
+void pickComponent(VolumeFileLayout& layout, int components, int channel, const std::string& path) {
+  layout.components = components;
+  if (components > 1) {
+    if (channel < 0)
+      throw Error(fmt::format("{}: {} components per voxel; choose one with --channel 0..{}", path, components,
+                              components - 1));
+    if (channel >= components) throw Error(fmt::format("--channel: {} has {} components per voxel", path, components));
+    layout.component = channel;
+  }
+}
+
+// --- NRRD ---------------------------------------------------------------------------------------
+
+std::optional<VoxelType> nrrdType(const std::string& t) {
+  static const std::map<std::string, VoxelType> kTypes = {{"signed char", VoxelType::kI8},
+                                                          {"int8", VoxelType::kI8},
+                                                          {"int8_t", VoxelType::kI8},
+                                                          {"uchar", VoxelType::kU8},
+                                                          {"unsigned char", VoxelType::kU8},
+                                                          {"uint8", VoxelType::kU8},
+                                                          {"uint8_t", VoxelType::kU8},
+                                                          {"short", VoxelType::kI16},
+                                                          {"short int", VoxelType::kI16},
+                                                          {"signed short", VoxelType::kI16},
+                                                          {"signed short int", VoxelType::kI16},
+                                                          {"int16", VoxelType::kI16},
+                                                          {"int16_t", VoxelType::kI16},
+                                                          {"ushort", VoxelType::kU16},
+                                                          {"unsigned short", VoxelType::kU16},
+                                                          {"unsigned short int", VoxelType::kU16},
+                                                          {"uint16", VoxelType::kU16},
+                                                          {"uint16_t", VoxelType::kU16},
+                                                          {"int", VoxelType::kI32},
+                                                          {"signed int", VoxelType::kI32},
+                                                          {"int32", VoxelType::kI32},
+                                                          {"int32_t", VoxelType::kI32},
+                                                          {"uint", VoxelType::kU32},
+                                                          {"unsigned int", VoxelType::kU32},
+                                                          {"uint32", VoxelType::kU32},
+                                                          {"uint32_t", VoxelType::kU32},
+                                                          {"float", VoxelType::kF32},
+                                                          {"double", VoxelType::kF64}};
+  const auto it = kTypes.find(lower(t));
+  if (it == kTypes.end()) return std::nullopt;
+  return it->second;
+}
+
+std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std::vector<std::string>* notes) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(errno)));
+  std::string line;
+  if (!std::getline(in, line) || line.rfind("NRRD000", 0) != 0)
+    throw Error(fmt::format("{}: not a NRRD file (no NRRD000x magic)", path));
+  std::map<std::string, std::string> fields;
+  std::vector<std::string> listed;
+  bool list = false;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (list) {
+      if (!trim(line).empty()) listed.push_back(besides(path, trim(line)));
+      continue;
+    }
+    if (line.empty()) break;  // attached data follows
+    if (line[0] == '#') continue;
+    const auto colon = line.find(": ");
+    if (colon == std::string::npos) continue;  // key:=value pairs and junk
+    const std::string key = lower(trim(line.substr(0, colon)));
+    const std::string value = trim(line.substr(colon + 2));
+    fields[key] = value;
+    if ((key == "data file" || key == "datafile") && value.rfind("LIST", 0) == 0) list = true;
+  }
+  const std::int64_t headerEnd =
+      in.eof() ? static_cast<std::int64_t>(fs::file_size(path)) : static_cast<std::int64_t>(in.tellg());
+  auto need = [&](const std::string& key) -> const std::string& {
+    const auto it = fields.find(key);
+    if (it == fields.end()) throw Error(fmt::format("{}: NRRD field '{}' is missing", path, key));
+    return it->second;
+  };
+  VolumeInfo info;
+  info.reader = "nrrd";
+  info.source = path;
+  VolumeFileLayout layout;
+  layout.describedBy = "NRRD header";
+  const auto type = nrrdType(need("type"));
+  if (!type) throw Error(fmt::format("{}: NRRD type '{}' is not supported", path, need("type")));
+  layout.type = *type;
+  info.type = *type;
+  const int dimension = std::atoi(need("dimension").c_str());
+  const auto sizes = numbersIn(path, "sizes", need("sizes"));
+  if (static_cast<int>(sizes.size()) != dimension || dimension < 3 || dimension > 4) {
+    throw Error(
+        fmt::format("{}: NRRD dimension {} with sizes '{}' is not a 3-D volume", path, dimension, need("sizes")));
+  }
+  // A 4-D NRRD is either components first (kinds "vector", "RGB-color", ...) or a series last.
+  std::size_t first = 0;
+  int components = 1;
+  if (dimension == 4) {
+    const std::string kinds = lower(fields.count("kinds") ? fields["kinds"] : "");
+    const bool spaceFirst = kinds.rfind("domain", 0) == 0 || kinds.rfind("space", 0) == 0;
+    if (!spaceFirst) {
+      components = static_cast<int>(sizes[0]);
+      first = 1;
+    } else if (notes != nullptr) {
+      notes->push_back(fmt::format("{}: 4-D data; reading the first of {} volumes", path, sizes[3]));
+    }
+  }
+  for (std::size_t a = 0; a < 3; ++a) info.dims[a] = static_cast<std::int64_t>(sizes[first + a]);
+  pickComponent(layout, components, channel, path);
+  const std::string encoding = lower(fields.count("encoding") ? fields["encoding"] : "raw");
+  if (encoding == "gzip" || encoding == "gz") {
+    layout.compression = Compression::kDeflate;
+  } else if (encoding != "raw") {
+    throw Error(fmt::format("{}: NRRD encoding '{}' is not supported (raw or gzip)", path, encoding));
+  }
+  const std::string endian = lower(fields.count("endian") ? fields["endian"] : "little");
+  layout.byteOrder = endian == "big" ? ByteOrder::kBig : ByteOrder::kLittle;
+  // Geometry.
+  const std::string space = lower(fields.count("space") ? fields["space"] : "");
+  if (fields.count("space directions")) {
+    std::string dirs = fields["space directions"];
+    std::vector<std::array<double, 3>> axes;
+    std::istringstream s(dirs);
+    std::string token;
+    while (s >> token) {
+      if (token == "none") continue;
+      std::string vec = token;
+      while (vec.find(')') == std::string::npos && s >> token) vec += token;
+      const auto v = numbersIn(path, "space directions", vec);
+      if (v.size() != 3) throw Error(fmt::format("{}: NRRD space directions must be 3-vectors", path));
+      axes.push_back({v[0], v[1], v[2]});
+    }
+    if (axes.size() < 3) throw Error(fmt::format("{}: NRRD space directions name fewer than 3 axes", path));
+    Vec3 origin{0, 0, 0};
+    if (fields.count("space origin")) {
+      const auto o = numbersIn(path, "space origin", fields["space origin"]);
+      if (o.size() != 3) throw Error(fmt::format("{}: NRRD space origin must be a 3-vector", path));
+      origin = {o[0], o[1], o[2]};
+    }
+    const bool ras = space == "right-anterior-superior" || space == "ras" || space == "scanner-xyz";
+    if (ras) {
+      for (auto& v : axes) v = {-v[0], -v[1], v[2]};
+      origin = {-origin[0], -origin[1], origin[2]};
+    }
+    setGeometry(info, {axes[0], axes[1], axes[2]}, origin);
+    if (space.find("left") != std::string::npos || space == "lps" || ras) info.frame = "lps";
+  } else if (fields.count("spacings")) {
+    const auto sp = numbersIn(path, "spacings", fields["spacings"]);
+    if (sp.size() != static_cast<std::size_t>(dimension))
+      throw Error(fmt::format("{}: NRRD spacings need one value per axis", path));
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double v = sp[first + a];
+      info.spacing[a] = std::isfinite(v) && v > 0 ? v : 1.0;
+    }
+  }
+  // Data.
+  std::string dataFile;
+  if (fields.count("data file")) dataFile = fields["data file"];
+  if (fields.count("datafile")) dataFile = fields["datafile"];
+  if (dataFile.empty()) {
+    layout.files = {path};
+    layout.fileOffset = headerEnd;
+  } else if (dataFile.rfind("LIST", 0) == 0) {
+    layout.files = listed;
+    layout.perSlice = true;
+  } else if (dataFile.find(' ') != std::string::npos) {
+    layout.files = patternFiles(path, dataFile);
+    layout.perSlice = true;
+  } else {
+    layout.files = {besides(path, dataFile)};
+  }
+  if (fields.count("byte skip")) {
+    const long long skip = std::atoll(fields["byte skip"].c_str());
+    if (skip < 0) {
+      if (layout.compression != Compression::kNone || layout.files.size() != 1) {
+        throw Error(fmt::format("{}: 'byte skip: -1' needs one raw data file", path));
+      }
+      const auto bytes =
+          info.sliceVoxels() * info.dims[2] * static_cast<std::int64_t>(voxelSize(layout.type)) * components;
+      layout.fileOffset = static_cast<std::int64_t>(fs::file_size(layout.files[0])) - bytes;
+    } else {
+      layout.skipBytes = skip;
+    }
+  }
+  return openVolumeFile(info, layout);
+}
+
+// --- MetaImage ----------------------------------------------------------------------------------
+
+std::optional<VoxelType> metType(const std::string& t) {
+  static const std::map<std::string, VoxelType> kTypes = {
+      {"MET_CHAR", VoxelType::kI8},    {"MET_UCHAR", VoxelType::kU8},  {"MET_SHORT", VoxelType::kI16},
+      {"MET_USHORT", VoxelType::kU16}, {"MET_INT", VoxelType::kI32},   {"MET_UINT", VoxelType::kU32},
+      {"MET_LONG", VoxelType::kI32},   {"MET_ULONG", VoxelType::kU32}, {"MET_FLOAT", VoxelType::kF32},
+      {"MET_DOUBLE", VoxelType::kF64}};
+  const auto it = kTypes.find(t);
+  if (it == kTypes.end()) return std::nullopt;
+  return it->second;
+}
+
+bool isTrue(const std::string& v) {
+  return lower(v) == "true" || v == "1";
+}
+
+std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(errno)));
+  std::map<std::string, std::string> fields;
+  std::vector<std::string> listed;
+  std::string line;
+  std::int64_t dataStart = -1;
+  bool list = false;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (list) {
+      if (!trim(line).empty()) listed.push_back(besides(path, trim(line)));
+      continue;
+    }
+    const auto eq = line.find('=');
+    if (eq == std::string::npos) {
+      if (trim(line).empty()) continue;
+      throw Error(fmt::format("{}: not a MetaImage header line: '{}'", path, line.substr(0, 60)));
+    }
+    const std::string key = trim(line.substr(0, eq));
+    const std::string value = trim(line.substr(eq + 1));
+    fields[key] = value;
+    if (key == "ElementDataFile") {
+      if (value == "LOCAL") {
+        dataStart = static_cast<std::int64_t>(in.tellg());
+        break;
+      }
+      if (value.rfind("LIST", 0) == 0) {
+        list = true;
+        continue;
+      }
+      break;
+    }
+  }
+  auto need = [&](const std::string& key) -> const std::string& {
+    const auto it = fields.find(key);
+    if (it == fields.end()) throw Error(fmt::format("{}: MetaImage field '{}' is missing", path, key));
+    return it->second;
+  };
+  VolumeInfo info;
+  info.reader = "metaimage";
+  info.source = path;
+  info.frame = "lps";
+  VolumeFileLayout layout;
+  layout.describedBy = "MetaImage header";
+  const auto type = metType(need("ElementType"));
+  if (!type) throw Error(fmt::format("{}: MetaImage ElementType '{}' is not supported", path, need("ElementType")));
+  layout.type = *type;
+  info.type = *type;
+  const auto dims = numbersIn(path, "DimSize", need("DimSize"));
+  if (dims.size() < 3 || (dims.size() == 4 && dims[3] != 1) || dims.size() > 4) {
+    throw Error(fmt::format("{}: DimSize '{}' is not a 3-D volume", path, need("DimSize")));
+  }
+  for (std::size_t a = 0; a < 3; ++a) info.dims[a] = static_cast<std::int64_t>(dims[a]);
+  const int components =
+      fields.count("ElementNumberOfChannels") ? std::atoi(fields["ElementNumberOfChannels"].c_str()) : 1;
+  pickComponent(layout, components, channel, path);
+  const std::string msb = fields.count("ElementByteOrderMSB")      ? fields["ElementByteOrderMSB"]
+                          : fields.count("BinaryDataByteOrderMSB") ? fields["BinaryDataByteOrderMSB"]
+                                                                   : "False";
+  layout.byteOrder = isTrue(msb) ? ByteOrder::kBig : ByteOrder::kLittle;
+  if (fields.count("CompressedData") && isTrue(fields["CompressedData"])) layout.compression = Compression::kDeflate;
+  std::array<Vec3, 3> axes{Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
+  for (const char* key : {"TransformMatrix", "Rotation", "Orientation"}) {
+    if (!fields.count(key)) continue;
+    const auto m = numbersIn(path, key, fields[key]);
+    if (m.size() != 9) throw Error(fmt::format("{}: {} needs 9 values", path, key));
+    for (std::size_t a = 0; a < 3; ++a) axes[a] = {m[3 * a], m[3 * a + 1], m[3 * a + 2]};
+    break;
+  }
+  std::array<double, 3> spacing{1, 1, 1};
+  for (const char* key : {"ElementSpacing", "ElementSize"}) {
+    if (!fields.count(key)) continue;
+    const auto s = numbersIn(path, key, fields[key]);
+    if (s.size() < 3) throw Error(fmt::format("{}: {} needs 3 values", path, key));
+    spacing = {s[0], s[1], s[2]};
+    break;
+  }
+  for (std::size_t a = 0; a < 3; ++a) {
+    for (double& c : axes[a]) c *= spacing[a];
+  }
+  Vec3 origin{0, 0, 0};
+  for (const char* key : {"Offset", "Origin", "Position"}) {
+    if (!fields.count(key)) continue;
+    const auto o = numbersIn(path, key, fields[key]);
+    if (o.size() < 3) throw Error(fmt::format("{}: {} needs 3 values", path, key));
+    origin = {o[0], o[1], o[2]};
+    break;
+  }
+  setGeometry(info, axes, origin);
+  const std::string& dataFile = need("ElementDataFile");
+  if (dataFile == "LOCAL") {
+    layout.files = {path};
+    layout.fileOffset = dataStart;
+  } else if (dataFile.rfind("LIST", 0) == 0) {
+    layout.files = listed;
+    layout.perSlice = true;
+  } else if (dataFile.find(' ') != std::string::npos) {
+    layout.files = patternFiles(path, dataFile);
+    layout.perSlice = true;
+  } else {
+    layout.files = {besides(path, dataFile)};
+  }
+  if (fields.count("HeaderSize")) {
+    const long long h = std::atoll(fields["HeaderSize"].c_str());
+    if (h == -1) {
+      if (layout.compression != Compression::kNone || layout.perSlice)
+        throw Error(fmt::format("{}: HeaderSize -1 needs one raw data file", path));
+      const auto bytes =
+          info.sliceVoxels() * info.dims[2] * static_cast<std::int64_t>(voxelSize(layout.type)) * components;
+      layout.fileOffset = static_cast<std::int64_t>(fs::file_size(layout.files[0])) - bytes;
+    } else if (h > 0) {
+      layout.fileOffset += h;
+    }
+  }
+  return openVolumeFile(info, layout);
+}
+
+// --- NIfTI --------------------------------------------------------------------------------------
+
+template <typename T>
+T get(const std::vector<unsigned char>& h, std::size_t at, bool swap) {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, h.data() + at, sizeof(T));
+  if (swap) std::reverse(b, b + sizeof(T));
+  T v;
+  std::memcpy(&v, b, sizeof(T));
+  return v;
+}
+
+std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std::string>* notes) {
+  // The header, read through the same (possibly gzip) stream as the data.
+  std::vector<unsigned char> h(540, 0);
+  std::int64_t got = 0;
+  {
+    gzFile f = gzopen(path.c_str(), "rb");
+    if (f == nullptr) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(errno)));
+    const int n = gzread(f, h.data(), 540);
+    gzclose(f);
+    got = n < 0 ? 0 : n;
+  }
+  if (got < 348) throw Error(fmt::format("{}: too short for a NIfTI header ({} bytes)", path, got));
+  const auto size32 = get<std::int32_t>(h, 0, false);
+  bool swap = false;
+  int version = 0;
+  if (size32 == 348 || size32 == 540) {
+    version = size32 == 348 ? 1 : 2;
+  } else {
+    const auto swapped = get<std::int32_t>(h, 0, true);
+    if (swapped == 348 || swapped == 540) {
+      swap = true;
+      version = swapped == 348 ? 1 : 2;
+    }
+  }
+  if (version == 0) {
+    throw Error(
+        fmt::format("{}: not a NIfTI file: sizeof_hdr is {}, not 348 (NIfTI-1) or 540 (NIfTI-2)", path, size32));
+  }
+  if (version == 2 && got < 540) throw Error(fmt::format("{}: too short for a NIfTI-2 header ({} bytes)", path, got));
+  std::array<std::int64_t, 8> dim{};
+  std::array<double, 8> pixdim{};
+  int datatype = 0;
+  double voxOffset = 0, slope = 0, inter = 0;
+  int qformCode = 0, sformCode = 0;
+  double qb = 0, qc = 0, qd = 0;
+  Vec3 qoffset{};
+  std::array<std::array<double, 4>, 3> srow{};
+  if (version == 1) {
+    for (std::size_t i = 0; i < 8; ++i) {
+      dim[i] = get<std::int16_t>(h, 40 + 2 * i, swap);
+      pixdim[i] = get<float>(h, 76 + 4 * i, swap);
+    }
+    datatype = get<std::int16_t>(h, 70, swap);
+    voxOffset = get<float>(h, 108, swap);
+    slope = get<float>(h, 112, swap);
+    inter = get<float>(h, 116, swap);
+    qformCode = get<std::int16_t>(h, 252, swap);
+    sformCode = get<std::int16_t>(h, 254, swap);
+    qb = get<float>(h, 256, swap);
+    qc = get<float>(h, 260, swap);
+    qd = get<float>(h, 264, swap);
+    qoffset = {get<float>(h, 268, swap), get<float>(h, 272, swap), get<float>(h, 276, swap)};
+    for (std::size_t r = 0; r < 3; ++r) {
+      for (std::size_t c = 0; c < 4; ++c) srow[r][c] = get<float>(h, 280 + 16 * r + 4 * c, swap);
+    }
+  } else {
+    datatype = get<std::int16_t>(h, 12, swap);
+    for (std::size_t i = 0; i < 8; ++i) {
+      dim[i] = get<std::int64_t>(h, 16 + 8 * i, swap);
+      pixdim[i] = get<double>(h, 104 + 8 * i, swap);
+    }
+    voxOffset = static_cast<double>(get<std::int64_t>(h, 168, swap));
+    slope = get<double>(h, 176, swap);
+    inter = get<double>(h, 184, swap);
+    qformCode = get<std::int32_t>(h, 344, swap);
+    sformCode = get<std::int32_t>(h, 348, swap);
+    qb = get<double>(h, 352, swap);
+    qc = get<double>(h, 360, swap);
+    qd = get<double>(h, 368, swap);
+    qoffset = {get<double>(h, 376, swap), get<double>(h, 384, swap), get<double>(h, 392, swap)};
+    for (std::size_t r = 0; r < 3; ++r) {
+      for (std::size_t c = 0; c < 4; ++c) srow[r][c] = get<double>(h, 400 + 32 * r + 8 * c, swap);
+    }
+  }
+  VolumeInfo info;
+  info.reader = version == 1 ? "nifti1" : "nifti2";
+  info.source = path;
+  VolumeFileLayout layout;
+  layout.describedBy = "NIfTI header";
+  switch (datatype) {
+    case 2:
+      layout.type = VoxelType::kU8;
+      break;
+    case 4:
+      layout.type = VoxelType::kI16;
+      break;
+    case 8:
+      layout.type = VoxelType::kI32;
+      break;
+    case 16:
+      layout.type = VoxelType::kF32;
+      break;
+    case 64:
+      layout.type = VoxelType::kF64;
+      break;
+    case 256:
+      layout.type = VoxelType::kI8;
+      break;
+    case 512:
+      layout.type = VoxelType::kU16;
+      break;
+    case 768:
+      layout.type = VoxelType::kU32;
+      break;
+    default:
+      throw Error(fmt::format("{}: NIfTI datatype {} is not supported", path, datatype));
+  }
+  info.type = layout.type;
+  if (dim[0] < 3 || dim[0] > 7) throw Error(fmt::format("{}: NIfTI dim[0] is {}: not a 3-D volume", path, dim[0]));
+  for (std::size_t a = 0; a < 3; ++a) info.dims[a] = dim[a + 1];
+  std::int64_t volumes = 1;
+  for (std::size_t a = 4; a <= static_cast<std::size_t>(dim[0]); ++a) volumes *= std::max<std::int64_t>(1, dim[a]);
+  if (volumes > 1 && notes != nullptr)
+    notes->push_back(fmt::format("{}: {}-D data; reading the first of {} volumes", path, dim[0], volumes));
+  if (slope != 0 && std::isfinite(slope) && std::isfinite(inter) && !(slope == 1 && inter == 0)) {
+    layout.slope = slope;
+    layout.intercept = inter;
+  }
+  // World frame: sform, then qform, then pixdim; NIfTI's RAS world becomes LPS.
+  std::array<Vec3, 3> axes{};
+  Vec3 origin{};
+  const double qfac = pixdim[0] < 0 ? -1.0 : 1.0;
+  if (sformCode > 0) {
+    for (std::size_t a = 0; a < 3; ++a) axes[a] = {srow[0][a], srow[1][a], srow[2][a]};
+    origin = {srow[0][3], srow[1][3], srow[2][3]};
+    info.frame = "lps";
+  } else if (qformCode > 0) {
+    const double qa = std::sqrt(std::max(0.0, 1.0 - (qb * qb + qc * qc + qd * qd)));
+    const double R[3][3] = {{qa * qa + qb * qb - qc * qc - qd * qd, 2 * (qb * qc - qa * qd), 2 * (qb * qd + qa * qc)},
+                            {2 * (qb * qc + qa * qd), qa * qa + qc * qc - qb * qb - qd * qd, 2 * (qc * qd - qa * qb)},
+                            {2 * (qb * qd - qa * qc), 2 * (qc * qd + qa * qb), qa * qa + qd * qd - qc * qc - qb * qb}};
+    const double scale[3] = {pixdim[1], pixdim[2], pixdim[3] * qfac};
+    for (std::size_t a = 0; a < 3; ++a) axes[a] = {R[0][a] * scale[a], R[1][a] * scale[a], R[2][a] * scale[a]};
+    origin = qoffset;
+    info.frame = "lps";
+  } else {
+    for (std::size_t a = 0; a < 3; ++a) {
+      axes[a] = {0, 0, 0};
+      axes[a][a] = pixdim[a + 1] > 0 ? pixdim[a + 1] : 1.0;
+    }
+  }
+  if (info.frame == "lps") {
+    for (auto& v : axes) v = {-v[0], -v[1], v[2]};
+    origin = {-origin[0], -origin[1], origin[2]};
+  }
+  setGeometry(info, axes, origin);
+  // Data: in the same file after vox_offset, or in the .img beside a .hdr.
+  layout.compression = Compression::kAutoGzip;
+  if (endsWith(path, ".hdr") || endsWith(path, ".hdr.gz")) {
+    std::string img = path.substr(0, path.size() - (endsWith(path, ".gz") ? 7 : 4)) + ".img";
+    if (!fs::exists(img) && fs::exists(img + ".gz")) img += ".gz";
+    layout.files = {img};
+  } else {
+    layout.files = {path};
+    layout.skipBytes = static_cast<std::int64_t>(voxOffset);
+    if (layout.skipBytes < (version == 1 ? 348 : 540)) layout.skipBytes = version == 1 ? 352 : 544;
+  }
+  layout.byteOrder =
+      swap ? (hostByteOrder() == ByteOrder::kLittle ? ByteOrder::kBig : ByteOrder::kLittle) : hostByteOrder();
+  return openVolumeFile(info, layout);
+}
+
+}  // namespace
+
+bool isVolumeFormat(const std::string& path) {
+  for (const char* ext : {".nrrd", ".nhdr", ".mha", ".mhd", ".nii", ".nii.gz", ".hdr"}) {
+    if (endsWith(path, ext)) return true;
+  }
+  return false;
+}
+
+std::unique_ptr<SliceSource> openVolumeFormat(const std::string& path, int channel, std::vector<std::string>* notes) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(ENOENT)));
+  if (endsWith(path, ".nrrd") || endsWith(path, ".nhdr")) return openNrrd(path, channel, notes);
+  if (endsWith(path, ".mha") || endsWith(path, ".mhd")) return openMetaImage(path, channel);
+  return openNifti(path, notes);
+}
+
+}  // namespace isoslab

@@ -1,0 +1,223 @@
+#include "io/volume_writer.h"
+
+#include <fmt/format.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include "io/atomic_file.h"
+#include "io/error.h"
+
+namespace isoslab {
+namespace {
+
+bool endsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+// Bytes into the file, plain or through a gzip/zlib deflate stream.
+class Sink {
+ public:
+  Sink(AtomicFile& file, int windowBits) : file_(file), deflating_(windowBits != 0) {
+    if (deflating_ && deflateInit2(&z_, 6, Z_DEFLATED, windowBits, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+      throw Error(fmt::format("{}: cannot start compressing", file.path()));
+    }
+    out_.resize(1 << 18);
+  }
+  ~Sink() {
+    if (deflating_) deflateEnd(&z_);
+  }
+  void write(const void* data, std::size_t n, int flush = Z_NO_FLUSH) {
+    if (!deflating_) {
+      file_.write(data, n);
+      return;
+    }
+    z_.next_in = static_cast<Bytef*>(const_cast<void*>(data));
+    z_.avail_in = static_cast<uInt>(n);
+    do {
+      z_.next_out = out_.data();
+      z_.avail_out = static_cast<uInt>(out_.size());
+      deflate(&z_, flush);
+      file_.write(out_.data(), out_.size() - z_.avail_out);
+    } while (z_.avail_out == 0 || (flush == Z_FINISH && z_.avail_in > 0));
+  }
+  void finish() {
+    if (deflating_) write(nullptr, 0, Z_FINISH);
+  }
+
+ private:
+  AtomicFile& file_;
+  bool deflating_;
+  z_stream z_{};
+  std::vector<unsigned char> out_;
+};
+
+void swapBytes(std::vector<std::byte>& bytes, std::size_t size) {
+  if (size == 1) return;
+  for (std::size_t i = 0; i < bytes.size(); i += size)
+    std::reverse(bytes.begin() + static_cast<std::ptrdiff_t>(i), bytes.begin() + static_cast<std::ptrdiff_t>(i + size));
+}
+
+// Axis a's vector (direction * spacing) and the origin, in the source's frame.
+std::array<double, 3> axis(const VolumeInfo& info, int a) {
+  return {info.direction[static_cast<std::size_t>(a)] * info.spacing[static_cast<std::size_t>(a)],
+          info.direction[static_cast<std::size_t>(3 + a)] * info.spacing[static_cast<std::size_t>(a)],
+          info.direction[static_cast<std::size_t>(6 + a)] * info.spacing[static_cast<std::size_t>(a)]};
+}
+
+const char* nrrdType(VoxelType t) {
+  switch (t) {
+    case VoxelType::kU8:
+      return "uint8";
+    case VoxelType::kI8:
+      return "int8";
+    case VoxelType::kU16:
+      return "uint16";
+    case VoxelType::kI16:
+      return "int16";
+    case VoxelType::kU32:
+      return "uint32";
+    case VoxelType::kI32:
+      return "int32";
+    case VoxelType::kF32:
+      return "float";
+    case VoxelType::kF64:
+      return "double";
+  }
+  return "uint8";
+}
+
+const char* metType(VoxelType t) {
+  switch (t) {
+    case VoxelType::kU8:
+      return "MET_UCHAR";
+    case VoxelType::kI8:
+      return "MET_CHAR";
+    case VoxelType::kU16:
+      return "MET_USHORT";
+    case VoxelType::kI16:
+      return "MET_SHORT";
+    case VoxelType::kU32:
+      return "MET_UINT";
+    case VoxelType::kI32:
+      return "MET_INT";
+    case VoxelType::kF32:
+      return "MET_FLOAT";
+    case VoxelType::kF64:
+      return "MET_DOUBLE";
+  }
+  return "MET_UCHAR";
+}
+
+std::int16_t niftiType(VoxelType t) {
+  switch (t) {
+    case VoxelType::kU8:
+      return 2;
+    case VoxelType::kI16:
+      return 4;
+    case VoxelType::kI32:
+      return 8;
+    case VoxelType::kF32:
+      return 16;
+    case VoxelType::kF64:
+      return 64;
+    case VoxelType::kI8:
+      return 256;
+    case VoxelType::kU16:
+      return 512;
+    case VoxelType::kU32:
+      return 768;
+  }
+  return 2;
+}
+
+// A NIfTI-1 header (352 bytes with the empty extension flag), sform from the geometry (LPS to RAS).
+std::vector<unsigned char> niftiHeader(const VolumeInfo& info, VoxelType type) {
+  std::vector<unsigned char> h(352, 0);
+  auto put = [&h](std::size_t at, auto v) { std::memcpy(h.data() + at, &v, sizeof v); };
+  put(0, std::int32_t{348});
+  put(40, std::int16_t{3});
+  for (std::size_t a = 0; a < 3; ++a) put(42 + 2 * a, static_cast<std::int16_t>(info.dims[a]));
+  for (std::size_t a = 3; a < 7; ++a) put(42 + 2 * a, std::int16_t{1});
+  put(70, niftiType(type));
+  put(72, static_cast<std::int16_t>(8 * voxelSize(type)));
+  put(76, 1.0f);
+  for (std::size_t a = 0; a < 3; ++a) put(80 + 4 * a, static_cast<float>(info.spacing[a]));
+  put(108, 352.0f);
+  put(112, 1.0f);
+  put(123, static_cast<char>(2));  // millimetres
+  put(254, std::int16_t{2});       // sform: aligned to another file's frame
+  const double flip[3] = {-1, -1, 1};
+  for (std::size_t r = 0; r < 3; ++r) {
+    for (int a = 0; a < 3; ++a)
+      put(280 + 16 * r + 4 * static_cast<std::size_t>(a), static_cast<float>(flip[r] * axis(info, a)[r]));
+    put(280 + 16 * r + 12, static_cast<float>(flip[r] * info.origin[r]));
+  }
+  std::memcpy(h.data() + 344, "n+1\0", 4);
+  return h;
+}
+
+}  // namespace
+
+std::int64_t writeVolume(SliceSource& source, const std::string& path, const VolumeWriteOptions& options) {
+  const VolumeInfo& info = source.info();
+  AtomicFile file(path);
+  const bool nifti = endsWith(path, ".nii") || endsWith(path, ".nii.gz");
+  const bool nrrd = endsWith(path, ".nrrd");
+  const bool mha = endsWith(path, ".mha");
+  ByteOrder order = options.byteOrder;
+  if (nifti) order = hostByteOrder();
+  int window = 0;
+  if (nifti && endsWith(path, ".gz")) window = 15 + 16;
+  if (nrrd && options.compress) window = 15 + 16;
+  if (mha && options.compress) window = 15;
+  const std::size_t size = voxelSize(options.type);
+  if (nrrd) {
+    std::string h = "NRRD0004\n# isoslab\n";
+    h += fmt::format("type: {}\ndimension: 3\nsizes: {} {} {}\n", nrrdType(options.type), info.dims[0], info.dims[1],
+                     info.dims[2]);
+    h += "space: left-posterior-superior\nspace directions:";
+    for (int a = 0; a < 3; ++a) {
+      const auto v = axis(info, a);
+      h += fmt::format(" ({:.17g},{:.17g},{:.17g})", v[0], v[1], v[2]);
+    }
+    h += fmt::format("\nspace origin: ({:.17g},{:.17g},{:.17g})\n", info.origin[0], info.origin[1], info.origin[2]);
+    h += fmt::format("endian: {}\nencoding: {}\n\n", order == ByteOrder::kBig ? "big" : "little",
+                     options.compress ? "gzip" : "raw");
+    file.write(h.data(), h.size());
+  } else if (mha) {
+    std::string h = "ObjectType = Image\nNDims = 3\nBinaryData = True\n";
+    h += fmt::format("BinaryDataByteOrderMSB = {}\nCompressedData = {}\n", order == ByteOrder::kBig ? "True" : "False",
+                     options.compress ? "True" : "False");
+    h += "TransformMatrix =";
+    for (int a = 0; a < 3; ++a)
+      h +=
+          fmt::format(" {:.17g} {:.17g} {:.17g}", info.direction[static_cast<std::size_t>(a)],
+                      info.direction[static_cast<std::size_t>(3 + a)], info.direction[static_cast<std::size_t>(6 + a)]);
+    h += fmt::format("\nOffset = {:.17g} {:.17g} {:.17g}\n", info.origin[0], info.origin[1], info.origin[2]);
+    h += fmt::format("ElementSpacing = {:.17g} {:.17g} {:.17g}\n", info.spacing[0], info.spacing[1], info.spacing[2]);
+    h += fmt::format("DimSize = {} {} {}\nElementType = {}\nElementDataFile = LOCAL\n", info.dims[0], info.dims[1],
+                     info.dims[2], metType(options.type));
+    file.write(h.data(), h.size());
+  }
+  Sink sink(file, window);
+  if (nifti) {
+    const auto h = niftiHeader(info, options.type);
+    sink.write(h.data(), h.size());
+  }
+  std::vector<float> slice(static_cast<std::size_t>(info.sliceVoxels()));
+  std::vector<std::byte> bytes(slice.size() * size);
+  while (source.readSlice(slice)) {
+    convertFromFloat(slice, options.type, bytes);
+    if (order != hostByteOrder()) swapBytes(bytes, size);
+    sink.write(bytes.data(), bytes.size());
+  }
+  sink.finish();
+  file.commit();
+  return file.size();
+}
+
+}  // namespace isoslab
