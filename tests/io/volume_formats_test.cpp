@@ -1,0 +1,393 @@
+// NRRD, MetaImage, NIfTI and image stacks: every variant of a phantom must give the raw path's
+// mesh bit for bit (voxel space), geometry must land where the header says, and bad files must
+// fail with one clear message.
+#include <gtest/gtest.h>
+#include <zlib.h>
+
+#include <OpenImageIO/imageio.h>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "extract/frame.h"
+#include "io/error.h"
+#include "io/open_source.h"
+#include "io/phantom.h"
+#include "io/volume_writer.h"
+#include "stream/pipeline.h"
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+
+namespace isoslab {
+namespace {
+
+constexpr std::array<std::int64_t, 3> kDims{22, 20, 18};
+
+std::string phantomFor(VoxelType t) {
+  // 8-bit types hold the binary sphere; wider ones the distance field (values up to 1000).
+  const bool narrow = t == VoxelType::kU8 || t == VoxelType::kI8;
+  return fmt::format("phantom:sphere?n=22,20,18&r=6.3&field={}&type={}", narrow ? "binary" : "distance",
+                     voxelTypeName(t));
+}
+
+double isoFor(VoxelType t) {
+  return (t == VoxelType::kU8 || t == VoxelType::kI8) ? 50.0 : 937.0;
+}
+
+IndexedMesh voxelMesh(SliceSource& source, double iso) {
+  ExtractOptions o;
+  o.iso = iso;
+  auto ex = makeExtractor(o, source.info(), LatticeFrame::voxel());
+  MemoryMeshSink sink;
+  runPipeline(source, *ex, sink, MeshHeader{});
+  return sink.mesh();
+}
+
+IndexedMesh reference(VoxelType t) {
+  auto p = PhantomSource::open(phantomFor(t));
+  return voxelMesh(*p, isoFor(t));
+}
+
+IndexedMesh fromFile(const std::string& path, double iso, std::vector<std::string>* notes = nullptr) {
+  auto s = openSource(path, {}, notes);
+  return voxelMesh(*s, iso);
+}
+
+// The phantom's voxels of type t in the given byte order.
+std::vector<char> voxels(VoxelType t, ByteOrder order) {
+  auto p = PhantomSource::open(phantomFor(t));
+  std::vector<float> slice(static_cast<std::size_t>(kDims[0] * kDims[1]));
+  std::vector<std::byte> bytes(slice.size() * voxelSize(t));
+  std::vector<char> all;
+  while (p->readSlice(slice)) {
+    convertFromFloat(slice, t, bytes);
+    if (order != hostByteOrder()) {
+      for (std::size_t i = 0; i < bytes.size(); i += voxelSize(t))
+        std::reverse(bytes.begin() + static_cast<std::ptrdiff_t>(i),
+                     bytes.begin() + static_cast<std::ptrdiff_t>(i + voxelSize(t)));
+    }
+    all.insert(all.end(), reinterpret_cast<char*>(bytes.data()), reinterpret_cast<char*>(bytes.data() + bytes.size()));
+  }
+  return all;
+}
+
+std::vector<char> gzipped(const std::vector<char>& data, int windowBits = 15 + 16) {
+  z_stream z{};
+  deflateInit2(&z, 6, Z_DEFLATED, windowBits, 8, Z_DEFAULT_STRATEGY);
+  std::vector<char> out(deflateBound(&z, data.size()) + 64);
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
+  z.avail_in = static_cast<uInt>(data.size());
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = static_cast<uInt>(out.size());
+  deflate(&z, Z_FINISH);
+  out.resize(out.size() - z.avail_out);
+  deflateEnd(&z);
+  return out;
+}
+
+void writeFile(const std::string& path, const std::string& head, const std::vector<char>& data = {}) {
+  std::ofstream f(path, std::ios::binary);
+  f << head;
+  f.write(data.data(), static_cast<std::streamsize>(data.size()));
+}
+
+const VoxelType kTypes[] = {VoxelType::kU8,  VoxelType::kI8,  VoxelType::kU16, VoxelType::kI16,
+                            VoxelType::kU32, VoxelType::kI32, VoxelType::kF32, VoxelType::kF64};
+
+TEST(VolumeFormats, EveryTypeOrderAndCompressionThroughTheWriters) {
+  const std::string dir = testing::tempDir();
+  for (VoxelType t : kTypes) {
+    const IndexedMesh want = reference(t);
+    ASSERT_GT(want.triangles.size(), 100u);
+    for (const char* ext : {".nii", ".nii.gz", ".nrrd", ".mha"}) {
+      for (bool compress : {false, true}) {
+        for (ByteOrder order : {ByteOrder::kLittle, ByteOrder::kBig}) {
+          auto p = PhantomSource::open(phantomFor(t));
+          VolumeWriteOptions w;
+          w.type = t;
+          w.compress = compress;
+          w.byteOrder = order;
+          const std::string path = dir + "/v" + ext;
+          writeVolume(*p, path, w);
+          EXPECT_TRUE(fromFile(path, isoFor(t)) == want) << voxelTypeName(t) << ext << " compress " << compress;
+        }
+      }
+    }
+  }
+}
+
+TEST(VolumeFormats, DetachedListAndPatternData) {
+  const std::string dir = testing::tempDir();
+  const VoxelType t = VoxelType::kI16;
+  const IndexedMesh want = reference(t);
+  const auto big = voxels(t, ByteOrder::kBig);
+  const auto little = voxels(t, ByteOrder::kLittle);
+  const std::string sizes = fmt::format("{} {} {}", kDims[0], kDims[1], kDims[2]);
+  // NRRD .nhdr with a detached gzip file, big-endian.
+  writeFile(dir + "/d.raw.gz", "", gzipped(big));
+  writeFile(dir + "/d.nhdr", "NRRD0004\ntype: short\ndimension: 3\nsizes: " + sizes +
+                                 "\nendian: big\nencoding: gzip\nspacings: 1 1 1\ndata file: d.raw.gz\n");
+  EXPECT_TRUE(fromFile(dir + "/d.nhdr", 937) == want);
+  // NRRD with one file per slice: LIST and a pattern.
+  const std::size_t slice = little.size() / static_cast<std::size_t>(kDims[2]);
+  std::string list;
+  for (int k = 0; k < kDims[2]; ++k) {
+    writeFile(fmt::format("{}/s{:02d}.raw", dir, k), "",
+              std::vector<char>(little.begin() + static_cast<std::ptrdiff_t>(slice * static_cast<std::size_t>(k)),
+                                little.begin() + static_cast<std::ptrdiff_t>(slice * static_cast<std::size_t>(k + 1))));
+    list += fmt::format("s{:02d}.raw\n", k);
+  }
+  writeFile(dir + "/list.nhdr", "NRRD0004\ntype: int16\ndimension: 3\nsizes: " + sizes +
+                                    "\nendian: little\nencoding: raw\ndata file: LIST\n" + list);
+  EXPECT_TRUE(fromFile(dir + "/list.nhdr", 937) == want);
+  writeFile(dir + "/pattern.nhdr", "NRRD0004\ntype: int16\ndimension: 3\nsizes: " + sizes +
+                                       "\nendian: little\nencoding: raw\ndata file: s%02d.raw 0 17 1\n");
+  EXPECT_TRUE(fromFile(dir + "/pattern.nhdr", 937) == want);
+  // MetaImage: .mhd with a detached zlib file, LIST and pattern.
+  writeFile(dir + "/d.zraw", "", gzipped(big, 15));
+  writeFile(
+      dir + "/d.mhd",
+      "ObjectType = Image\nNDims = 3\nDimSize = " + sizes +
+          "\nElementType = MET_SHORT\nElementByteOrderMSB = True\nCompressedData = True\nElementDataFile = d.zraw\n");
+  EXPECT_TRUE(fromFile(dir + "/d.mhd", 937) == want);
+  writeFile(dir + "/list.mhd", "ObjectType = Image\nNDims = 3\nDimSize = " + sizes +
+                                   "\nElementType = MET_SHORT\nElementDataFile = LIST\n" + list);
+  EXPECT_TRUE(fromFile(dir + "/list.mhd", 937) == want);
+  writeFile(dir + "/pattern.mhd", "ObjectType = Image\nNDims = 3\nDimSize = " + sizes +
+                                      "\nElementType = MET_SHORT\nElementDataFile = s%02d.raw 0 17 1\n");
+  EXPECT_TRUE(fromFile(dir + "/pattern.mhd", 937) == want);
+}
+
+// A NIfTI-2 header for the phantom's int16 voxels: pixdim spacing, optional qform and sform.
+std::string nifti2(double qb, double qc, double qd, std::array<double, 3> qoffset, int qcode,
+                   const std::array<std::array<double, 4>, 3>& srow, int scode) {
+  std::string h(544, '\0');
+  auto put = [&h](std::size_t at, auto v) { std::memcpy(h.data() + at, &v, sizeof v); };
+  put(0, std::int32_t{540});
+  std::memcpy(h.data() + 4, "n+2\0\r\n\032\n", 8);
+  put(12, std::int16_t{4});
+  put(14, std::int16_t{16});
+  put(16, std::int64_t{3});
+  for (std::size_t a = 0; a < 3; ++a) put(24 + 8 * a, static_cast<std::int64_t>(kDims[a]));
+  put(104, 1.0);
+  put(112, 0.8);
+  put(120, 0.9);
+  put(128, 1.5);
+  put(168, std::int64_t{544});
+  put(176, 2.0);   // scl_slope
+  put(184, -5.0);  // scl_inter
+  put(344, std::int32_t{qcode});
+  put(348, std::int32_t{scode});
+  put(352, qb);
+  put(360, qc);
+  put(368, qd);
+  for (std::size_t a = 0; a < 3; ++a) put(376 + 8 * a, qoffset[a]);
+  for (std::size_t r = 0; r < 3; ++r) {
+    for (std::size_t c = 0; c < 4; ++c) put(400 + 32 * r + 8 * c, srow[r][c]);
+  }
+  return h;
+}
+
+TEST(VolumeFormats, Nifti2ScalingAndTheQformSformPrecedence) {
+  const std::string dir = testing::tempDir();
+  // Stored values s give s * 2 - 5; the phantom's values v are stored as (v + 5) / 2 for even v.
+  auto p = PhantomSource::open("phantom:head?n=22,20,18&noise=0");
+  std::vector<float> slice(static_cast<std::size_t>(kDims[0] * kDims[1]));
+  std::vector<char> data;
+  std::vector<float> expected;
+  while (p->readSlice(slice)) {
+    for (float v : slice) {
+      const auto s = static_cast<std::int16_t>(std::lround((static_cast<double>(v) + 5) / 2));
+      data.insert(data.end(), reinterpret_cast<const char*>(&s), reinterpret_cast<const char*>(&s) + 2);
+      expected.push_back(static_cast<float>(s * 2.0 - 5.0));
+    }
+  }
+  const std::array<std::array<double, 4>, 3> sform{{{0, -0.9, 0, 10}, {0.8, 0, 0, 20}, {0, 0, 1.5, 30}}};
+  const std::array<std::array<double, 4>, 3> none{};
+  // 90 degrees about z: quaternion (cos 45, 0, 0, sin 45).
+  const double s45 = std::sqrt(0.5);
+  writeFile(dir + "/s.nii", nifti2(0, 0, s45, {1, 2, 3}, 1, sform, 1), data);
+  writeFile(dir + "/q.nii", nifti2(0, 0, s45, {1, 2, 3}, 1, none, 0), data);
+  for (const char* name : {"/s.nii", "/q.nii"}) {
+    auto source = openSource(dir + name, {});
+    EXPECT_EQ(source->info().reader, "nifti2");
+    std::vector<float> got(slice.size());
+    ASSERT_TRUE(source->readSlice(got));
+    EXPECT_TRUE(std::equal(got.begin(), got.end(), expected.begin())) << name;
+    const LatticeFrame frame = LatticeFrame::physical(source->info());
+    // Lattice point (i, j, k) in RAS from the header, then to LPS.
+    for (const std::array<double, 3>& ijk : {std::array<double, 3>{0, 0, 0}, {3, 5, 7}, {21, 19, 17}}) {
+      const auto lps = frame.map(ijk[0], ijk[1], ijk[2]);
+      std::array<double, 3> ras{};
+      if (std::string(name) == "/s.nii") {
+        for (std::size_t r = 0; r < 3; ++r)
+          ras[r] = sform[r][0] * ijk[0] + sform[r][1] * ijk[1] + sform[r][2] * ijk[2] + sform[r][3];
+      } else {
+        ras = {1 - 0.9 * ijk[1], 2 + 0.8 * ijk[0], 3 + 1.5 * ijk[2]};  // R(90 about z) * diag(0.8, 0.9, 1.5)
+      }
+      EXPECT_NEAR(lps[0], -ras[0], 1e-9) << name;
+      EXPECT_NEAR(lps[1], -ras[1], 1e-9) << name;
+      EXPECT_NEAR(lps[2], ras[2], 1e-9) << name;
+    }
+  }
+}
+
+TEST(VolumeFormats, NrrdDirectionsAndOriginPlaceTheVertices) {
+  const std::string dir = testing::tempDir();
+  const auto data = voxels(VoxelType::kI16, ByteOrder::kLittle);
+  const std::string sizes = fmt::format("{} {} {}", kDims[0], kDims[1], kDims[2]);
+  writeFile(dir + "/r.nrrd",
+            "NRRD0004\ntype: short\ndimension: 3\nsizes: " + sizes +
+                "\nspace: left-posterior-superior\nspace directions: (0,0.5,0) (-0.7,0,0) (0,0.2,1.1)\n"
+                "space origin: (5,-6,7.5)\nendian: little\nencoding: raw\n\n",
+            data);
+  auto source = openSource(dir + "/r.nrrd", {});
+  const testing::Extraction x = testing::extract(*source, Method::kMarchingCubes, 937);
+  const IndexedMesh voxel = reference(VoxelType::kI16);
+  ASSERT_EQ(x.mesh.positions.size(), voxel.positions.size());
+  double worst = 0;
+  for (std::size_t v = 0; v < voxel.positions.size(); ++v) {
+    const Vec3f& q = voxel.positions[v];
+    const double want[3] = {5 - 0.7 * q.y, -6 + 0.5 * q.x + 0.2 * q.z, 7.5 + 1.1 * q.z};
+    const Vec3f& p = x.mesh.positions[v];
+    worst = std::max({worst, std::abs(p.x - want[0]), std::abs(p.y - want[1]), std::abs(p.z - want[2])});
+  }
+  EXPECT_LT(worst, 1e-5);  // float32 output
+  EXPECT_EQ(source->info().frame, "lps");
+}
+
+// Image stacks written with OpenImageIO.
+void writeImages(const std::string& dir, const std::string& pattern, OIIO::TypeDesc type, int channels,
+                 bool multipage) {
+  auto p = PhantomSource::open(phantomFor(VoxelType::kU16));
+  std::vector<float> slice(static_cast<std::size_t>(kDims[0] * kDims[1]));
+  std::unique_ptr<OIIO::ImageOutput> out;
+  for (int k = 0; p->readSlice(slice); ++k) {
+    std::vector<std::uint16_t> px;
+    for (float v : slice) {
+      for (int c = 0; c < channels; ++c) px.push_back(static_cast<std::uint16_t>(std::lround(v)));
+    }
+    OIIO::ImageSpec spec(static_cast<int>(kDims[0]), static_cast<int>(kDims[1]), channels, type);
+    const std::string path = multipage ? dir + "/" + pattern : dir + "/" + fmt::format(fmt::runtime(pattern), k);
+    if (!multipage || k == 0) {
+      out = OIIO::ImageOutput::create(path);
+      ASSERT_TRUE(out && out->open(path, spec)) << OIIO::geterror();
+    } else {
+      ASSERT_TRUE(out->open(path, spec, OIIO::ImageOutput::AppendSubimage)) << out->geterror();
+    }
+    if (type == OIIO::TypeDesc::FLOAT) {
+      // Float pixels are written as the values themselves (integers would be normalised).
+      std::vector<float> f(px.begin(), px.end());
+      ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, f.data()));
+    } else {
+      ASSERT_TRUE(out->write_image(OIIO::TypeDesc::UINT16, px.data()));
+    }
+    if (!multipage) out->close();
+  }
+  if (multipage) out->close();
+}
+
+TEST(ImageStacks, TiffPngMultiPageAndColourGiveTheRawMesh) {
+  const IndexedMesh want = reference(VoxelType::kU16);
+  struct Case {
+    const char* pattern;
+    OIIO::TypeDesc type;
+    int channels;
+    bool multipage;
+    const char* input;
+  };
+  const Case cases[] = {{"slice{:03d}.tif", OIIO::TypeDesc::UINT16, 1, false, ""},
+                        {"slice{:03d}.png", OIIO::TypeDesc::UINT16, 1, false, "slice%03d.png"},
+                        {"grey{:03d}.png", OIIO::TypeDesc::UINT16, 3, false, "grey*.png"},
+                        {"stack.tif", OIIO::TypeDesc::UINT16, 1, true, "stack.tif"},
+                        {"float{:02d}.tif", OIIO::TypeDesc::FLOAT, 1, false, ""}};
+  for (const Case& c : cases) {
+    const std::string dir = testing::tempDir();
+    writeImages(dir, c.pattern, c.type, c.channels, c.multipage);
+    const std::string input = std::string(c.input).empty() ? dir : dir + "/" + c.input;
+    std::vector<std::string> notes;
+    EXPECT_TRUE(fromFile(input, 937, &notes) == want) << c.pattern;
+    ASSERT_FALSE(notes.empty());
+    EXPECT_EQ(notes.front().rfind("image stack of 18 slices, 22x20", 0), 0u) << notes.front();
+  }
+}
+
+std::string openError(const std::string& input) {
+  try {
+    fromFile(input, 1);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(VolumeFormats, BadFilesGiveOneClearMessage) {
+  const std::string dir = testing::tempDir();
+  auto p = PhantomSource::open(phantomFor(VoxelType::kI16));
+  VolumeWriteOptions w;
+  w.type = VoxelType::kI16;
+  writeVolume(*p, dir + "/t.nii.gz", w);
+  fs::resize_file(dir + "/t.nii.gz", fs::file_size(dir + "/t.nii.gz") / 2);
+  EXPECT_EQ(openError(dir + "/t.nii.gz").rfind(dir + "/t.nii.gz: the compressed data is truncated after ", 0), 0u)
+      << openError(dir + "/t.nii.gz");
+  const auto data = voxels(VoxelType::kI16, ByteOrder::kLittle);
+  const std::string sizes = fmt::format("{} {} {}", kDims[0], kDims[1], kDims[2]);
+  writeFile(dir + "/short.raw", "", std::vector<char>(data.begin(), data.begin() + 1000));
+  writeFile(dir + "/short.nhdr", "NRRD0004\ntype: short\ndimension: 3\nsizes: " + sizes +
+                                     "\nendian: little\nencoding: raw\ndata file: short.raw\n");
+  EXPECT_EQ(openError(dir + "/short.nhdr"),
+            dir + "/short.raw: holds 1000 bytes, but dims 22x20x18 of i16 after a 0-byte header need 15840");
+  writeFile(dir + "/bz.nrrd", "NRRD0004\ntype: short\ndimension: 3\nsizes: " + sizes + "\nencoding: bzip2\n\n");
+  EXPECT_EQ(openError(dir + "/bz.nrrd"), dir + "/bz.nrrd: NRRD encoding 'bzip2' is not supported (raw or gzip)");
+  writeFile(dir + "/bad.nii", std::string(400, '\x07'));
+  EXPECT_EQ(openError(dir + "/bad.nii"),
+            dir + "/bad.nii: not a NIfTI file: sizeof_hdr is 117901063, not 348 (NIfTI-1) or 540 (NIfTI-2)");
+  EXPECT_EQ(openError(dir + "/none%03d.png"),
+            dir + "/none%03d.png: the pattern matches no file (tried indices 0 and 1)");
+  EXPECT_EQ(openError(dir + "/none*.png"), dir + "/none*.png: the pattern matches no file");
+  // One slice of another size.
+  const std::string stack = testing::tempDir();
+  writeImages(stack, "s{:02d}.png", OIIO::TypeDesc::UINT16, 1, false);
+  {
+    OIIO::ImageSpec spec(8, 8, 1, OIIO::TypeDesc::UINT16);
+    std::vector<std::uint16_t> px(64, 0);
+    auto out = OIIO::ImageOutput::create(stack + "/s05.png");
+    out->open(stack + "/s05.png", spec);
+    out->write_image(OIIO::TypeDesc::UINT16, px.data());
+    out->close();
+  }
+  EXPECT_EQ(openError(stack),
+            stack + "/s05.png: 8x8 with 1 channels, but " + stack + "/s00.png is 22x20 with 1 channels");
+}
+
+TEST(ImageStacks, RealPaletteTiffStackMatchesTheRawHead) {
+  const std::string tiff = testing::sharedData("cthead8-tiff");
+  const std::string raw = testing::sharedData("cthead");
+  if (tiff.empty() || raw.empty()) GTEST_SKIP() << "../shared/data/cthead8-tiff or cthead is absent";
+  SourceOptions t;
+  t.spacing = std::array<double, 3>{1, 1, 2};
+  auto stack = openSource(tiff, t);
+  EXPECT_EQ(stack->info().dims, (std::array<std::int64_t, 3>{256, 256, 99}));
+  const testing::Extraction a = testing::extract(*stack, Method::kMarchingCubes, 40);
+  EXPECT_GT(a.stats.triangles, 300000u);
+  EXPECT_EQ(a.stats.interiorBoundaryEdges, 0u);
+  SourceOptions r;
+  r.raw = RawOptions{};
+  r.raw->dims = {256, 256, 0};
+  r.raw->type = VoxelType::kU16;
+  r.raw->byteOrder = ByteOrder::kBig;
+  r.raw->spacing = {1, 1, 2};
+  auto slices = openSource(raw, r);
+  // The stack is requantised to 8 bits (x 255 / 3272): iso 40 there is about 513 here.
+  const testing::Extraction b = testing::extract(*slices, Method::kMarchingCubes, 513);
+  for (int axis : {0, 1, 3, 4}) {
+    EXPECT_NEAR(a.stats.bounds[static_cast<std::size_t>(axis)], b.stats.bounds[static_cast<std::size_t>(axis)], 2.0)
+        << axis;
+  }
+  EXPECT_NEAR(a.stats.bounds[2], b.stats.bounds[2], 2.0 * 2);
+}
+
+}  // namespace
+}  // namespace isoslab
