@@ -7,11 +7,13 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev
   libdcmtk-dev libopenjp2-7-dev libdraco-dev libeigen3-dev draco
-  python3-matplotlib
+  python3-matplotlib libopenimageio-dev
 )
 # Node.js runs the real glTF clients in the tests; use the machine's own when it has one.
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
 command -v npm >/dev/null 2>&1 || packages+=(npm)
+# A real MRI brain template for the demo (scripts/demo.sh falls back to a phantom without it).
+packages+=(mricron-data)
 
 missing=()
 for p in "${packages[@]}"; do
