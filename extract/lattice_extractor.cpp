@@ -117,8 +117,51 @@ class LatticeExtractor final : public Extractor {
     const float* s0 = slices_[1];
     const float* s1 = slices_[2];
     const double iso = options_.iso;
+    // Flying-edges-style trimming (not for bcc12, whose tetrahedra reach into the next cells):
+    // classify the rows of both slices once, then visit only the cells of a row where some of its
+    // four voxel rows change state, or where their constant states differ.
+    const bool trim = !needsCentres_;
+    if (trim) {
+      if (z_ == 0) classifyRows(s0, rows_[0]);
+      classifyRows(s1, rows_[1]);
+    }
+    const std::int64_t cellsPerRow = nx_ - 1;
     for (std::int64_t j = 0; j + 1 < ny_; ++j) {
-      for (std::int64_t i = 0; i + 1 < nx_; ++i) {
+      std::int64_t begin = 0;
+      std::int64_t end = cellsPerRow;
+      if (trim) {
+        const RowState* r[4] = {&rows_[0][static_cast<std::size_t>(j)], &rows_[0][static_cast<std::size_t>(j + 1)],
+                                &rows_[1][static_cast<std::size_t>(j)], &rows_[1][static_cast<std::size_t>(j + 1)]};
+        std::int64_t firstChange = cellsPerRow;
+        std::int64_t lastChange = -1;
+        bool leftSame = true;
+        bool rightSame = true;
+        for (const RowState* row : r) {
+          if (row->first >= 0) {
+            firstChange = std::min(firstChange, row->first - 1);
+            lastChange = std::max(lastChange, row->last - 1);
+          }
+          leftSame = leftSame && row->left == r[0]->left;
+          rightSame = rightSame && row->right == r[0]->right;
+        }
+        if (lastChange < 0) {
+          // No row changes: the whole cell row is uniform if the four states agree.
+          if (leftSame) {
+            if (r[0]->left && scheme_) insideVolume += static_cast<double>(cellsPerRow);
+            continue;
+          }
+        } else {
+          if (leftSame) {
+            begin = firstChange;
+            if (r[0]->left && scheme_) insideVolume += static_cast<double>(begin);
+          }
+          if (rightSame) {
+            end = lastChange + 1;
+            if (r[0]->right && scheme_) insideVolume += static_cast<double>(cellsPerRow - end);
+          }
+        }
+      }
+      for (std::int64_t i = begin; i < end; ++i) {
         const std::int64_t p = j * nx_ + i;
         value_[0] = s0[p];
         value_[1] = s0[p + 1];
@@ -145,6 +188,7 @@ class LatticeExtractor final : public Extractor {
     std::swap(touched_[0], touched_[2]);
     clearPlane(1);
     if (needsCentres_) std::swap(centres_[0], centres_[1]);
+    if (trim) std::swap(rows_[0], rows_[1]);
   }
 
  private:
@@ -174,6 +218,39 @@ class LatticeExtractor final : public Extractor {
     auto& plane = planes_[static_cast<std::size_t>(p)];
     for (std::int64_t slot : touched_[static_cast<std::size_t>(p)]) plane[static_cast<std::size_t>(slot)] = kNoVertex;
     touched_[static_cast<std::size_t>(p)].clear();
+  }
+
+  // Where a voxel row changes between inside and outside: the first and last index i >= 1 whose
+  // state differs from voxel i-1 (-1 when the row is uniform), and the states at both ends.
+  struct RowState {
+    std::int64_t first = -1;
+    std::int64_t last = -1;
+    bool left = false;
+    bool right = false;
+  };
+
+  void classifyRows(const float* slice, std::vector<RowState>& rows) const noexcept {
+    rows.resize(static_cast<std::size_t>(ny_));
+    const float iso = static_cast<float>(options_.iso);
+    const bool exact = static_cast<double>(iso) == options_.iso;
+    for (std::int64_t j = 0; j < ny_; ++j) {
+      const float* v = slice + j * nx_;
+      RowState& r = rows[static_cast<std::size_t>(j)];
+      auto inside = [&](std::int64_t i) { return exact ? v[i] >= iso : static_cast<double>(v[i]) >= options_.iso; };
+      r.left = inside(0);
+      r.right = inside(nx_ - 1);
+      r.first = -1;
+      r.last = -1;
+      bool previous = r.left;
+      for (std::int64_t i = 1; i < nx_; ++i) {
+        const bool state = inside(i);
+        if (state != previous) {
+          if (r.first < 0) r.first = i;
+          r.last = i;
+          previous = state;
+        }
+      }
+    }
   }
 
   // Cube-centre values of slab z_ + which: the mean of each cell's eight corners.
@@ -392,6 +469,7 @@ class LatticeExtractor final : public Extractor {
   std::array<std::vector<VertexId>, 3> planes_;
   std::array<std::vector<std::int64_t>, 3> touched_;
   std::array<std::vector<float>, 2> centres_;
+  std::array<std::vector<RowState>, 2> rows_;
   bool needsCentres_ = false;
   bool flip_ = false;
   double cellVolume_ = 1;
