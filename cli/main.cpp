@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "cli/compare.h"
@@ -167,6 +168,7 @@ struct ExtractArgs {
   std::string report;
   bool quiet = false;
   std::string sphere;
+  int threads = 0;
   int dracoLevel = 7;
   int quantBits = 0;
   std::int64_t chunkTriangles = 1 << 19;
@@ -224,6 +226,8 @@ int runExtract(const ExtractArgs& args) {
   TeeSink tee(sinks);
   PipelineOptions pipelineOptions;
   pipelineOptions.progress = !args.quiet;
+  pipelineOptions.threads =
+      args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const PipelineResult run = runPipeline(*source, *extractor, tee, header, pipelineOptions);
   const MeshStats& s = stats.stats();
 
@@ -454,6 +458,9 @@ int main(int argc, char** argv) {
   extract->add_flag("--normals", ex.normals, "Write vertex normals from the field's gradient (PLY)");
   extract->add_option("--report", ex.report, "Write a JSON report of the run");
   extract->add_flag("-q,--quiet", ex.quiet, "No progress line and no summary on stderr");
+  extract->add_option("--threads", ex.threads,
+                      "Threads: 2 or more read, extract and write concurrently (default: the core count); the output "
+                      "is the same for every count");
   extract->add_option("--draco-level", ex.dracoLevel, "Draco (.glb, .drc): 0 fastest .. 10 smallest")
       ->capture_default_str()
       ->group("Draco output");

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -150,6 +152,30 @@ TEST(Cli, DicomFolderChoosesTheLargestSeriesAndSaysSo) {
   EXPECT_EQ(strict.exitCode, 1);
   EXPECT_EQ(strict.err.rfind("isoslab: error: series 1.2.826.0.1.3680043.9.4245.", 0), 0u) << strict.err;
   EXPECT_FALSE(fs::exists(out + "/x.ply"));
+}
+
+TEST(Cli, OutputBytesAreTheSameForEveryThreadCount) {
+  const std::string dir = testing::tempDir();
+  for (const char* method : {"mc", "mt5", "mt6", "bcc12"}) {
+    for (const char* ext : {"ply", "glb"}) {
+      std::string first;
+      for (int threads : {1, 2, 4}) {
+        const std::string out = fmt::format("{}/t{}.{}", dir, threads, ext);
+        const auto r =
+            testing::runCli(fmt::format("extract 'phantom:head?n=48,44,40&noise=60' --iso 0 --normals -q "
+                                        "--chunk-triangles 3000 --method {} --threads {} -o {}",
+                                        method, threads, out));
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        const std::string bytes = slurp(out);
+        EXPECT_GT(bytes.size(), 10000u);
+        if (threads == 1) {
+          first = bytes;
+        } else {
+          EXPECT_TRUE(bytes == first) << method << " " << ext << " threads " << threads;
+        }
+      }
+    }
+  }
 }
 
 TEST(Cli, InfoPrintsGeometryAndRange) {

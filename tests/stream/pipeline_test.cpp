@@ -78,16 +78,42 @@ class ShortSource final : public SliceSource {
 };
 
 TEST(Pipeline, ASourceThatEndsEarlyIsAnError) {
-  ShortSource source;
-  ExtractOptions o;
-  auto ex = makeExtractor(o, source.info(), LatticeFrame::voxel());
-  MemoryMeshSink sink;
-  try {
-    runPipeline(source, *ex, sink, MeshHeader{});
-    FAIL() << "no error";
-  } catch (const Error& e) {
-    EXPECT_STREQ(e.what(), "short: the data ended after 3 of 10 slices");
+  for (int threads : {1, 3}) {
+    ShortSource source;
+    ExtractOptions o;
+    auto ex = makeExtractor(o, source.info(), LatticeFrame::voxel());
+    MemoryMeshSink sink;
+    PipelineOptions p;
+    p.threads = threads;
+    try {
+      runPipeline(source, *ex, sink, MeshHeader{}, p);
+      FAIL() << "no error";
+    } catch (const Error& e) {
+      EXPECT_STREQ(e.what(), "short: the data ended after 3 of 10 slices");
+    }
   }
+}
+
+TEST(Pipeline, ThreadsDeliverTheSameChunks) {
+  std::vector<IndexedMesh> meshes;
+  for (int threads : {1, 2, 4}) {
+    testing::VectorSource source({19, 17, 23}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
+      return static_cast<float>((i * 31 + j * 17 + k * 7) % 13);
+    });
+    ExtractOptions o;
+    o.method = Method::kBcc12;
+    o.iso = 6;
+    o.normals = true;
+    auto ex = makeExtractor(o, source.info(), LatticeFrame::physical(source.info()));
+    MemoryMeshSink sink;
+    PipelineOptions p;
+    p.threads = threads;
+    runPipeline(source, *ex, sink, MeshHeader{}, p);
+    meshes.push_back(sink.mesh());
+  }
+  EXPECT_GT(meshes[0].triangles.size(), 1000u);
+  EXPECT_TRUE(meshes[0] == meshes[1]);
+  EXPECT_TRUE(meshes[0] == meshes[2]);
 }
 
 }  // namespace

@@ -1,0 +1,167 @@
+#!/usr/bin/python3
+"""isoslab against its peers on the same volumes and iso values, medians of several runs.
+
+Peers (Debian packages, run with /usr/bin/python3): VTK 9.1's vtkFlyingEdges3D and
+vtkMarchingCubes (python3-vtk9) and scikit-image's marching_cubes (python3-skimage).
+- "extract" times: the volume already in memory; for isoslab, the report's extraction seconds
+  (its slices are streamed, so reading is excluded by timing only the extractor).
+- "end to end": file in, binary PLY out. VTK's is its NIfTI reader + vtkFlyingEdges3D +
+  vtkPLYWriter in a fresh process; isoslab's is `isoslab extract` (which also measures the mesh).
+- peak RSS: the process's maximum resident set size.
+
+Usage: bench/peers.py [BUILD_DIR] [--runs N] [--quick]   (prints a Markdown table)
+"""
+import gzip
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+BUILD = next((a for a in sys.argv[1:] if not a.startswith("--")), "build")
+RUNS = int(sys.argv[sys.argv.index("--runs") + 1]) if "--runs" in sys.argv else 3
+ISOSLAB = os.path.join(BUILD, "cli", "isoslab")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TMP = tempfile.mkdtemp(prefix="isoslab-peers-")
+
+
+def nifti(path):
+    """The voxels of a NIfTI-1 file (.nii or .nii.gz) as a numpy array indexed [z, y, x]."""
+    data = (gzip.open if path.endswith(".gz") else open)(path, "rb").read()
+    dims = np.frombuffer(data, "<i2", 8, 40)
+    dtype = {2: "<u1", 4: "<i2", 8: "<i4", 16: "<f4", 64: "<f8", 256: "i1", 512: "<u2", 768: "<u4"}[int(np.frombuffer(data, "<i2", 1, 70)[0])]
+    offset = int(np.frombuffer(data, "<f4", 1, 108)[0])
+    nx, ny, nz = (int(d) for d in dims[1:4])
+    return np.frombuffer(data, dtype, nx * ny * nz, offset).reshape(nz, ny, nx)
+
+
+def volumes():
+    """(name, .nii path for isoslab and VTK's reader, iso)."""
+    out = []
+    brain = "/usr/share/mricron/templates/ch2better.nii.gz"
+    if os.path.exists(brain):
+        plain = os.path.join(TMP, "brain.nii")
+        open(plain, "wb").write(gzip.open(brain).read())
+        out.append(("MRI brain 301x370x316 u8", plain, 50.0))
+    phantom = os.path.join(TMP, "phantom.nii")
+    subprocess.run([ISOSLAB, "phantom", "phantom:head?n=512,512,256", "-o", phantom], check=True, stdout=subprocess.DEVNULL)
+    out.append(("head phantom 512x512x256 i16", phantom, 300.0))
+    engine = os.path.join(ROOT, "..", "shared", "data", "engine", "engine_256x256x128_uint8.raw.gz")
+    if os.path.exists(engine):
+        path = os.path.join(TMP, "engine.nii")
+        # Wrap the raw engine in a NIfTI-1 header through isoslab's own raw reader and writer.
+        write_nifti_from_raw(engine, (256, 256, 128), path)
+        out.append(("engine CT 256x256x128 u8", path, 90.0))
+    return out
+
+
+def write_nifti_from_raw(raw_gz, dims, path):
+    data = gzip.open(raw_gz).read()
+    header = bytearray(352)
+    header[0:4] = np.int32(348).tobytes()
+    header[40:56] = np.array([3, dims[0], dims[1], dims[2], 1, 1, 1, 1], "<i2").tobytes()
+    header[70:72] = np.int16(2).tobytes()
+    header[72:74] = np.int16(8).tobytes()
+    header[76:108] = np.array([1, 1, 1, 1, 1, 1, 1, 1], "<f4").tobytes()
+    header[108:112] = np.float32(352).tobytes()
+    header[344:348] = b"n+1\0"
+    open(path, "wb").write(bytes(header) + data)
+
+
+def median_time(fn, runs=RUNS):
+    times = []
+    result = None
+    for _ in range(runs):
+        t = time.perf_counter()
+        result = fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times), result
+
+
+def run_isoslab(path, iso, threads=None):
+    report = os.path.join(TMP, "r.json")
+    cmd = [ISOSLAB, "extract", path, "--iso", str(iso), "-q", "-o", os.path.join(TMP, "iso.ply"), "--report", report]
+    if threads:
+        cmd += ["--threads", str(threads)]
+    extract, total, rss, tris = [], [], [], 0
+    for _ in range(RUNS):
+        subprocess.run(cmd, check=True)
+        r = json.load(open(report))
+        extract.append(r["seconds"]["extract"])
+        total.append(r["seconds"]["total"])
+        rss.append(r["peak_rss_mib"])
+        tris = r["triangles"]
+    return statistics.median(extract), statistics.median(total), max(rss), tris
+
+
+VTK_E2E = r"""
+import resource, sys, time, vtk
+t = time.perf_counter()
+r = vtk.vtkNIFTIImageReader(); r.SetFileName(sys.argv[1])
+fe = vtk.vtkFlyingEdges3D(); fe.SetInputConnection(r.GetOutputPort()); fe.SetValue(0, float(sys.argv[2]))
+w = vtk.vtkPLYWriter(); w.SetInputConnection(fe.GetOutputPort()); w.SetFileName(sys.argv[3]); w.SetFileTypeToBinary(); w.Write()
+print(time.perf_counter() - t, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+"""
+
+
+def main():
+    import vtk
+    from vtk.util import numpy_support
+    try:
+        from skimage.measure import marching_cubes
+    except ImportError:
+        marching_cubes = None
+    print("| volume | tool | threads | extract s | Mvox/s | end-to-end s | triangles | peak RSS MiB |")
+    print("|---|---|---|---|---|---|---|---|")
+    ratios = []
+    for name, path, iso in volumes():
+        vol = nifti(path)
+        voxels = vol.size
+        image = vtk.vtkImageData()
+        image.SetDimensions(vol.shape[2], vol.shape[1], vol.shape[0])
+        image.GetPointData().SetScalars(numpy_support.numpy_to_vtk(vol.ravel(), deep=True))
+        rows = {}
+        for threads in (1, 2):
+            vtk.vtkSMPTools.Initialize(threads)
+            fe = vtk.vtkFlyingEdges3D()
+            fe.SetInputData(image)
+            fe.SetValue(0, iso)
+            fe.ComputeNormalsOff()
+            fe.ComputeGradientsOff()
+            fe.ComputeScalarsOff()
+            t, _ = median_time(lambda: (fe.Modified(), fe.Update()))
+            tris = fe.GetOutput().GetNumberOfCells()
+            e2e = []
+            rss = 0
+            for _ in range(RUNS):
+                out = subprocess.run(["/usr/bin/python3", "-c", VTK_E2E, path, str(iso), os.path.join(TMP, "vtk.ply")],
+                                     check=True, capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": str(threads)}).stdout.split()
+                e2e.append(float(out[0]))
+                rss = max(rss, float(out[1]))
+            rows[("fe", threads)] = t
+            print(f"| {name} | vtkFlyingEdges3D | {threads} | {t:.3f} | {voxels / t / 1e6:.0f} | {statistics.median(e2e):.3f} | {tris:,} | {rss:.0f} |")
+        mc = vtk.vtkMarchingCubes()
+        mc.SetInputData(image)
+        mc.SetValue(0, iso)
+        mc.ComputeNormalsOff()
+        mc.ComputeScalarsOff()
+        t, _ = median_time(lambda: (mc.Modified(), mc.Update()), runs=1)
+        print(f"| {name} | vtkMarchingCubes | 1 | {t:.3f} | {voxels / t / 1e6:.0f} | | {mc.GetOutput().GetNumberOfCells():,} | |")
+        if marching_cubes is not None and "--quick" not in sys.argv:
+            t, res = median_time(lambda: marching_cubes(vol, iso), runs=1)
+            print(f"| {name} | skimage marching_cubes | 1 | {t:.3f} | {voxels / t / 1e6:.0f} | | {len(res[1]):,} | |")
+        extract, total, rss, tris = run_isoslab(path, iso)
+        print(f"| {name} | isoslab mc | 1 | {extract:.3f} | {voxels / extract / 1e6:.0f} | {total:.3f} | {tris:,} | {rss:.0f} |")
+        ratios.append((name, extract / rows[("fe", 1)]))
+    print()
+    for name, r in ratios:
+        print(f"- {name}: isoslab mc extraction time / vtkFlyingEdges3D (1 thread) = {r:.2f}")
+
+
+if __name__ == "__main__":
+    main()
