@@ -82,9 +82,9 @@ std::vector<char> gzipped(const std::vector<char>& data, int windowBits = 15 + 1
   z.next_out = reinterpret_cast<Bytef*>(out.data());
   z.avail_out = static_cast<uInt>(out.size());
   deflate(&z, Z_FINISH);
-  out.resize(out.size() - z.avail_out);
+  const std::size_t used = z.total_out;
   deflateEnd(&z);
-  return out;
+  return std::vector<char>(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(used));
 }
 
 void writeFile(const std::string& path, const std::string& head, const std::vector<char>& data = {}) {
