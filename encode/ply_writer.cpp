@@ -6,18 +6,13 @@
 #include <cstring>
 #include <filesystem>
 
+#include "encode/binary_buffer.h"
 #include "io/error.h"
 
 namespace isoslab {
 namespace {
 
 constexpr std::uint64_t kMaxCount = 4294967295ULL;
-
-template <typename T>
-void append(std::vector<char>& buf, const T& value) {
-  const auto* p = reinterpret_cast<const char*>(&value);
-  buf.insert(buf.end(), p, p + sizeof(T));
-}
 
 }  // namespace
 
@@ -64,13 +59,13 @@ void PlyWriter::consume(const MeshChunk& chunk) {
   buffer_.clear();
   const bool normals = meshHeader_.normals;
   for (std::size_t v = 0; v < chunk.positions.size(); ++v) {
-    append(buffer_, chunk.positions[v].x);
-    append(buffer_, chunk.positions[v].y);
-    append(buffer_, chunk.positions[v].z);
+    appendBytes(buffer_, chunk.positions[v].x);
+    appendBytes(buffer_, chunk.positions[v].y);
+    appendBytes(buffer_, chunk.positions[v].z);
     if (normals) {
-      append(buffer_, chunk.normals[v].x);
-      append(buffer_, chunk.normals[v].y);
-      append(buffer_, chunk.normals[v].z);
+      appendBytes(buffer_, chunk.normals[v].x);
+      appendBytes(buffer_, chunk.normals[v].y);
+      appendBytes(buffer_, chunk.normals[v].z);
     }
   }
   file_->write(buffer_.data(), buffer_.size());
@@ -78,9 +73,9 @@ void PlyWriter::consume(const MeshChunk& chunk) {
   buffer_.clear();
   for (const Triangle& t : chunk.triangles) {
     buffer_.push_back(3);
-    append(buffer_, t[0]);
-    append(buffer_, t[1]);
-    append(buffer_, t[2]);
+    appendBytes(buffer_, t[0]);
+    appendBytes(buffer_, t[1]);
+    appendBytes(buffer_, t[2]);
   }
   faces_->write(buffer_.data(), buffer_.size());
   faceCount_ += chunk.triangles.size();

@@ -6,18 +6,10 @@
 #include <cmath>
 #include <cstring>
 
+#include "encode/binary_buffer.h"
 #include "io/error.h"
 
 namespace isoslab {
-namespace {
-
-template <typename T>
-void append(std::vector<char>& buf, const T& value) {
-  const auto* p = reinterpret_cast<const char*>(&value);
-  buf.insert(buf.end(), p, p + sizeof(T));
-}
-
-}  // namespace
 
 StlWriter::StlWriter(std::string path) : path_(std::move(path)) {}
 StlWriter::~StlWriter() = default;
@@ -47,13 +39,13 @@ void StlWriter::consume(const MeshChunk& chunk) {
     double n[3] = {uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
     const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     for (double& x : n) x = len > 0 ? x / len : 0.0;
-    for (double x : n) append(buffer_, static_cast<float>(x));
+    for (double x : n) appendBytes(buffer_, static_cast<float>(x));
     for (const Vec3f* p : {&a, &b, &c}) {
-      append(buffer_, p->x);
-      append(buffer_, p->y);
-      append(buffer_, p->z);
+      appendBytes(buffer_, p->x);
+      appendBytes(buffer_, p->y);
+      appendBytes(buffer_, p->z);
     }
-    append(buffer_, std::uint16_t{0});
+    appendBytes(buffer_, std::uint16_t{0});
   }
   file_->write(buffer_.data(), buffer_.size());
   triangles_ += chunk.triangles.size();

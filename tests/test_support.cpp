@@ -73,12 +73,6 @@ CliResult runCli(const std::string& args) {
   const int status = std::system(cmd.c_str());
   CliResult r;
   r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  auto slurp = [](const std::string& p) {
-    std::ifstream f(p);
-    std::stringstream s;
-    s << f.rdbuf();
-    return s.str();
-  };
   r.out = slurp(outPath);
   r.err = slurp(errPath);
   fs::remove_all(dir);
@@ -118,6 +112,13 @@ std::string sharedData(const std::string& name) {
   const fs::path p = fs::path(ISOSLAB_SHARED_DATA) / name;
   std::error_code ec;
   return fs::exists(p, ec) ? p.string() : std::string();
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
 }
 
 int fileCount(const std::string& folder) {

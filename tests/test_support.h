@@ -59,6 +59,9 @@ std::string tempDir();
 /// ../shared/data/<name>, or empty if absent.
 std::string sharedData(const std::string& name);
 
+/// The whole contents of a file (empty if it cannot be read).
+std::string slurp(const std::string& path);
+
 /// Number of regular files in `folder`, hidden ones included.
 int fileCount(const std::string& folder);
 

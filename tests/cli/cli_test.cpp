@@ -14,14 +14,9 @@ namespace fs = std::filesystem;
 namespace isoslab {
 namespace {
 
-using testing::runCli;
+using testing::slurp;
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
+using testing::runCli;
 
 TEST(Cli, ExtractWritesMeshAndReport) {
   const std::string dir = testing::tempDir();

@@ -13,12 +13,7 @@ namespace fs = std::filesystem;
 namespace isoslab {
 namespace {
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
+using testing::slurp;
 
 std::vector<std::map<std::string, std::string>> readCsv(const std::string& path) {
   std::ifstream f(path);

@@ -22,6 +22,8 @@ namespace fs = std::filesystem;
 namespace isoslab {
 namespace {
 
+using testing::slurp;
+
 struct Written {
   IndexedMesh mesh;  // the uncompressed mesh
   MeshStats stats;
@@ -141,13 +143,6 @@ TEST(ObjWriter, RoundTripsExactly) {
   EXPECT_EQ(back.positions, w.mesh.positions);
   EXPECT_EQ(back.normals, w.mesh.normals);
   EXPECT_EQ(back.triangles, w.mesh.triangles);
-}
-
-std::string slurp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
 }
 
 TEST(GlbDraco, RealClientsLoadIt) {

@@ -18,12 +18,7 @@ namespace fs = std::filesystem;
 namespace isoslab {
 namespace {
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
+using testing::slurp;
 
 // Streams `mesh` in two chunks (triangles of chunk 1 use vertices of chunk 0), as extraction does.
 void stream(const IndexedMesh& mesh, MeshSink& sink, bool normals) {
