@@ -117,6 +117,8 @@ class LatticeExtractor final : public Extractor {
     const float* s0 = slices_[1];
     const float* s1 = slices_[2];
     const double iso = options_.iso;
+    const auto isoF = static_cast<float>(iso);
+    const bool exactIso = static_cast<double>(isoF) == iso;
     // Flying-edges-style trimming (not for bcc12, whose tetrahedra reach into the next cells):
     // classify the rows of both slices once, then visit only the cells of a row where some of its
     // four voxel rows change state, or where their constant states differ.
@@ -161,23 +163,35 @@ class LatticeExtractor final : public Extractor {
           }
         }
       }
+      // The case code is built incrementally: the next cell's x=0 corners are this cell's x=1
+      // corners, so each step classifies four new voxels; values are loaded only for cells the
+      // surface crosses (and always for the tetrahedral schemes, whose centres need them).
+      const float* a0 = s0 + j * nx_;
+      const float* a1 = a0 + nx_;
+      const float* b0 = s1 + j * nx_;
+      const float* b1 = b0 + nx_;
+      auto in = [isoF, exactIso, iso](float v) { return exactIso ? v >= isoF : static_cast<double>(v) >= iso; };
+      unsigned cornerCase = static_cast<unsigned>(in(a0[begin])) | static_cast<unsigned>(in(a1[begin])) << 2 |
+                            static_cast<unsigned>(in(b0[begin])) << 4 | static_cast<unsigned>(in(b1[begin])) << 6;
       for (std::int64_t i = begin; i < end; ++i) {
-        const std::int64_t p = j * nx_ + i;
-        value_[0] = s0[p];
-        value_[1] = s0[p + 1];
-        value_[2] = s0[p + nx_];
-        value_[3] = s0[p + nx_ + 1];
-        value_[4] = s1[p];
-        value_[5] = s1[p + 1];
-        value_[6] = s1[p + nx_];
-        value_[7] = s1[p + nx_ + 1];
-        unsigned cornerCase = 0;
-        for (unsigned c = 0; c < 8; ++c) cornerCase |= static_cast<unsigned>(value_[c] >= iso) << c;
+        cornerCase = (cornerCase & 0x55u) | static_cast<unsigned>(in(a0[i + 1])) << 1 |
+                     static_cast<unsigned>(in(a1[i + 1])) << 3 | static_cast<unsigned>(in(b0[i + 1])) << 5 |
+                     static_cast<unsigned>(in(b1[i + 1])) << 7;
+        const unsigned thisCase = cornerCase;
+        cornerCase >>= 1;  // the x=1 corners become the next cell's x=0 corners
+        if (!scheme_ && (thisCase == 0 || thisCase == 255)) continue;
+        value_[0] = a0[i];
+        value_[1] = a0[i + 1];
+        value_[2] = a1[i];
+        value_[3] = a1[i + 1];
+        value_[4] = b0[i];
+        value_[5] = b0[i + 1];
+        value_[6] = b1[i];
+        value_[7] = b1[i + 1];
         if (!scheme_) {
-          if (cornerCase == 0 || cornerCase == 255) continue;
-          marchCube(cornerCase, i, j);
+          marchCube(thisCase, i, j);
         } else {
-          insideVolume += marchTetrahedra(cornerCase, i, j);
+          insideVolume += marchTetrahedra(thisCase, i, j);
         }
       }
     }
