@@ -6,13 +6,17 @@ vtkMarchingCubes (python3-vtk9) and scikit-image's marching_cubes (python3-skima
 - "extract" times: the volume already in memory; for isoslab, the report's extraction seconds
   (its slices are streamed, so reading is excluded by timing only the extractor).
 - "end to end": file in, binary PLY out. VTK's is its NIfTI reader + vtkFlyingEdges3D +
-  vtkPLYWriter in a fresh process; isoslab's is `isoslab extract` (which also measures the mesh).
+  vtkPLYWriter in a fresh process; isoslab's is `isoslab extract` (which also measures the mesh),
+  with --threads 1 (everything on one thread) and 2 (reader and writer threads beside the
+  extraction, which is single-threaded either way).
 - peak RSS: the process's maximum resident set size.
 
 Usage: bench/peers.py [BUILD_DIR] [--runs N] [--quick]   (prints a Markdown table)
 """
+import atexit
 import gzip
 import json
+import shutil
 import os
 import resource
 import statistics
@@ -28,6 +32,7 @@ RUNS = int(sys.argv[sys.argv.index("--runs") + 1]) if "--runs" in sys.argv else 
 ISOSLAB = os.path.join(BUILD, "cli", "isoslab")
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TMP = tempfile.mkdtemp(prefix="isoslab-peers-")
+atexit.register(shutil.rmtree, TMP, ignore_errors=True)
 
 
 def nifti(path):
@@ -155,9 +160,11 @@ def main():
         if marching_cubes is not None and "--quick" not in sys.argv:
             t, res = median_time(lambda: marching_cubes(vol, iso), runs=1)
             print(f"| {name} | skimage marching_cubes | 1 | {t:.3f} | {voxels / t / 1e6:.0f} | | {len(res[1]):,} | |")
-        extract, total, rss, tris = run_isoslab(path, iso)
-        print(f"| {name} | isoslab mc | 1 | {extract:.3f} | {voxels / extract / 1e6:.0f} | {total:.3f} | {tris:,} | {rss:.0f} |")
-        ratios.append((name, extract / rows[("fe", 1)]))
+        for threads in (1, 2):
+            extract, total, rss, tris = run_isoslab(path, iso, threads)
+            print(f"| {name} | isoslab mc | {threads} | {extract:.3f} | {voxels / extract / 1e6:.0f} | {total:.3f} | {tris:,} | {rss:.0f} |")
+            if threads == 1:
+                ratios.append((name, extract / rows[("fe", 1)]))
     print()
     for name, r in ratios:
         print(f"- {name}: isoslab mc extraction time / vtkFlyingEdges3D (1 thread) = {r:.2f}")
