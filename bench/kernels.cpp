@@ -24,8 +24,12 @@ std::vector<float> field(int kind) {
     for (std::int64_t j = 0; j < kN; ++j) {
       for (std::int64_t i = 0; i < kN; ++i) {
         float& x = v[static_cast<std::size_t>((k * kN + j) * kN + i)];
-        if (kind == 0) x = std::sin(0.3f * static_cast<float>(i)) + std::cos(0.25f * static_cast<float>(j)) + 0.1f * static_cast<float>(k);
-        if (kind == 1) x = 10.0f - std::hypot(static_cast<float>(i) - 64.0f, static_cast<float>(j) - 64.0f, static_cast<float>(k) - 5.0f);
+        if (kind == 0)
+          x = std::sin(0.3f * static_cast<float>(i)) + std::cos(0.25f * static_cast<float>(j)) +
+              0.1f * static_cast<float>(k);
+        if (kind == 1)
+          x = 10.0f -
+              std::hypot(static_cast<float>(i) - 64.0f, static_cast<float>(j) - 64.0f, static_cast<float>(k) - 5.0f);
         if (kind == 2) x = noise(rng);
       }
     }

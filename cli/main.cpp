@@ -245,24 +245,7 @@ int runExtract(const ExtractArgs& args) {
     r["voxel_type"] = std::string(voxelTypeName(info.type));
     r["space"] = header.space;
     r["normals"] = args.normals;
-    r["vertices"] = s.vertices;
-    r["triangles"] = s.triangles;
-    r["degenerate_triangles"] = s.degenerateTriangles;
-    r["bounds"] = s.bounds;
-    r["area"] = s.area;
-    r["volume"] = s.volume;
-    if (s.cellVolume) {
-      r["volume_cells"] = *s.cellVolume;
-    } else {
-      r["volume_cells"] = nullptr;
-    }
-    r["edges"] = s.edges;
-    r["boundary_edges"] = s.boundaryEdges;
-    r["interior_boundary_edges"] = s.interiorBoundaryEdges;
-    r["nonmanifold_edges"] = s.nonManifoldEdges;
-    r["inconsistent_edges"] = s.inconsistentEdges;
-    r["euler"] = s.euler;
-    r["closed"] = s.closed();
+    addStatsJson(r, s);
     if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *sphereErrors));
     r["seconds"] = {{"read", run.readSeconds},
                     {"extract", run.extractSeconds},
@@ -375,18 +358,7 @@ int runMetrics(const std::string& input, const std::string& sphereText, const st
   const MeshStats& s = stats.stats();
   nlohmann::ordered_json r;
   r["input"] = input;
-  r["vertices"] = s.vertices;
-  r["triangles"] = s.triangles;
-  r["degenerate_triangles"] = s.degenerateTriangles;
-  r["bounds"] = s.bounds;
-  r["area"] = s.area;
-  r["volume"] = s.volume;
-  r["edges"] = s.edges;
-  r["boundary_edges"] = s.boundaryEdges;
-  r["nonmanifold_edges"] = s.nonManifoldEdges;
-  r["inconsistent_edges"] = s.inconsistentEdges;
-  r["euler"] = s.euler;
-  r["closed"] = s.closed();
+  addStatsJson(r, s);
   if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *errors));
   const std::string text = r.dump(2) + "\n";
   if (reportPath.empty()) {

@@ -17,6 +17,27 @@ nlohmann::ordered_json errorJson(const ErrorStats& e, std::uint64_t triangles) {
 
 }  // namespace
 
+void addStatsJson(nlohmann::ordered_json& r, const MeshStats& s) {
+  r["vertices"] = s.vertices;
+  r["triangles"] = s.triangles;
+  r["degenerate_triangles"] = s.degenerateTriangles;
+  r["bounds"] = s.bounds;
+  r["area"] = s.area;
+  r["volume"] = s.volume;
+  if (s.cellVolume) {
+    r["volume_cells"] = *s.cellVolume;
+  } else {
+    r["volume_cells"] = nullptr;
+  }
+  r["edges"] = s.edges;
+  r["boundary_edges"] = s.boundaryEdges;
+  r["interior_boundary_edges"] = s.interiorBoundaryEdges;
+  r["nonmanifold_edges"] = s.nonManifoldEdges;
+  r["inconsistent_edges"] = s.inconsistentEdges;
+  r["euler"] = s.euler;
+  r["closed"] = s.closed();
+}
+
 nlohmann::ordered_json sphereJson(const SphereReport& r) {
   nlohmann::ordered_json j;
   j["centre"] = r.sphere.centre;

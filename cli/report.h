@@ -3,9 +3,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "extract/mesh_stats.h"
 #include "extract/sphere_metrics.h"
 
 namespace isoslab {
+
+/// Adds the mesh measures to a report: vertices, triangles, degenerate_triangles, bounds, area,
+/// volume, volume_cells (null without tetrahedra), edges, boundary_edges, interior_boundary_edges,
+/// nonmanifold_edges, inconsistent_edges, euler, closed.
+void addStatsJson(nlohmann::ordered_json& r, const MeshStats& s);
 
 /// The paper's measures: {"centre", "radius", "vertex": {...}, "centroid": {...}, "area_error", ...}.
 nlohmann::ordered_json sphereJson(const SphereReport& r);
