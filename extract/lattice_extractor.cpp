@@ -119,50 +119,18 @@ class LatticeExtractor final : public Extractor {
     const double iso = options_.iso;
     const auto isoF = static_cast<float>(iso);
     const bool exactIso = static_cast<double>(isoF) == iso;
-    // Flying-edges-style trimming (not for bcc12, whose tetrahedra reach into the next cells):
-    // classify the rows of both slices once, then visit only the cells of a row where some of its
-    // four voxel rows change state, or where their constant states differ.
-    const bool trim = !needsCentres_;
-    if (trim) {
-      if (z_ == 0) classifyRows(s0, rows_[0]);
-      classifyRows(s1, rows_[1]);
-    }
+    // Flying-edges-style trimming: the rows of each slice are classified once, and a row of cells
+    // is visited only where one of the voxel rows it depends on changes state, or where their
+    // constant states differ. mc, mt5 and mt6 depend on the four voxel rows of the cells; bcc12
+    // also on the next cells along x, y and z (their centres), so on nine voxel rows and one cell
+    // further left, and its cells on the volume boundary (pyramids) are always visited.
+    const bool bcc = needsCentres_;
+    if (z_ == 0) classifyRows(s0, rows_[0]);
+    if (z_ == 0 || !bcc) classifyRows(s1, rows_[1]);
+    if (bcc && slices_[3] != nullptr) classifyRows(slices_[3], rows_[2]);
     const std::int64_t cellsPerRow = nx_ - 1;
-    for (std::int64_t j = 0; j + 1 < ny_; ++j) {
-      std::int64_t begin = 0;
-      std::int64_t end = cellsPerRow;
-      if (trim) {
-        const RowState* r[4] = {&rows_[0][static_cast<std::size_t>(j)], &rows_[0][static_cast<std::size_t>(j + 1)],
-                                &rows_[1][static_cast<std::size_t>(j)], &rows_[1][static_cast<std::size_t>(j + 1)]};
-        std::int64_t firstChange = cellsPerRow;
-        std::int64_t lastChange = -1;
-        bool leftSame = true;
-        bool rightSame = true;
-        for (const RowState* row : r) {
-          if (row->first >= 0) {
-            firstChange = std::min(firstChange, row->first - 1);
-            lastChange = std::max(lastChange, row->last - 1);
-          }
-          leftSame = leftSame && row->left == r[0]->left;
-          rightSame = rightSame && row->right == r[0]->right;
-        }
-        if (lastChange < 0) {
-          // No row changes: the whole cell row is uniform if the four states agree.
-          if (leftSame) {
-            if (r[0]->left && scheme_) insideVolume += static_cast<double>(cellsPerRow);
-            continue;
-          }
-        } else {
-          if (leftSame) {
-            begin = firstChange;
-            if (r[0]->left && scheme_) insideVolume += static_cast<double>(begin);
-          }
-          if (rightSame) {
-            end = lastChange + 1;
-            if (r[0]->right && scheme_) insideVolume += static_cast<double>(cellsPerRow - end);
-          }
-        }
-      }
+    auto march = [&](std::int64_t j, std::int64_t begin, std::int64_t end) {
+      if (begin >= end) return;
       // The case code is built incrementally: the next cell's x=0 corners are this cell's x=1
       // corners, so each step classifies four new voxels; values are loaded only for cells the
       // surface crosses (and always for the tetrahedral schemes, whose centres need them).
@@ -194,6 +162,58 @@ class LatticeExtractor final : public Extractor {
           insideVolume += marchTetrahedra(thisCase, i, j);
         }
       }
+    };
+    for (std::int64_t j = 0; j + 1 < ny_; ++j) {
+      const bool whole = bcc && (j == 0 || j + 2 == ny_ || z_ == 0 || z_ + 2 == nz_);
+      if (whole) {
+        march(j, 0, cellsPerRow);
+        continue;
+      }
+      std::array<const RowState*, 9> rows{};
+      std::size_t count = 0;
+      for (std::size_t k = 0; k < (bcc ? 3u : 2u); ++k) {
+        for (std::int64_t dj = 0; dj < (bcc ? 3 : 2); ++dj) rows[count++] = &rows_[k][static_cast<std::size_t>(j + dj)];
+      }
+      std::int64_t firstChange = nx_;
+      std::int64_t lastChange = -1;
+      bool leftSame = true;
+      bool rightSame = true;
+      for (std::size_t k = 0; k < count; ++k) {
+        if (rows[k]->first >= 0) {
+          firstChange = std::min(firstChange, rows[k]->first);
+          lastChange = std::max(lastChange, rows[k]->last);
+        }
+        leftSame = leftSame && rows[k]->left == rows[0]->left;
+        rightSame = rightSame && rows[k]->right == rows[0]->right;
+      }
+      // Cells [lo, hi) may be crossed; bcc12 keeps its boundary cells 0 and cellsPerRow - 1.
+      const std::int64_t edge = bcc ? 1 : 0;
+      std::int64_t lo = edge;
+      std::int64_t hi = cellsPerRow - edge;
+      bool skipLeft = false;
+      bool skipRight = false;
+      if (lastChange < 0) {
+        if (leftSame) skipLeft = skipRight = true, lo = hi;
+      } else {
+        if (leftSame) {
+          lo = std::max(edge, firstChange - (bcc ? 2 : 1));
+          skipLeft = true;
+        }
+        if (rightSame) {
+          hi = std::min(cellsPerRow - edge, std::max(lo, lastChange));
+          skipRight = true;
+        }
+      }
+      if (!skipLeft) lo = edge;
+      if (!skipRight) hi = std::max(lo, cellsPerRow - edge);
+      // Uniform cells skipped inside the surface still count whole (one unit cell each).
+      if (scheme_) {
+        if (skipLeft && rows[0]->left) insideVolume += static_cast<double>(lo - edge);
+        if (skipRight && rows[0]->right) insideVolume += static_cast<double>(cellsPerRow - edge - hi);
+      }
+      if (bcc) march(j, 0, 1);
+      march(j, lo, hi);
+      if (bcc) march(j, cellsPerRow - 1, cellsPerRow);
     }
     out.cellVolume = insideVolume * cellVolume_;
     // Roll the caches: slice z+1 becomes the next slab's slice z.
@@ -202,7 +222,8 @@ class LatticeExtractor final : public Extractor {
     std::swap(touched_[0], touched_[2]);
     clearPlane(1);
     if (needsCentres_) std::swap(centres_[0], centres_[1]);
-    if (trim) std::swap(rows_[0], rows_[1]);
+    std::swap(rows_[0], rows_[1]);
+    if (bcc) std::swap(rows_[1], rows_[2]);
   }
 
  private:
@@ -483,7 +504,7 @@ class LatticeExtractor final : public Extractor {
   std::array<std::vector<VertexId>, 3> planes_;
   std::array<std::vector<std::int64_t>, 3> touched_;
   std::array<std::vector<float>, 2> centres_;
-  std::array<std::vector<RowState>, 2> rows_;
+  std::array<std::vector<RowState>, 3> rows_;
   bool needsCentres_ = false;
   bool flip_ = false;
   double cellVolume_ = 1;
