@@ -40,6 +40,25 @@ double quantizationError(const IndexedMesh& mesh, const DracoSettings& s) {
   return worst;
 }
 
+void checkOptions(const WriterOptions& options) {
+  if (options.dracoLevel < 0 || options.dracoLevel > 10) {
+    throw Error(fmt::format("--draco-level: {} is not in 0..10", options.dracoLevel));
+  }
+  if (options.quantBits < 0 || options.quantBits > 30) {
+    throw Error(fmt::format("--quant-bits: {} is not in 1..30", options.quantBits));
+  }
+}
+
+std::vector<std::pair<std::string, double>> dracoDetails(double chunks, double encodeSeconds, double worstError,
+                                                         const DracoSettings& s) {
+  return {{"chunks", chunks},
+          {"encode_seconds", encodeSeconds},
+          {"quantization_bits", s.quantBits},
+          {"quantization_step", s.range / (std::ldexp(1.0, s.quantBits) - 1)},
+          {"worst_quantization_error", worstError},
+          {"draco_level", s.level}};
+}
+
 }  // namespace
 
 DracoSettings dracoSettingsFor(const std::array<double, 6>& box, const WriterOptions& options) {
@@ -59,10 +78,7 @@ DracoSettings dracoSettingsFor(const std::array<double, 6>& box, const WriterOpt
 
 GlbDracoWriter::GlbDracoWriter(std::string path, const WriterOptions& options)
     : path_(std::move(path)), options_(options) {
-  if (options.dracoLevel < 0 || options.dracoLevel > 10)
-    throw Error(fmt::format("--draco-level: {} is not in 0..10", options.dracoLevel));
-  if (options.quantBits < 0 || options.quantBits > 30)
-    throw Error(fmt::format("--quant-bits: {} is not in 1..30", options.quantBits));
+  checkOptions(options);
   if (options.chunkTriangles < 1)
     throw Error(fmt::format("--chunk-triangles: {} must be positive", options.chunkTriangles));
 }
@@ -213,17 +229,11 @@ void GlbDracoWriter::finish() {
 }
 
 std::vector<std::pair<std::string, double>> GlbDracoWriter::details() const {
-  return {{"chunks", static_cast<double>(primitives_.size())},
-          {"encode_seconds", encodeSeconds_},
-          {"quantization_bits", settings_.quantBits},
-          {"quantization_step", settings_.range / (std::ldexp(1.0, settings_.quantBits) - 1)},
-          {"worst_quantization_error", worstError_},
-          {"draco_level", settings_.level}};
+  return dracoDetails(static_cast<double>(primitives_.size()), encodeSeconds_, worstError_, settings_);
 }
 
 DrcWriter::DrcWriter(std::string path, const WriterOptions& options) : path_(std::move(path)), options_(options) {
-  if (options.dracoLevel < 0 || options.dracoLevel > 10)
-    throw Error(fmt::format("--draco-level: {} is not in 0..10", options.dracoLevel));
+  checkOptions(options);
 }
 
 void DrcWriter::begin(const MeshHeader& header) {
@@ -251,12 +261,7 @@ void DrcWriter::finish() {
 }
 
 std::vector<std::pair<std::string, double>> DrcWriter::details() const {
-  return {{"chunks", 1},
-          {"encode_seconds", encodeSeconds_},
-          {"quantization_bits", settings_.quantBits},
-          {"quantization_step", settings_.range / (std::ldexp(1.0, settings_.quantBits) - 1)},
-          {"worst_quantization_error", worstError_},
-          {"draco_level", settings_.level}};
+  return dracoDetails(1, encodeSeconds_, worstError_, settings_);
 }
 
 }  // namespace isoslab

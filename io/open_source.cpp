@@ -8,7 +8,6 @@
 #include <filesystem>
 #include <vector>
 
-#include "io/atomic_file.h"
 #include "io/error.h"
 #include "io/file_list.h"
 #include "io/image_stack.h"
@@ -60,21 +59,6 @@ std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, 
     return openDicomSeries(series, options.dicom);
   }
   throw Error(fmt::format("{}: unrecognised input format; for raw data give --raw-dims X,Y[,Z] and --raw-type", input));
-}
-
-std::int64_t writeRaw(SliceSource& source, const std::string& path, VoxelType type) {
-  if (hostByteOrder() != ByteOrder::kLittle) {
-    throw Error(fmt::format("{}: writing raw data is implemented for little-endian hosts only", path));
-  }
-  AtomicFile out(path);
-  std::vector<float> slice(static_cast<std::size_t>(source.info().sliceVoxels()));
-  std::vector<std::byte> bytes(slice.size() * voxelSize(type));
-  while (source.readSlice(slice)) {
-    convertFromFloat(slice, type, bytes);
-    out.write(bytes.data(), bytes.size());
-  }
-  out.commit();
-  return out.size();
 }
 
 }  // namespace isoslab

@@ -29,8 +29,4 @@ std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, 
 std::unique_ptr<SliceSource> openSource(const std::string& input, const SourceOptions& options,
                                         std::vector<std::string>* notes = nullptr);
 
-/// Writes every remaining slice of `source` to `path` as raw voxels of `type`, little-endian, x
-/// fastest, through an AtomicFile. Returns the bytes written.
-std::int64_t writeRaw(SliceSource& source, const std::string& path, VoxelType type);
-
 }  // namespace isoslab

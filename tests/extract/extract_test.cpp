@@ -9,6 +9,7 @@
 #include "extract/frame.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
+#include "io/volume_writer.h"
 #include "test_support.h"
 
 namespace isoslab {
@@ -184,7 +185,9 @@ TEST(ExtractStreaming, PhantomAndRawFileGiveIdenticalMeshes) {
   const std::string dir = testing::tempDir();
   const std::string spec = "phantom:head?n=40,44,36";
   auto phantom = openSource(spec, {});
-  writeRaw(*phantom, dir + "/head.raw", VoxelType::kI16);
+  VolumeWriteOptions i16;
+  i16.type = VoxelType::kI16;
+  writeVolume(*phantom, dir + "/head.raw", i16);
   for (Method m : kAllMethods) {
     const Extraction a = testing::extract(spec, m, -400, true);
     SourceOptions options;
