@@ -6,6 +6,8 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "extract/frame.h"
 #include "extract/mesh_sink.h"
@@ -15,6 +17,26 @@
 namespace isoslab {
 
 enum class Method : std::uint8_t { kMarchingCubes, kTetra5, kTetra6, kBcc12 };
+
+/// What a detached worker (Extractor::makeWorker) makes of one slab, before stitching.
+struct SlabPart {
+  /// Vertex ids in the triangles are local (0 .. positions.size() - 1), or kForeignVertex | k for
+  /// the vertex of slot foreign[k] on slice z, which the slab below created. firstVertex is unset.
+  MeshChunk chunk;
+  /// Welding-cache slots on slice z that the triangles reference but the slab below owns.
+  std::vector<std::int64_t> foreign;
+  /// The slab's vertices on slice z + 1: (slot, local id), for the slab above to reference.
+  std::vector<std::pair<std::int64_t, VertexId>> top;
+};
+
+constexpr VertexId kForeignVertex = VertexId{1} << 31;
+
+/// Extracts slabs independently of each other, in any order; one per thread.
+class SlabWorker {
+ public:
+  virtual ~SlabWorker() = default;
+  virtual void extract(const SlabView& slab, SlabPart& out) noexcept = 0;
+};
 
 /// "mc", "mt5", "mt6", "bcc12".
 std::string_view methodName(Method m) noexcept;
@@ -44,6 +66,13 @@ class Extractor {
 
   /// Whether chunks carry the tetrahedral inside volume (cellVolume).
   virtual bool cellVolumes() const noexcept = 0;
+
+  /// A worker for parallel extraction. Stitching its parts in slab order (SlabStitcher) gives
+  /// exactly the chunks that extractSlab gives, ids included.
+  virtual std::unique_ptr<SlabWorker> makeWorker() const = 0;
+
+  /// The number of welding-cache slots per slice: SlabPart's slots are below it.
+  virtual std::size_t sliceSlots() const noexcept = 0;
 };
 
 /// The extractor for `options.method`, for a volume of `info`'s dims, emitting positions in `frame`.

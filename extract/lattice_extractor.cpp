@@ -27,6 +27,10 @@ struct EdgeRef {
   std::uint8_t a = 0;
   std::uint8_t b = 0;
   std::uint8_t plane = 0;
+  /// On plane 0, whether the slab below has this edge too (as a plane-2 edge of the same class):
+  /// true for edges in slice z, false for those rising from it.
+  bool shared = false;
+  std::size_t edgeClass = 0;
   std::int64_t offset = 0;
 };
 
@@ -46,14 +50,14 @@ bool lowerNode(const LatticeNode& a, const LatticeNode& b) {
   return std::tie(a.hz, a.hy, a.hx) < std::tie(b.hz, b.hy, b.hx);
 }
 
-class LatticeExtractor final : public Extractor {
+class LatticeExtractor final : public Extractor, public SlabWorker {
  public:
-  LatticeExtractor(const ExtractOptions& options, const VolumeInfo& info, const LatticeFrame& frame,
+  LatticeExtractor(const ExtractOptions& options, const std::array<std::int64_t, 3>& dims, const LatticeFrame& frame,
                    std::unique_ptr<CellScheme> scheme)
       : options_(options), frame_(frame), scheme_(std::move(scheme)) {
-    nx_ = info.dims[0];
-    ny_ = info.dims[1];
-    nz_ = info.dims[2];
+    nx_ = dims[0];
+    ny_ = dims[1];
+    nz_ = dims[2];
     planeSize_ = nx_ * ny_;
     flip_ = frame_.flipsWinding();
     cellVolume_ = frame_.cellVolume();
@@ -88,6 +92,7 @@ class LatticeExtractor final : public Extractor {
         variants_.push_back(std::move(v));
       }
     }
+    markSharedEdges();
     for (int p = 0; p < 3; ++p) {
       const std::size_t classes = (p == 1 ? oddClasses_ : evenClasses_).size();
       planes_[static_cast<std::size_t>(p)].assign(classes * static_cast<std::size_t>(planeSize_), kNoVertex);
@@ -104,13 +109,39 @@ class LatticeExtractor final : public Extractor {
   int slicesAbove() const noexcept override { return (options_.normals || needsCentres_) ? 1 : 0; }
   std::uint64_t vertexCount() const noexcept override { return vertexCount_; }
   bool cellVolumes() const noexcept override { return scheme_ != nullptr; }
+  std::size_t sliceSlots() const noexcept override { return planes_[0].size(); }
+
+  std::unique_ptr<SlabWorker> makeWorker() const override {
+    auto worker = std::make_unique<LatticeExtractor>(options_, std::array{nx_, ny_, nz_}, frame_,
+                                                     scheme_ ? std::make_unique<CellScheme>(*scheme_) : nullptr);
+    worker->detached_ = true;
+    return worker;
+  }
+
+  // A detached extractor derives everything from the slab's own slices (nothing carries over from
+  // the slab before) and leaves the vertices on slice z, which the slab below creates, to the
+  // stitcher: the same cells are visited and the same vertices created in the same order as in
+  // extractSlab, so that stitched ids equal extractSlab's.
+  void extract(const SlabView& slab, SlabPart& part) noexcept override {
+    assert(detached_);
+    part.chunk.clear();
+    part.chunk.slab = slab.z;
+    part.chunk.firstVertex = 0;
+    part.foreign.clear();
+    part.top.clear();
+    foreign_ = &part.foreign;
+    vertexCount_ = 0;
+    extractSlab(slab, part.chunk);
+    for (std::int64_t slot : touched_[2]) part.top.emplace_back(slot, planes_[2][static_cast<std::size_t>(slot)]);
+    for (int p = 0; p < 3; ++p) clearPlane(p);
+  }
 
   void extractSlab(const SlabView& slab, MeshChunk& out) noexcept override {
     z_ = slab.z;
     slices_ = slab.slices;
     out_ = &out;
     if (needsCentres_) {
-      if (z_ == 0) computeCentres(0, centres_[0]);
+      if (z_ == 0 || detached_) computeCentres(0, centres_[0]);
       if (z_ + 1 <= nz_ - 2) computeCentres(1, centres_[1]);
     }
     double insideVolume = 0;
@@ -125,8 +156,8 @@ class LatticeExtractor final : public Extractor {
     // also on the next cells along x, y and z (their centres), so on nine voxel rows and one cell
     // further left, and its cells on the volume boundary (pyramids) are always visited.
     const bool bcc = needsCentres_;
-    if (z_ == 0) classifyRows(s0, rows_[0]);
-    if (z_ == 0 || !bcc) classifyRows(s1, rows_[1]);
+    if (z_ == 0 || detached_) classifyRows(s0, rows_[0]);
+    if (z_ == 0 || !bcc || detached_) classifyRows(s1, rows_[1]);
     if (bcc && slices_[3] != nullptr) classifyRows(slices_[3], rows_[2]);
     const std::int64_t cellsPerRow = nx_ - 1;
     auto march = [&](std::int64_t j, std::int64_t begin, std::int64_t end) {
@@ -216,6 +247,7 @@ class LatticeExtractor final : public Extractor {
       if (bcc) march(j, cellsPerRow - 1, cellsPerRow);
     }
     out.cellVolume = insideVolume * cellVolume_;
+    if (detached_) return;  // extract() exports slice z+1's slots and clears the caches
     // Roll the caches: slice z+1 becomes the next slab's slice z.
     clearPlane(0);
     std::swap(planes_[0], planes_[2]);
@@ -245,8 +277,24 @@ class LatticeExtractor final : public Extractor {
     const auto it = classes.emplace(dir, classes.size()).first;
     const std::int64_t dx = na->hx >> 1;  // corner offsets 0/2 -> 0/1, centres 1 -> 0, 3 -> 1
     const std::int64_t dy = na->hy >> 1;
+    r.edgeClass = it->second;
     r.offset = static_cast<std::int64_t>(it->second) * planeSize_ + dy * nx_ + dx;
     return r;
+  }
+
+  void markSharedEdges() {
+    std::vector<EdgeRef*> edges;
+    for (auto& e : mcEdges_) edges.push_back(&e);
+    for (auto& v : variants_) {
+      for (auto& t : v.tets) {
+        for (auto& e : t.edges) edges.push_back(&e);
+      }
+    }
+    std::vector<bool> onTop(evenClasses_.size(), false);
+    for (const EdgeRef* e : edges) {
+      if (e->plane == 2) onTop[e->edgeClass] = true;
+    }
+    for (EdgeRef* e : edges) e->shared = e->plane == 0 && onTop[e->edgeClass];
   }
 
   void clearPlane(int p) noexcept {
@@ -417,6 +465,14 @@ class LatticeExtractor final : public Extractor {
     const std::int64_t slot = e.offset + j * nx_ + i;
     VertexId& id = planes_[e.plane][static_cast<std::size_t>(slot)];
     if (id == kNoVertex) {
+      if (e.shared && detached_ && z_ > 0) {
+        // The slab below created this vertex (every edge on slice z that a cell of this slab
+        // crosses is an edge of a cell below too): refer to it by slot.
+        id = kForeignVertex | static_cast<VertexId>(foreign_->size());
+        foreign_->push_back(slot);
+        touched_[0].push_back(slot);
+        return id;
+      }
       id = static_cast<VertexId>(vertexCount_++);
       touched_[e.plane].push_back(slot);
       createVertex(e, i, j);
@@ -506,6 +562,8 @@ class LatticeExtractor final : public Extractor {
   std::array<std::vector<float>, 2> centres_;
   std::array<std::vector<RowState>, 3> rows_;
   bool needsCentres_ = false;
+  bool detached_ = false;
+  std::vector<std::int64_t>* foreign_ = nullptr;
   bool flip_ = false;
   double cellVolume_ = 1;
   std::int64_t nx_ = 0, ny_ = 0, nz_ = 0, planeSize_ = 0;
@@ -520,7 +578,7 @@ class LatticeExtractor final : public Extractor {
 
 std::unique_ptr<Extractor> makeLatticeExtractor(const ExtractOptions& options, const VolumeInfo& info,
                                                 const LatticeFrame& frame, std::unique_ptr<CellScheme> scheme) {
-  return std::make_unique<LatticeExtractor>(options, info, frame, std::move(scheme));
+  return std::make_unique<LatticeExtractor>(options, info.dims, frame, std::move(scheme));
 }
 
 }  // namespace isoslab

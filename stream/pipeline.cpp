@@ -4,11 +4,15 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <chrono>
+#include <condition_variable>
 #include <exception>
+#include <mutex>
 #include <limits>
 #include <thread>
 
+#include "extract/slab_stitcher.h"
 #include "io/error.h"
 #include "stream/bounded_queue.h"
 #include "stream/progress.h"
@@ -129,6 +133,95 @@ class ChunkDrain {
   std::atomic<bool> failed_{false};
 };
 
+// Extraction on several threads: slab z goes to worker z % count, each with its own detached
+// extractor, and parts are collected in slab order.
+class WorkerPool {
+ public:
+  WorkerPool(const Extractor& extractor, int count) : slots_(static_cast<std::size_t>(count)) {
+    for (auto& slot : slots_) {
+      slot = std::make_unique<Slot>();
+      slot->worker = extractor.makeWorker();
+    }
+    for (auto& slot : slots_) slot->thread = std::thread([s = slot.get()] { run(*s); });
+  }
+  ~WorkerPool() {
+    for (auto& slot : slots_) {
+      {
+        std::lock_guard lock(slot->mutex);
+        slot->stop = true;
+      }
+      slot->wake.notify_all();
+    }
+    for (auto& slot : slots_) slot->thread.join();
+  }
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  /// Hands slab view.z to its worker, which must have been collected from.
+  void submit(const SlabView& view) {
+    Slot& slot = slotOf(view.z);
+    {
+      std::lock_guard lock(slot.mutex);
+      assert(slot.state == State::kIdle);
+      slot.view = view;
+      slot.state = State::kPending;
+    }
+    slot.wake.notify_all();
+  }
+
+  /// Waits for slab z. The part stays valid until the next submit to that worker.
+  SlabPart& collect(std::int64_t z) {
+    Slot& slot = slotOf(z);
+    std::unique_lock lock(slot.mutex);
+    slot.wake.wait(lock, [&] { return slot.state == State::kDone; });
+    slot.state = State::kIdle;
+    return slot.part;
+  }
+
+  /// Seconds spent extracting, summed over the workers.
+  double seconds() const noexcept {
+    double sum = 0;
+    for (const auto& slot : slots_) sum += slot->seconds;
+    return sum;
+  }
+
+ private:
+  enum class State : std::uint8_t { kIdle, kPending, kDone };
+  struct Slot {
+    std::thread thread;
+    std::mutex mutex;
+    std::condition_variable wake;
+    State state = State::kIdle;
+    bool stop = false;
+    SlabView view;
+    SlabPart part;
+    std::unique_ptr<SlabWorker> worker;
+    double seconds = 0;  // written by the worker between a submit and its collect
+  };
+
+  static void run(Slot& slot) {
+    for (;;) {
+      {
+        std::unique_lock lock(slot.mutex);
+        slot.wake.wait(lock, [&] { return slot.state == State::kPending || slot.stop; });
+        if (slot.stop) return;
+      }
+      const auto t = Clock::now();
+      slot.worker->extract(slot.view, slot.part);
+      slot.seconds += since(t);
+      {
+        std::lock_guard lock(slot.mutex);
+        slot.state = State::kDone;
+      }
+      slot.wake.notify_all();
+    }
+  }
+
+  Slot& slotOf(std::int64_t z) { return *slots_[static_cast<std::size_t>(z) % slots_.size()]; }
+
+  std::vector<std::unique_ptr<Slot>> slots_;
+};
+
 }  // namespace
 
 PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& sink, const MeshHeader& header,
@@ -138,7 +231,10 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
   const std::int64_t nz = info.dims[2];
   const int below = extractor.slicesBelow();
   const int above = extractor.slicesAbove();
-  SlabRing ring(info.sliceVoxels(), below + 2 + above);
+  // Slab z needs slices z - below .. z + 1 + above; with `workers` slabs in flight, the ring holds
+  // one more slice per extra worker.
+  const int workers = std::max(1, options.threads);
+  SlabRing ring(info.sliceVoxels(), below + 1 + above + workers);
   PipelineResult result;
   result.ringBytes = ring.bytes();
   Progress progress("extract", nz - 1, options.progress);
@@ -151,41 +247,72 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
   SliceFeed feed(source, threaded);
   ChunkDrain drain(sink, threaded);
   std::int64_t loaded = 0;
-  MeshChunk chunk;
-  VertexId nextVertex = 0;
-  for (std::int64_t z = 0; z + 1 < nz; ++z) {
+  auto load = [&](std::int64_t z) {  // the slices slab z needs
     const std::int64_t need = std::min(nz - 1, z + 1 + above);
-    t = Clock::now();
+    const auto t0 = Clock::now();
     while (loaded <= need) {
       if (!feed.next(ring.acquire(loaded))) {
         throw Error(fmt::format("{}: the data ended after {} of {} slices", info.source, loaded, nz));
       }
       ++loaded;
     }
-    result.readSeconds += since(t);
-
-    SlabView view;
-    view.z = z;
-    view.dims = info.dims;
-    view.slices = {below > 0 ? ring.slice(z - 1) : nullptr, ring.slice(z), ring.slice(z + 1),
-                   above > 0 ? ring.slice(z + 2) : nullptr};
-    chunk.clear();
-    chunk.slab = z;
-    chunk.firstVertex = nextVertex;
-    t = Clock::now();
-    extractor.extractSlab(view, chunk);
-    result.extractSeconds += since(t);
-    if (extractor.vertexCount() > std::numeric_limits<VertexId>::max()) {
-      throw Error(fmt::format("{}: the mesh exceeds {} vertices", info.source, std::numeric_limits<VertexId>::max()));
-    }
-    nextVertex = chunk.endVertex();
+    result.readSeconds += since(t0);
+  };
+  auto view = [&](std::int64_t z) {
+    SlabView v;
+    v.z = z;
+    v.dims = info.dims;
+    v.slices = {below > 0 ? ring.slice(z - 1) : nullptr, ring.slice(z), ring.slice(z + 1),
+                above > 0 ? ring.slice(z + 2) : nullptr};
+    return v;
+  };
+  auto emit = [&](MeshChunk& chunk) {
     result.vertices += chunk.positions.size();
     result.triangles += chunk.triangles.size();
-
-    t = Clock::now();
+    const auto t0 = Clock::now();
     drain.push(chunk);
-    result.writeSeconds += since(t);
-    progress.update(z + 1);
+    result.writeSeconds += since(t0);
+    progress.update(chunk.slab + 1);
+  };
+  const std::int64_t slabs = nz - 1;
+  if (workers == 1) {
+    MeshChunk chunk;
+    VertexId nextVertex = 0;
+    for (std::int64_t z = 0; z < slabs; ++z) {
+      load(z);
+      chunk.clear();
+      chunk.slab = z;
+      chunk.firstVertex = nextVertex;
+      t = Clock::now();
+      extractor.extractSlab(view(z), chunk);
+      result.extractSeconds += since(t);
+      if (extractor.vertexCount() > std::numeric_limits<VertexId>::max()) {
+        throw Error(
+            fmt::format("{}: the mesh exceeds {} vertices", info.source, std::numeric_limits<VertexId>::max()));
+      }
+      nextVertex = chunk.endVertex();
+      emit(chunk);
+    }
+  } else {
+    // Slabs collected..dispatched-1 are in flight; the ring keeps every slice they need.
+    WorkerPool pool(extractor, workers);
+    SlabStitcher stitcher(extractor.sliceSlots());
+    std::int64_t dispatched = 0;
+    for (std::int64_t collected = 0; collected < slabs; ++collected) {
+      while (dispatched < slabs && dispatched - collected < workers) {
+        load(dispatched);
+        pool.submit(view(dispatched));
+        ++dispatched;
+      }
+      SlabPart& part = pool.collect(collected);
+      try {
+        stitcher.stitch(part);
+      } catch (const Error& e) {
+        throw Error(fmt::format("{}: {}", info.source, e.what()));
+      }
+      emit(part.chunk);
+    }
+    result.extractSeconds = pool.seconds();
   }
   t = Clock::now();
   drain.flush();

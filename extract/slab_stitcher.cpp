@@ -1,0 +1,49 @@
+#include "extract/slab_stitcher.h"
+
+#include <fmt/format.h>
+
+#include <limits>
+
+#include "io/error.h"
+
+namespace isoslab {
+namespace {
+constexpr VertexId kUnset = std::numeric_limits<VertexId>::max();
+}
+
+SlabStitcher::SlabStitcher(std::size_t sliceSlots) : top_(sliceSlots, kUnset) {}
+
+void SlabStitcher::stitch(SlabPart& part) {
+  MeshChunk& chunk = part.chunk;
+  if (chunk.slab != slab_) {
+    throw Error(fmt::format("internal error: slab {} stitched after slab {}", chunk.slab, slab_ - 1));
+  }
+  ++slab_;
+  const std::uint64_t count = chunk.positions.size();
+  if (count >= kForeignVertex || next_ + count > std::numeric_limits<VertexId>::max()) {
+    throw Error(fmt::format("the mesh exceeds {} vertices", std::numeric_limits<VertexId>::max()));
+  }
+  const auto first = static_cast<VertexId>(next_);
+  resolved_.resize(part.foreign.size());
+  for (std::size_t k = 0; k < part.foreign.size(); ++k) {
+    const VertexId id = top_[static_cast<std::size_t>(part.foreign[k])];
+    if (id == kUnset) {
+      throw Error(fmt::format("internal error: slab {} references a vertex that slab {} did not create", chunk.slab,
+                              chunk.slab - 1));
+    }
+    resolved_[k] = id;
+  }
+  for (Triangle& t : chunk.triangles) {
+    for (VertexId& v : t) v = (v & kForeignVertex) ? resolved_[v & ~kForeignVertex] : first + v;
+  }
+  for (std::int64_t slot : set_) top_[static_cast<std::size_t>(slot)] = kUnset;
+  set_.clear();
+  for (const auto& [slot, local] : part.top) {
+    top_[static_cast<std::size_t>(slot)] = first + local;
+    set_.push_back(slot);
+  }
+  chunk.firstVertex = first;
+  next_ += count;
+}
+
+}  // namespace isoslab
