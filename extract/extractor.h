@@ -46,6 +46,9 @@ struct ExtractOptions {
   Method method = Method::kMarchingCubes;
   double iso = 0;
   bool normals = false;
+  /// Tetrahedral methods: sum the volume inside the surface over the tetrahedra (the paper's
+  /// per-cell volume, MeshChunk::cellVolume).
+  bool cellVolumes = true;
 };
 
 class Extractor {

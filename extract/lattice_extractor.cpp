@@ -44,6 +44,18 @@ struct VariantRef {
   std::vector<TetRef> tets;
   std::uint32_t nodeMask = 0;  // nodes whose values the variant reads
   double volume = 0;
+  /// The distinct edges of the tetrahedra.
+  std::vector<EdgeRef> edges;
+  /// Per tetrahedron, its six edges as indices into `edges`.
+  std::vector<std::array<std::uint8_t, 6>> tetEdges;
+  /// The triangles of each node case, as indices into `edges`, in the order the tetrahedra emit
+  /// them; filled on first use (bcc12's interior variant has 4096 cases, most never seen).
+  struct CaseSpan {
+    std::int32_t first = -1;  // into `triangles`; -1: not built yet
+    std::int32_t count = 0;
+  };
+  std::vector<CaseSpan> cases;
+  std::vector<std::array<std::uint8_t, 3>> triangles;
 };
 
 bool lowerNode(const LatticeNode& a, const LatticeNode& b) {
@@ -87,8 +99,18 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
           r.volume = signedVolume6(n[t.nodes[0]], n[t.nodes[1]], n[t.nodes[2]], n[t.nodes[3]]) / 48.0;
           for (auto k : t.nodes) v.nodeMask |= 1u << k;
           v.volume += r.volume;
+          std::array<std::uint8_t, 6> ids{};
+          for (std::size_t e = 0; e < 6; ++e) {
+            const EdgeRef& edge = r.edges[e];
+            auto same = [&](const EdgeRef& o) { return o.a == edge.a && o.b == edge.b; };
+            auto it = std::find_if(v.edges.begin(), v.edges.end(), same);
+            if (it == v.edges.end()) it = v.edges.insert(v.edges.end(), edge);
+            ids[e] = static_cast<std::uint8_t>(it - v.edges.begin());
+          }
+          v.tetEdges.push_back(ids);
           v.tets.push_back(r);
         }
+        v.cases.resize(std::size_t{1} << nodes_.size());
         variants_.push_back(std::move(v));
       }
     }
@@ -108,7 +130,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   int slicesBelow() const noexcept override { return options_.normals ? 1 : 0; }
   int slicesAbove() const noexcept override { return (options_.normals || needsCentres_) ? 1 : 0; }
   std::uint64_t vertexCount() const noexcept override { return vertexCount_; }
-  bool cellVolumes() const noexcept override { return scheme_ != nullptr; }
+  bool cellVolumes() const noexcept override { return scheme_ != nullptr && options_.cellVolumes; }
   std::size_t sliceSlots() const noexcept override { return planes_[0].size(); }
 
   std::unique_ptr<SlabWorker> makeWorker() const override {
@@ -289,6 +311,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
       for (auto& t : v.tets) {
         for (auto& e : t.edges) edges.push_back(&e);
       }
+      for (auto& e : v.edges) edges.push_back(&e);
     }
     std::vector<bool> onTop(evenClasses_.size(), false);
     for (const EdgeRef* e : edges) {
@@ -373,7 +396,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
                                            (j + 2 == ny_ ? 8 : 0) | (z_ == 0 ? 16 : 0) | (z_ + 2 == nz_ ? 32 : 0));
         break;
     }
-    const VariantRef& v = variants_[variant];
+    VariantRef& v = variants_[variant];
     unsigned nodeCase = cornerCase;
     if (needsCentres_) {
       const std::int64_t c = j * (nx_ - 1) + i;
@@ -386,25 +409,45 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
       }
     }
     const unsigned used = v.nodeMask;
-    if ((nodeCase & used) == 0) return 0.0;
-    if ((nodeCase & used) == used) return v.volume;
+    const unsigned key = nodeCase & used;
+    if (key == 0) return 0.0;
+    if (key == used) return v.volume;
+    VariantRef::CaseSpan& span = v.cases[key];
+    if (span.first < 0) buildCase(v, key);
+    const auto* tri = v.triangles.data() + span.first;
+    for (std::int32_t n = 0; n < span.count; ++n, ++tri) {
+      emitTriangle(vertex(v.edges[(*tri)[0]], i, j), vertex(v.edges[(*tri)[1]], i, j),
+                   vertex(v.edges[(*tri)[2]], i, j));
+    }
+    if (!options_.cellVolumes) return 0.0;
     double inside = 0;
     for (const TetRef& t : v.tets) {
       unsigned cas = 0;
-      for (unsigned k = 0; k < 4; ++k) cas |= ((nodeCase >> t.nodes[k]) & 1u) << k;
-      if (cas == 0) continue;
+      for (unsigned k = 0; k < 4; ++k) cas |= ((key >> t.nodes[k]) & 1u) << k;
       if (cas == 15) {
         inside += t.volume;
-        continue;
-      }
-      inside += tetInsideVolume(t, cas);
-      const auto& table = tet::kTetCases;
-      for (int n = 0; n < table.triangleCount[cas]; ++n) {
-        const auto& tri = table.triangles[cas][static_cast<std::size_t>(n)];
-        emitTriangle(vertex(t.edges[tri[0]], i, j), vertex(t.edges[tri[1]], i, j), vertex(t.edges[tri[2]], i, j));
+      } else if (cas != 0) {
+        inside += tetInsideVolume(t, cas);
       }
     }
     return inside;
+  }
+
+  // The triangles of node case `key` of variant v: the tetrahedra's, in order.
+  static void buildCase(VariantRef& v, unsigned key) {
+    VariantRef::CaseSpan& span = v.cases[key];
+    span.first = static_cast<std::int32_t>(v.triangles.size());
+    for (std::size_t n = 0; n < v.tets.size(); ++n) {
+      const TetRef& t = v.tets[n];
+      unsigned cas = 0;
+      for (unsigned k = 0; k < 4; ++k) cas |= ((key >> t.nodes[k]) & 1u) << k;
+      const auto& table = tet::kTetCases;
+      for (int m = 0; m < table.triangleCount[cas]; ++m) {
+        const auto& tri = table.triangles[cas][static_cast<std::size_t>(m)];
+        v.triangles.push_back({v.tetEdges[n][tri[0]], v.tetEdges[n][tri[1]], v.tetEdges[n][tri[2]]});
+      }
+    }
+    span.count = static_cast<std::int32_t>(v.triangles.size()) - span.first;
   }
 
   // Lattice position of node n of cell (i, j, z_).
@@ -418,25 +461,17 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   // units: case groups of the paper's section F. Linear interpolation makes the surface inside a
   // tetrahedron a plane, so the inside part is a small tetrahedron (one node inside), the rest of
   // the tetrahedron (three inside) or a triangular prism (two and two), cut into three tetrahedra.
+  //
+  // With s the fraction of an edge from its inside node to its outside node where the surface cuts
+  // it: one node a inside: V s_ab s_ac s_ad; three inside: V minus the one-outside part; two (a, b)
+  // and two (c, d): V (u v (1 - x) + u x (1 - w) + w x) with u, v, w, x the fractions on a-c, a-d,
+  // b-c, b-d (the prism cut into the tetrahedra (a, ac, ad, bd), (a, ac, bc, bd), (a, b, bc, bd),
+  // whose volumes in barycentric coordinates are those three terms).
   double tetInsideVolume(const TetRef& t, unsigned cas) const noexcept {
-    Vec3d p[4];
     double v[4];
-    for (int k = 0; k < 4; ++k) {
-      const LatticeNode& n = nodes_[t.nodes[static_cast<std::size_t>(k)]];
-      p[k] = {0.5 * n.hx, 0.5 * n.hy, 0.5 * n.hz};
-      v[k] = value_[t.nodes[static_cast<std::size_t>(k)]];
-    }
-    auto cut = [&](int a, int b) {
-      const double s = (options_.iso - v[a]) / (v[b] - v[a]);
-      return Vec3d{p[a][0] + s * (p[b][0] - p[a][0]), p[a][1] + s * (p[b][1] - p[a][1]),
-                   p[a][2] + s * (p[b][2] - p[a][2])};
-    };
-    auto vol = [](const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
-      const double ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
-      const double vx = c[0] - a[0], vy = c[1] - a[1], vz = c[2] - a[2];
-      const double wx = d[0] - a[0], wy = d[1] - a[1], wz = d[2] - a[2];
-      return std::abs(ux * (vy * wz - vz * wy) - uy * (vx * wz - vz * wx) + uz * (vx * wy - vy * wx)) / 6.0;
-    };
+    for (std::size_t k = 0; k < 4; ++k) v[k] = value_[t.nodes[k]];
+    const double iso = options_.iso;
+    auto s = [&](int from, int to) { return (iso - v[from]) / (v[to] - v[from]); };
     int in[4];
     int out[4];
     int nIn = 0;
@@ -444,16 +479,15 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     for (int k = 0; k < 4; ++k) ((cas >> k) & 1 ? in[nIn++] : out[nOut++]) = k;
     if (nIn == 1) {
       const int a = in[0];
-      return vol(p[a], cut(a, out[0]), cut(a, out[1]), cut(a, out[2]));
+      return t.volume * s(a, out[0]) * s(a, out[1]) * s(a, out[2]);
     }
     if (nIn == 3) {
       const int a = out[0];
-      return t.volume - vol(p[a], cut(a, in[0]), cut(a, in[1]), cut(a, in[2]));
+      return t.volume * (1.0 - s(a, in[0]) * s(a, in[1]) * s(a, in[2]));
     }
-    const int a = in[0], b = in[1], c = out[0], d = out[1];
-    const Vec3d ac = cut(a, c), ad = cut(a, d), bc = cut(b, c), bd = cut(b, d);
-    // Prism with triangles (a, ac, ad) and (b, bc, bd), lateral edges a-b, ac-bc, ad-bd.
-    return vol(p[a], ac, ad, bd) + vol(p[a], ac, bc, bd) + vol(p[a], p[b], bc, bd);
+    const double u = s(in[0], out[0]), w = s(in[1], out[0]);
+    const double x = s(in[1], out[1]), vv = s(in[0], out[1]);
+    return t.volume * (u * vv * (1.0 - x) + u * x * (1.0 - w) + w * x);
   }
 
   void emitTriangle(VertexId a, VertexId b, VertexId c) noexcept {

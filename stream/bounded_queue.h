@@ -35,6 +35,25 @@ class BoundedQueue {
     return item;
   }
 
+  /// An item if one is waiting, without blocking.
+  std::optional<T> tryPop() {
+    std::lock_guard lock(mutex_);
+    if (items_.empty()) return std::nullopt;
+    T item = std::move(items_.front());
+    items_.pop_front();
+    notFull_.notify_one();
+    return item;
+  }
+
+  /// Adds an item if there is room, without blocking; returns whether it was added.
+  bool tryPush(T& item) {
+    std::lock_guard lock(mutex_);
+    if (closed_ || items_.size() >= capacity_) return false;
+    items_.push_back(std::move(item));
+    notEmpty_.notify_one();
+    return true;
+  }
+
   /// No more pushes; pop() drains what is left, then returns nothing.
   void close() {
     std::lock_guard lock(mutex_);

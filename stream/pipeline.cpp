@@ -31,16 +31,20 @@ double since(Clock::time_point t) {
 
 namespace {
 
-// Slices in order from the source: read on the spot, or by a reader thread ahead of time.
+// Slices in order from the source: read on the spot into the ring, or by a reader thread ahead
+// of time into buffers that the ring adopts (and hands back once evicted, for reuse).
 class SliceFeed {
  public:
-  SliceFeed(SliceSource& source, bool threaded) : source_(source), threaded_(threaded), queue_(3) {
+  SliceFeed(SliceSource& source, bool threaded) : source_(source), threaded_(threaded), queue_(3), free_(4) {
     if (threaded_) {
       reader_ = std::thread([this] {
         try {
-          std::vector<float> slice(static_cast<std::size_t>(source_.info().sliceVoxels()));
-          while (source_.readSlice(slice)) {
-            if (!queue_.push(slice)) return;
+          const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
+          for (;;) {
+            auto reused = free_.tryPop();
+            std::vector<float> slice = reused ? std::move(*reused) : std::vector<float>(n);
+            if (!source_.readSlice(slice)) break;
+            if (!queue_.push(std::move(slice))) return;
           }
         } catch (...) {
           error_ = std::current_exception();
@@ -58,14 +62,16 @@ class SliceFeed {
   SliceFeed(const SliceFeed&) = delete;
   SliceFeed& operator=(const SliceFeed&) = delete;
 
-  bool next(std::span<float> into) {
-    if (!threaded_) return source_.readSlice(into);
+  /// Reads the next slice into the ring as slice k; false at the end of the data.
+  bool next(SlabRing& ring, std::int64_t k) {
+    if (!threaded_) return source_.readSlice(ring.acquire(k));
     auto slice = queue_.pop();
     if (!slice) {
       if (error_) std::rethrow_exception(error_);
       return false;
     }
-    std::copy(slice->begin(), slice->end(), into.begin());
+    std::vector<float> evicted = ring.adopt(k, std::move(*slice));
+    free_.tryPush(evicted);
     return true;
   }
 
@@ -73,6 +79,7 @@ class SliceFeed {
   SliceSource& source_;
   bool threaded_;
   BoundedQueue<std::vector<float>> queue_;
+  BoundedQueue<std::vector<float>> free_;
   std::thread reader_;
   std::exception_ptr error_;
 };
@@ -80,7 +87,7 @@ class SliceFeed {
 // Chunks in order to the sink: consumed on the spot, or by a writer thread.
 class ChunkDrain {
  public:
-  ChunkDrain(MeshSink& sink, bool threaded) : sink_(sink), threaded_(threaded), queue_(4) {
+  ChunkDrain(MeshSink& sink, bool threaded) : sink_(sink), threaded_(threaded), queue_(4), free_(2) {
     if (threaded_) {
       writer_ = std::thread([this] {
         while (auto chunk = queue_.pop()) {
@@ -91,6 +98,8 @@ class ChunkDrain {
             error_ = std::current_exception();
             failed_ = true;
           }
+          chunk->clear();
+          free_.tryPush(*chunk);
         }
       });
     }
@@ -111,6 +120,12 @@ class ChunkDrain {
     queue_.push(std::move(chunk));
     chunk = MeshChunk{};
   }
+  /// An empty chunk whose buffers may have room from an earlier slab.
+  MeshChunk recycled() {
+    auto chunk = threaded_ ? free_.tryPop() : std::nullopt;
+    return chunk ? std::move(*chunk) : MeshChunk{};
+  }
+
   /// Waits for every chunk to be consumed; rethrows the writer's error.
   void flush() {
     stop();
@@ -128,6 +143,7 @@ class ChunkDrain {
   MeshSink& sink_;
   bool threaded_;
   BoundedQueue<MeshChunk> queue_;
+  BoundedQueue<MeshChunk> free_;
   std::thread writer_;
   std::exception_ptr error_;
   std::atomic<bool> failed_{false};
@@ -251,7 +267,7 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
     const std::int64_t need = std::min(nz - 1, z + 1 + above);
     const auto t0 = Clock::now();
     while (loaded <= need) {
-      if (!feed.next(ring.acquire(loaded))) {
+      if (!feed.next(ring, loaded)) {
         throw Error(fmt::format("{}: the data ended after {} of {} slices", info.source, loaded, nz));
       }
       ++loaded;
@@ -311,6 +327,7 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
         throw Error(fmt::format("{}: {}", info.source, e.what()));
       }
       emit(part.chunk);
+      part.chunk = drain.recycled();
     }
     result.extractSeconds = pool.seconds();
   }

@@ -6,9 +6,10 @@
 // derived per slab (such as BCC cube-centre values) are held by the extractor that derives them,
 // two slabs deep.
 //
-// Contract: acquire(k) hands out the slot for slice k and evicts slice k - capacity. A pointer
-// returned by slice(k) stays valid until slice k is evicted, i.e. until acquire(k + capacity).
-// Slices must be acquired in increasing order. Not thread-safe.
+// Contract: acquire(k) hands out the slot for slice k and evicts slice k - capacity (adopt(k, v)
+// does the same with a buffer filled elsewhere, and hands back the evicted one). A pointer returned
+// by slice(k) stays valid until slice k is evicted, i.e. until acquire(k + capacity). Slices must
+// be acquired in increasing order. Not thread-safe.
 #pragma once
 
 #include <array>
@@ -24,7 +25,7 @@ class SlabRing {
   SlabRing(std::int64_t sliceVoxels, int capacity)
       : sliceVoxels_(static_cast<std::size_t>(sliceVoxels)),
         capacity_(capacity),
-        storage_(static_cast<std::size_t>(capacity) * static_cast<std::size_t>(sliceVoxels)),
+        storage_(static_cast<std::size_t>(capacity), std::vector<float>(sliceVoxels_)),
         resident_(static_cast<std::size_t>(capacity), -1) {
     assert(capacity >= 2);
   }
@@ -37,25 +38,34 @@ class SlabRing {
     newest_ = k;
     const std::size_t slot = slotOf(k);
     resident_[slot] = k;
-    return {storage_.data() + slot * sliceVoxels_, sliceVoxels_};
+    return storage_[slot];
+  }
+
+  /// Makes `filled` (one slice's values) slice k, evicting slice k - capacity(), whose buffer is
+  /// returned for reuse.
+  std::vector<float> adopt(std::int64_t k, std::vector<float> filled) {
+    assert(filled.size() == sliceVoxels_);
+    acquire(k);
+    std::swap(storage_[slotOf(k)], filled);
+    return filled;
   }
 
   /// Slice k, or nullptr if it is not resident.
   const float* slice(std::int64_t k) const noexcept {
     if (k < 0) return nullptr;
     const std::size_t slot = slotOf(k);
-    return resident_[slot] == k ? storage_.data() + slot * sliceVoxels_ : nullptr;
+    return resident_[slot] == k ? storage_[slot].data() : nullptr;
   }
 
   /// Bytes of slice storage.
-  std::size_t bytes() const noexcept { return storage_.size() * sizeof(float); }
+  std::size_t bytes() const noexcept { return storage_.size() * sliceVoxels_ * sizeof(float); }
 
  private:
   std::size_t slotOf(std::int64_t k) const noexcept { return static_cast<std::size_t>(k % capacity_); }
 
   std::size_t sliceVoxels_;
   int capacity_;
-  std::vector<float> storage_;
+  std::vector<std::vector<float>> storage_;
   std::vector<std::int64_t> resident_;
   std::int64_t newest_ = -1;
 };

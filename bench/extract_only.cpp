@@ -1,0 +1,108 @@
+// Extraction alone, timed like the peers' in-memory runs: the whole volume is read into memory
+// first (a benchmark may hold it; the library never does), then the pipeline extracts it R times
+// into a sink that only counts, and the median wall time is printed as JSON.
+// Usage: isoslab_extract_only INPUT --iso V [--method M] [--threads N] [--runs R]
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "extract/extractor.h"
+#include "extract/frame.h"
+#include "io/error.h"
+#include "io/open_source.h"
+#include "stream/pipeline.h"
+
+namespace {
+
+class MemorySource final : public isoslab::SliceSource {
+ public:
+  explicit MemorySource(isoslab::SliceSource& from) : info_(from.info()) {
+    const auto n = static_cast<std::size_t>(info_.sliceVoxels());
+    values_.resize(n * static_cast<std::size_t>(info_.dims[2]));
+    for (std::int64_t k = 0; k < info_.dims[2]; ++k) {
+      if (!from.readSlice({values_.data() + static_cast<std::size_t>(k) * n, n})) {
+        throw isoslab::Error(fmt::format("{}: short volume", info_.source));
+      }
+    }
+  }
+  const isoslab::VolumeInfo& info() const noexcept override { return info_; }
+  bool readSlice(std::span<float> slice) override {
+    if (next_ >= info_.dims[2]) return false;
+    const auto n = slice.size();
+    std::memcpy(slice.data(), values_.data() + static_cast<std::size_t>(next_++) * n, n * sizeof(float));
+    return true;
+  }
+  void rewind() { next_ = 0; }
+
+ private:
+  isoslab::VolumeInfo info_;
+  std::vector<float> values_;
+  std::int64_t next_ = 0;
+};
+
+class CountingSink final : public isoslab::MeshSink {
+ public:
+  void begin(const isoslab::MeshHeader&) override { triangles = 0; }
+  void consume(const isoslab::MeshChunk& c) override { triangles += c.triangles.size(); }
+  void finish() override {}
+  std::uint64_t triangles = 0;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string input;
+  double iso = 0;
+  std::string method = "mc";
+  int threads = 1;
+  int runs = 5;
+  for (int a = 1; a < argc; ++a) {
+    const std::string arg = argv[a];
+    auto value = [&] { return a + 1 < argc ? std::string(argv[++a]) : std::string(); };
+    if (arg == "--iso") {
+      iso = std::stod(value());
+    } else if (arg == "--method") {
+      method = value();
+    } else if (arg == "--threads") {
+      threads = std::stoi(value());
+    } else if (arg == "--runs") {
+      runs = std::stoi(value());
+    } else {
+      input = arg;
+    }
+  }
+  try {
+    auto file = isoslab::openSource(input, isoslab::SourceOptions{});
+    MemorySource source(*file);
+    file.reset();
+    isoslab::ExtractOptions options;
+    options.iso = iso;
+    const auto m = isoslab::parseMethod(method);
+    if (!m) throw isoslab::Error(fmt::format("unknown method '{}'", method));
+    options.method = *m;
+    const isoslab::LatticeFrame frame = isoslab::LatticeFrame::physical(source.info());
+    std::vector<double> seconds;
+    CountingSink sink;
+    for (int r = 0; r < runs; ++r) {
+      source.rewind();
+      auto extractor = isoslab::makeExtractor(options, source.info(), frame);
+      isoslab::PipelineOptions p;
+      p.threads = threads;
+      const auto t = std::chrono::steady_clock::now();
+      isoslab::runPipeline(source, *extractor, sink, isoslab::MeshHeader{}, p);
+      seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count());
+    }
+    std::sort(seconds.begin(), seconds.end());
+    fmt::print("{{\"method\": \"{}\", \"threads\": {}, \"runs\": {}, \"median_seconds\": {:.4f}, "
+               "\"best_seconds\": {:.4f}, \"triangles\": {}}}\n",
+               method, threads, runs, seconds[seconds.size() / 2], seconds.front(), sink.triangles);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "isoslab_extract_only: {}\n", e.what());
+    return 1;
+  }
+  return 0;
+}
