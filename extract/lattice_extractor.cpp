@@ -58,6 +58,13 @@ struct VariantRef {
   std::vector<std::array<std::uint8_t, 3>> triangles;
 };
 
+// The smallest float not below iso: for every float v, v >= iso exactly when v >= this.
+float insideThreshold(double iso) noexcept {
+  const auto f = static_cast<float>(iso);
+  if (std::isnan(iso) || static_cast<double>(f) >= iso) return f;
+  return std::nextafter(f, std::numeric_limits<float>::infinity());
+}
+
 bool lowerNode(const LatticeNode& a, const LatticeNode& b) {
   return std::tie(a.hz, a.hy, a.hx) < std::tie(b.hz, b.hy, b.hx);
 }
@@ -72,6 +79,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     nz_ = dims[2];
     planeSize_ = nx_ * ny_;
     flip_ = frame_.flipsWinding();
+    threshold_ = insideThreshold(options_.iso);
     cellVolume_ = frame_.cellVolume();
     if (scheme_) {
       nodes_ = scheme_->nodes;
@@ -169,9 +177,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     double insideVolume = 0;
     const float* s0 = slices_[1];
     const float* s1 = slices_[2];
-    const double iso = options_.iso;
-    const auto isoF = static_cast<float>(iso);
-    const bool exactIso = static_cast<double>(isoF) == iso;
+    const float threshold = threshold_;
     // Flying-edges-style trimming: the rows of each slice are classified once, and a row of cells
     // is visited only where one of the voxel rows it depends on changes state, or where their
     // constant states differ. mc, mt5 and mt6 depend on the four voxel rows of the cells; bcc12
@@ -191,7 +197,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
       const float* a1 = a0 + nx_;
       const float* b0 = s1 + j * nx_;
       const float* b1 = b0 + nx_;
-      auto in = [isoF, exactIso, iso](float v) { return exactIso ? v >= isoF : static_cast<double>(v) >= iso; };
+      auto in = [threshold](float v) { return v >= threshold; };
       unsigned cornerCase = static_cast<unsigned>(in(a0[begin])) | static_cast<unsigned>(in(a1[begin])) << 2 |
                             static_cast<unsigned>(in(b0[begin])) << 4 | static_cast<unsigned>(in(b1[begin])) << 6;
       for (std::int64_t i = begin; i < end; ++i) {
@@ -337,26 +343,53 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
 
   void classifyRows(const float* slice, std::vector<RowState>& rows) const noexcept {
     rows.resize(static_cast<std::size_t>(ny_));
-    const float iso = static_cast<float>(options_.iso);
-    const bool exact = static_cast<double>(iso) == options_.iso;
+    const float threshold = threshold_;
     for (std::int64_t j = 0; j < ny_; ++j) {
       const float* v = slice + j * nx_;
       RowState& r = rows[static_cast<std::size_t>(j)];
-      auto inside = [&](std::int64_t i) { return exact ? v[i] >= iso : static_cast<double>(v[i]) >= options_.iso; };
-      r.left = inside(0);
-      r.right = inside(nx_ - 1);
-      r.first = -1;
-      r.last = -1;
-      bool previous = r.left;
-      for (std::int64_t i = 1; i < nx_; ++i) {
-        const bool state = inside(i);
-        if (state != previous) {
-          if (r.first < 0) r.first = i;
-          r.last = i;
-          previous = state;
-        }
+      r.left = v[0] >= threshold;
+      r.right = v[nx_ - 1] >= threshold;
+      r.first = firstDiffering(v, 1, nx_, r.left, threshold);
+      if (r.first == nx_) {
+        r.first = r.last = -1;
+      } else {
+        // The last change follows the last voxel whose state differs from the right end's.
+        r.last = lastDiffering(v, 0, nx_ - 1, r.right, threshold) + 1;
       }
     }
+  }
+
+  // In blocks of 16 voxels, which the compiler vectorizes; rows are mostly uniform.
+  static constexpr std::int64_t kBlock = 16;
+
+  // The first i in [from, to) with (v[i] >= threshold) != state, or `to`.
+  static std::int64_t firstDiffering(const float* v, std::int64_t from, std::int64_t to, bool state,
+                                     float threshold) noexcept {
+    std::int64_t i = from;
+    for (; i + kBlock <= to; i += kBlock) {
+      unsigned differ = 0;
+      for (std::int64_t k = 0; k < kBlock; ++k) differ |= static_cast<unsigned>((v[i + k] >= threshold) != state);
+      if (differ != 0) break;
+    }
+    for (; i < to; ++i) {
+      if ((v[i] >= threshold) != state) return i;
+    }
+    return to;
+  }
+
+  // The last i in [from, to) with (v[i] >= threshold) != state, or from - 1.
+  static std::int64_t lastDiffering(const float* v, std::int64_t from, std::int64_t to, bool state,
+                                    float threshold) noexcept {
+    std::int64_t i = to;
+    for (; i - kBlock >= from; i -= kBlock) {
+      unsigned differ = 0;
+      for (std::int64_t k = 1; k <= kBlock; ++k) differ |= static_cast<unsigned>((v[i - k] >= threshold) != state);
+      if (differ != 0) break;
+    }
+    for (; i > from; --i) {
+      if ((v[i - 1] >= threshold) != state) return i - 1;
+    }
+    return from - 1;
   }
 
   // Cube-centre values of slab z_ + which: the mean of each cell's eight corners.
@@ -405,7 +438,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
       if (v.nodeMask & (1u << 10)) value_[10] = centres_[0][static_cast<std::size_t>(c + nx_ - 1)];
       if (v.nodeMask & (1u << 11)) value_[11] = centres_[1][static_cast<std::size_t>(c)];
       for (unsigned n = 8; n < 12; ++n) {
-        if (v.nodeMask & (1u << n)) nodeCase |= static_cast<unsigned>(value_[n] >= options_.iso) << n;
+        if (v.nodeMask & (1u << n)) nodeCase |= static_cast<unsigned>(value_[n] >= threshold_) << n;
       }
     }
     const unsigned used = v.nodeMask;
@@ -597,6 +630,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   std::array<std::vector<RowState>, 3> rows_;
   bool needsCentres_ = false;
   bool detached_ = false;
+  float threshold_ = 0;  // a value v is inside when v >= threshold_
   std::vector<std::int64_t>* foreign_ = nullptr;
   bool flip_ = false;
   double cellVolume_ = 1;

@@ -64,6 +64,27 @@ TEST(ExtractBlock, ExactTriangleCounts) {
   EXPECT_EQ(testing::extract(kBlock, Method::kMarchingCubes, 50).stats.vertices, 216u);
 }
 
+// Inside is value >= iso compared exactly, also for iso values that no float equals: float(0.1)
+// is above the double 0.1 and below the next double after it.
+TEST(ExtractBlock, IsoValuesBetweenFloatsCompareExactly) {
+  const float stored = 0.1f;
+  auto field = [stored](std::int64_t i, std::int64_t j, std::int64_t k) {
+    const bool in = i >= 2 && i <= 7 && j >= 2 && j <= 7 && k >= 2 && k <= 7;
+    return in ? stored : 0.0f;
+  };
+  for (Method m : kAllMethods) {
+    testing::VectorSource below({10, 10, 10}, field);
+    EXPECT_GT(testing::extract(below, m, 0.1).stats.triangles, 0u) << name(m);
+    testing::VectorSource at({10, 10, 10}, field);
+    EXPECT_GT(testing::extract(at, m, static_cast<double>(stored)).stats.triangles, 0u) << name(m);
+    testing::VectorSource above({10, 10, 10}, field);
+    const double justAbove = std::nextafter(static_cast<double>(stored), 1.0);
+    EXPECT_EQ(testing::extract(above, m, justAbove).stats.triangles, 0u) << name(m);
+  }
+  testing::VectorSource block({10, 10, 10}, field);
+  EXPECT_EQ(testing::extract(block, Method::kMarchingCubes, 0.1).stats.triangles, 428u);
+}
+
 TEST(ExtractBlock, ValuesEqualToIsoGiveDegenerateTrianglesButNoHole) {
   // Inside means value >= iso: with iso 100 every inside corner is exactly on the surface, so
   // several vertices coincide and triangles collapse, but the mesh stays closed in index terms.
