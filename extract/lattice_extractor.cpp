@@ -123,23 +123,31 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
       }
     }
     markSharedEdges();
+    needsCentres_ = scheme_ && scheme_->rule == VariantRule::kBoundary;
+  }
+
+  // The welding caches and centre planes, allocated on first use (an extractor whose workers do
+  // the extracting never needs its own).
+  void allocate() {
     for (int p = 0; p < 3; ++p) {
       const std::size_t classes = (p == 1 ? oddClasses_ : evenClasses_).size();
       planes_[static_cast<std::size_t>(p)].assign(classes * static_cast<std::size_t>(planeSize_), kNoVertex);
     }
-    needsCentres_ = scheme_ && scheme_->rule == VariantRule::kBoundary;
     if (needsCentres_) {
       const auto cells = static_cast<std::size_t>((nx_ - 1) * (ny_ - 1));
       centres_[0].assign(cells, 0.0f);
       centres_[1].assign(cells, 0.0f);
     }
+    allocated_ = true;
   }
 
   int slicesBelow() const noexcept override { return options_.normals ? 1 : 0; }
   int slicesAbove() const noexcept override { return (options_.normals || needsCentres_) ? 1 : 0; }
   std::uint64_t vertexCount() const noexcept override { return vertexCount_; }
   bool cellVolumes() const noexcept override { return scheme_ != nullptr && options_.cellVolumes; }
-  std::size_t sliceSlots() const noexcept override { return planes_[0].size(); }
+  std::size_t sliceSlots() const noexcept override {
+    return evenClasses_.size() * static_cast<std::size_t>(planeSize_);
+  }
 
   std::unique_ptr<SlabWorker> makeWorker() const override {
     auto worker = std::make_unique<LatticeExtractor>(options_, std::array{nx_, ny_, nz_}, frame_,
@@ -167,6 +175,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   }
 
   void extractSlab(const SlabView& slab, MeshChunk& out) noexcept override {
+    if (!allocated_) allocate();
     z_ = slab.z;
     slices_ = slab.slices;
     out_ = &out;
@@ -630,6 +639,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   std::array<std::vector<RowState>, 3> rows_;
   bool needsCentres_ = false;
   bool detached_ = false;
+  bool allocated_ = false;
   float threshold_ = 0;  // a value v is inside when v >= threshold_
   std::vector<std::int64_t>* foreign_ = nullptr;
   bool flip_ = false;

@@ -4,6 +4,10 @@
 #include <cmath>
 #include <limits>
 
+#include <fmt/format.h>
+
+#include "io/error.h"
+
 namespace isoslab {
 
 void MeshStatsSink::begin(const MeshHeader& header) {
@@ -36,6 +40,12 @@ void MeshStatsSink::consume(const MeshChunk& chunk) {
   if (stats_.cellVolume) *stats_.cellVolume += chunk.cellVolume;
 
   for (const Triangle& t : chunk.triangles) {
+    for (VertexId v : t) {
+      if (v < previousFirst_ || v >= chunk.endVertex()) {
+        throw Error(
+            fmt::format("slab {}: a triangle uses vertex {}, outside this chunk and the previous one", chunk.slab, v));
+      }
+    }
     const Vec3f& a = window_.position(t[0]);
     const Vec3f& b = window_.position(t[1]);
     const Vec3f& c = window_.position(t[2]);
@@ -54,45 +64,58 @@ void MeshStatsSink::consume(const MeshChunk& chunk) {
       const VertexId from = t[static_cast<std::size_t>(k)];
       const VertexId to = t[static_cast<std::size_t>((k + 1) % 3)];
       const VertexId lo = std::min(from, to);
-      const VertexId hi = std::max(from, to);
+      const VertexId delta = std::max(from, to) - lo;
+
+      if (delta >= (VertexId{1} << 30)) {
+        throw Error(fmt::format("the topology check supports edges spanning fewer than 2^30 vertex ids, not {}", delta));
+      }
       const bool onFace = (boundaryOf(from) & boundaryOf(to)) != 0;
-      pending_.push_back(
-          {(std::uint64_t{lo} << 32) | hi, static_cast<std::uint8_t>(from < to), static_cast<std::uint8_t>(onFace)});
+      const EdgeUse use{lo, delta << 2 | static_cast<VertexId>(from < to) << 1 | static_cast<VertexId>(onFace)};
+      (lo < chunk.firstVertex ? ready_ : held_).push_back(use);
     }
   }
   stats_.triangles += chunk.triangles.size();
-  // Triangles from now on use only this chunk's and the next chunk's vertices.
-  settle(chunk.firstVertex);
+  // No later triangle uses the previous chunk's vertices: their edges are complete.
+  settle(previousFirst_, chunk.firstVertex);
+  std::swap(ready_, held_);
+  held_.clear();
+  currentEnd_ = chunk.endVertex();
 }
 
-void MeshStatsSink::settle(VertexId retiredBelow) {
-  std::sort(pending_.begin(), pending_.end(), [](const EdgeUse& x, const EdgeUse& y) { return x.key < y.key; });
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < pending_.size();) {
-    std::size_t end = i + 1;
-    while (end < pending_.size() && pending_[end].key == pending_[i].key) ++end;
-    const auto lo = static_cast<VertexId>(pending_[i].key >> 32);
-    if (lo < retiredBelow) {
-      const std::size_t uses = end - i;
+// Tallies the edges in ready_, whose lower ends all lie in [first, end): grouped by lower end with
+// a counting sort, then by upper end within each (short) group.
+void MeshStatsSink::settle(VertexId first, VertexId end) {
+  const std::size_t n = end - first;
+  offsets_.assign(n + 1, 0);
+  for (const EdgeUse& u : ready_) ++offsets_[u.lo - first + 1];
+  for (std::size_t v = 0; v < n; ++v) offsets_[v + 1] += offsets_[v];
+  sorted_.resize(ready_.size());
+  for (const EdgeUse& u : ready_) sorted_[offsets_[u.lo - first]++] = u.packed;
+  ready_.clear();
+  std::size_t begin = 0;
+  for (std::size_t v = 0; v < n; ++v) {
+    const std::size_t stop = offsets_[v];  // advanced to the group's end by the scatter
+    std::sort(sorted_.begin() + static_cast<std::ptrdiff_t>(begin), sorted_.begin() + static_cast<std::ptrdiff_t>(stop));
+    for (std::size_t i = begin; i < stop;) {
+      std::size_t j = i + 1;
+      while (j < stop && (sorted_[j] >> 2) == (sorted_[i] >> 2)) ++j;
       ++stats_.edges;
-      if (uses == 1) {
+      if (j - i == 1) {
         ++stats_.boundaryEdges;
-        if (!pending_[i].onVolumeFace) ++stats_.interiorBoundaryEdges;
-      } else if (uses == 2) {
-        if (pending_[i].forward == pending_[i + 1].forward) ++stats_.inconsistentEdges;
+        if ((sorted_[i] & 1) == 0) ++stats_.interiorBoundaryEdges;
+      } else if (j - i == 2) {
+        if ((sorted_[i] & 2) == (sorted_[i + 1] & 2)) ++stats_.inconsistentEdges;
       } else {
         ++stats_.nonManifoldEdges;
       }
-    } else {
-      for (std::size_t k = i; k < end; ++k) pending_[kept++] = pending_[k];
+      i = j;
     }
-    i = end;
+    begin = stop;
   }
-  pending_.resize(kept);
 }
 
 void MeshStatsSink::finish() {
-  settle(std::numeric_limits<VertexId>::max());
+  settle(currentFirst_, currentEnd_);
   stats_.euler = static_cast<std::int64_t>(stats_.vertices) - static_cast<std::int64_t>(stats_.edges) +
                  static_cast<std::int64_t>(stats_.triangles);
 }

@@ -55,18 +55,23 @@ class MeshStatsSink final : public MeshSink {
   const MeshStats& stats() const noexcept { return stats_; }
 
  private:
+  // One triangle's use of the edge lo-hi: packed = (hi - lo) << 2 | forward << 1 | onVolumeFace,
+  // where forward means the triangle runs lo -> hi.
   struct EdgeUse {
-    std::uint64_t key;     // lo << 32 | hi
-    std::uint8_t forward;  // 1 if the triangle runs lo -> hi
-    std::uint8_t onVolumeFace;
+    VertexId lo;
+    VertexId packed;
   };
-  void settle(VertexId retiredBelow);
+  void settle(VertexId first, VertexId end);
 
   MeshStats stats_;
   VertexWindow window_;
   std::vector<std::uint8_t> previousBoundary_, currentBoundary_;
   VertexId previousFirst_ = 0, currentFirst_ = 0;
-  std::vector<EdgeUse> pending_;
+  VertexId currentEnd_ = 0;
+  std::vector<EdgeUse> ready_;  // uses whose lower end is in the previous chunk: complete
+  std::vector<EdgeUse> held_;   // uses whose lower end is in the current chunk
+  std::vector<VertexId> sorted_;
+  std::vector<std::size_t> offsets_;
   bool haveBounds_ = false;
 };
 
