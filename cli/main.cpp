@@ -194,7 +194,10 @@ int runExtract(const ExtractArgs& args) {
   }
 
   const LatticeFrame frame = LatticeFrame::forSpace(info, args.space);
+  const int threads =
+      args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   WriterOptions writerOptions;
+  writerOptions.encodeThreads = threads;
   writerOptions.dracoLevel = args.dracoLevel;
   writerOptions.quantBits = args.quantBits;
   writerOptions.chunkTriangles = args.chunkTriangles;
@@ -226,8 +229,7 @@ int runExtract(const ExtractArgs& args) {
   TeeSink tee(sinks);
   PipelineOptions pipelineOptions;
   pipelineOptions.progress = !args.quiet;
-  pipelineOptions.threads =
-      args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  pipelineOptions.threads = threads;
   const PipelineResult run = runPipeline(*source, *extractor, tee, header, pipelineOptions);
   const MeshStats& s = stats.stats();
 

@@ -122,38 +122,65 @@ void GlbDracoWriter::consume(const MeshChunk& chunk) {
   }
 }
 
-void GlbDracoWriter::flush() {
-  if (current_.triangles.empty()) return;
+GlbDracoWriter::Encoded GlbDracoWriter::encode(const IndexedMesh& mesh, const DracoSettings& settings,
+                                               const std::string& path) {
+  Encoded e;
   const auto start = Clock::now();
-  const std::vector<char> bytes = dracoEncode(current_, settings_, path_);
-  encodeSeconds_ += std::chrono::duration<double>(Clock::now() - start).count();
-  Primitive p;
-  p.points = current_.positions.size();
-  p.triangles = current_.triangles.size();
+  e.bytes = dracoEncode(mesh, settings, path);
+  e.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  Primitive& p = e.primitive;
+  p.points = mesh.positions.size();
+  p.triangles = mesh.triangles.size();
   p.min = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
   p.max = {-p.min[0], -p.min[1], -p.min[2]};
-  for (const Vec3f& v : current_.positions) {
+  for (const Vec3f& v : mesh.positions) {
     const float c[3] = {v.x, v.y, v.z};
     for (std::size_t a = 0; a < 3; ++a) {
-      const float q = dracoDequantized(c[a], settings_.origin[a], settings_);
+      const float q = dracoDequantized(c[a], settings.origin[a], settings);
       p.min[a] = std::min(p.min[a], q);
       p.max[a] = std::max(p.max[a], q);
     }
   }
-  worstError_ = std::max(worstError_, quantizationError(current_, settings_));
-  p.offset = spool_->size();
-  p.length = static_cast<std::int64_t>(bytes.size());
-  spool_->write(bytes.data(), bytes.size());
-  const char zeros[4] = {0, 0, 0, 0};
-  spool_->write(zeros, (4 - bytes.size() % 4) % 4);
-  primitives_.push_back(p);
+  e.worstError = quantizationError(mesh, settings);
+  return e;
+}
+
+// Closes the current chunk: encodes it here, or hands it to a thread of its own when chunks are
+// encoded in parallel (they are spooled in order, so the file is the same either way).
+void GlbDracoWriter::flush() {
+  if (current_.triangles.empty()) return;
+  if (options_.encodeThreads <= 1) {
+    std::promise<Encoded> done;
+    done.set_value(encode(current_, settings_, path_));
+    encoding_.push_back(done.get_future());
+  } else {
+    while (static_cast<int>(encoding_.size()) >= options_.encodeThreads) spoolOldest();
+    encoding_.push_back(std::async(std::launch::async, [mesh = std::move(current_), settings = settings_,
+                                                        path = path_] { return encode(mesh, settings, path); }));
+  }
   current_ = IndexedMesh{};
   local_.clear();
   seam_.clear();
+  if (options_.encodeThreads <= 1) spoolOldest();
+}
+
+void GlbDracoWriter::spoolOldest() {
+  Encoded e = encoding_.front().get();
+  encoding_.pop_front();
+  encodeSeconds_ += e.seconds;
+  worstError_ = std::max(worstError_, e.worstError);
+  Primitive p = e.primitive;
+  p.offset = spool_->size();
+  p.length = static_cast<std::int64_t>(e.bytes.size());
+  spool_->write(e.bytes.data(), e.bytes.size());
+  const char zeros[4] = {0, 0, 0, 0};
+  spool_->write(zeros, (4 - e.bytes.size() % 4) % 4);
+  primitives_.push_back(p);
 }
 
 void GlbDracoWriter::finish() {
   flush();
+  while (!encoding_.empty()) spoolOldest();
   nlohmann::ordered_json gltf;
   gltf["asset"] = {{"version", "2.0"},
                    {"generator", "isoslab " ISOSLAB_VERSION},

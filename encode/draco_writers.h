@@ -14,6 +14,8 @@
 
 #include <array>
 #include <chrono>
+#include <deque>
+#include <future>
 #include <memory>
 #include <string>
 #include <unordered_map>
@@ -45,8 +47,16 @@ class GlbDracoWriter final : public MeshFileSink {
     std::int64_t offset = 0;
     std::int64_t length = 0;
   };
+  struct Encoded {
+    std::vector<char> bytes;
+    Primitive primitive;
+    double seconds = 0;
+    double worstError = 0;
+  };
+  static Encoded encode(const IndexedMesh& mesh, const DracoSettings& settings, const std::string& path);
   VertexId localVertex(VertexId id);
   void flush();
+  void spoolOldest();
 
   std::string path_;
   WriterOptions options_;
@@ -59,6 +69,7 @@ class GlbDracoWriter final : public MeshFileSink {
   std::vector<VertexId> local_;                  // for ids >= chunkFirst_
   std::unordered_map<VertexId, VertexId> seam_;  // for ids < chunkFirst_
   std::vector<Primitive> primitives_;
+  std::deque<std::future<Encoded>> encoding_;  // chunks being encoded, oldest first
   std::uint64_t triangles_ = 0;
   std::uint64_t vertices_ = 0;
   double encodeSeconds_ = 0;
