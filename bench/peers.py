@@ -3,12 +3,16 @@
 
 Peers (Debian packages, run with /usr/bin/python3): VTK 9.1's vtkFlyingEdges3D and
 vtkMarchingCubes (python3-vtk9) and scikit-image's marching_cubes (python3-skimage).
-- "extract" times: the volume already in memory; for isoslab, the report's extraction seconds
-  (its slices are streamed, so reading is excluded by timing only the extractor).
+- "extract" times: the volume already in memory. For isoslab, bench/isoslab_extract_only: the
+  volume is read into memory first, then the pipeline's wall time is taken with its slices
+  streamed from memory into a sink that only counts (as VTK's output stays in memory).
 - "end to end": file in, binary PLY out. VTK's is its NIfTI reader + vtkFlyingEdges3D +
   vtkPLYWriter in a fresh process; isoslab's is `isoslab extract` (which also measures the mesh),
-  with --threads 1 (everything on one thread) and 2 (reader and writer threads beside the
-  extraction, which is single-threaded either way).
+  with --threads 1 (everything on one thread) and 2 (two extraction workers, with reader and
+  writer threads beside them).
+- Per method (isoslab only): extraction at 1 and 2 threads, and the paper's "constant time": the
+  extraction with an iso value above every voxel (no cell handled) against one read of the file.
+- The DICOM series (../shared/data/ct-philips-head) to .glb, end to end, when present.
 - peak RSS: the process's maximum resident set size.
 
 Usage: bench/peers.py [BUILD_DIR] [--runs N] [--quick]   (prints a Markdown table)
@@ -30,6 +34,7 @@ import numpy as np
 BUILD = next((a for a in sys.argv[1:] if not a.startswith("--")), "build")
 RUNS = int(sys.argv[sys.argv.index("--runs") + 1]) if "--runs" in sys.argv else 3
 ISOSLAB = os.path.join(BUILD, "cli", "isoslab")
+EXTRACT_ONLY = os.path.join(BUILD, "bench", "isoslab_extract_only")
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TMP = tempfile.mkdtemp(prefix="isoslab-peers-")
 atexit.register(shutil.rmtree, TMP, ignore_errors=True)
@@ -88,6 +93,14 @@ def median_time(fn, runs=RUNS):
     return statistics.median(times), result
 
 
+def extract_only(path, iso, threads, method="mc"):
+    """(median seconds, triangles, seconds to read the file once) from bench/isoslab_extract_only."""
+    out = subprocess.run([EXTRACT_ONLY, path, "--iso", str(iso), "--threads", str(threads), "--method", method,
+                          "--runs", str(RUNS)], check=True, capture_output=True, text=True).stdout
+    r = json.loads(out)
+    return r["median_seconds"], r["triangles"], r["load_seconds"]
+
+
 def run_isoslab(path, iso, threads=None):
     report = os.path.join(TMP, "r.json")
     cmd = [ISOSLAB, "extract", path, "--iso", str(iso), "-q", "-o", os.path.join(TMP, "iso.ply"), "--report", report]
@@ -124,6 +137,7 @@ def main():
     print("| volume | tool | threads | extract s | Mvox/s | end-to-end s | triangles | peak RSS MiB |")
     print("|---|---|---|---|---|---|---|---|")
     ratios = []
+    methods = []
     for name, path, iso in volumes():
         vol = nifti(path)
         voxels = vol.size
@@ -161,13 +175,47 @@ def main():
             t, res = median_time(lambda: marching_cubes(vol, iso), runs=1)
             print(f"| {name} | skimage marching_cubes | 1 | {t:.3f} | {voxels / t / 1e6:.0f} | | {len(res[1]):,} | |")
         for threads in (1, 2):
-            extract, total, rss, tris = run_isoslab(path, iso, threads)
+            _, total, rss, tris = run_isoslab(path, iso, threads)
+            extract, _, _ = extract_only(path, iso, threads)
             print(f"| {name} | isoslab mc | {threads} | {extract:.3f} | {voxels / extract / 1e6:.0f} | {total:.3f} | {tris:,} | {rss:.0f} |")
-            if threads == 1:
-                ratios.append((name, extract / rows[("fe", 1)]))
+            ratios.append((name, threads, extract / rows[("fe", threads)]))
+        methods.append((name, path, iso))
     print()
-    for name, r in ratios:
-        print(f"- {name}: isoslab mc extraction time / vtkFlyingEdges3D (1 thread) = {r:.2f}")
+    for name, threads, r in ratios:
+        print(f"- {name}: isoslab mc extraction time / vtkFlyingEdges3D, {threads} thread(s) = {r:.2f}")
+    print()
+    print("Per method, extraction only (median of the runs), and the constant time (iso above every voxel):")
+    print()
+    print("| volume | method | triangles | 1 thread s | 2 threads s | / mc (1 thread) | / mt6 (1 thread) | constant s | read once s |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, path, iso in methods:
+        base = {}
+        for method in ("mc", "mt5", "mt6", "bcc12"):
+            t1, tris, load = extract_only(path, iso, 1, method)
+            t2, _, _ = extract_only(path, iso, 2, method)
+            empty, _, _ = extract_only(path, 1e9, 1, method)
+            base[method] = t1
+            over_mc = f"{t1 / base['mc']:.2f}"
+            over_mt6 = f"{t1 / base['mt6']:.2f}" if "mt6" in base else ""
+            print(f"| {name} | {method} | {tris:,} | {t1:.3f} | {t2:.3f} | {over_mc} | {over_mt6} | {empty:.3f} | {load:.3f} |")
+    dicom = os.path.join(ROOT, "..", "shared", "data", "ct-philips-head")
+    if os.path.isdir(dicom):
+        print()
+        print("DICOM series to .glb, end to end (isoslab only; medians):")
+        print()
+        print("| series | iso | threads | seconds | triangles | bytes | peak RSS MiB |")
+        print("|---|---|---|---|---|---|---|")
+        for threads in (1, 2):
+            out = os.path.join(TMP, "dicom.glb")
+            report = os.path.join(TMP, "d.json")
+            times, rss = [], 0
+            for _ in range(RUNS):
+                subprocess.run([ISOSLAB, "extract", dicom, "--iso", "-400", "-q", "--threads", str(threads), "-o", out,
+                                "--report", report], check=True, stderr=subprocess.DEVNULL)
+                r = json.load(open(report))
+                times.append(r["seconds"]["total"])
+                rss = max(rss, r["peak_rss_mib"])
+            print(f"| ct-philips-head | -400 | {threads} | {statistics.median(times):.2f} | {r['triangles']:,} | {r['output']['bytes']:,} | {rss:.0f} |")
 
 
 if __name__ == "__main__":
