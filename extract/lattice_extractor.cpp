@@ -215,7 +215,14 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
                      static_cast<unsigned>(in(b1[i + 1])) << 7;
         const unsigned thisCase = cornerCase;
         cornerCase >>= 1;  // the x=1 corners become the next cell's x=0 corners
-        if (!scheme_ && (thisCase == 0 || thisCase == 255)) continue;
+        if (thisCase == 0 || thisCase == 255) {
+          // Uniform cells: nothing to emit, unless bcc12's centres may still differ.
+          if (!scheme_) continue;
+          if (!needsCentres_) {
+            if (thisCase == 255) insideVolume += variants_[0].volume;  // the whole cube
+            continue;
+          }
+        }
         value_[0] = a0[i];
         value_[1] = a0[i + 1];
         value_[2] = a1[i];
