@@ -22,7 +22,8 @@ constexpr VertexId kNoVertex = std::numeric_limits<VertexId>::max();
 
 // A lattice edge as seen from a cell: its two nodes (a is the lower endpoint), and where its
 // vertex id lives: anchor plane 0 (slice z), 1 (centre plane) or 2 (slice z+1), and the offset of
-// the slot in that plane's cache relative to the cell's (i, j).
+// the slot in that plane's cache relative to the cell's (i, j). A plane's cache interleaves its
+// edge classes (slot = (j * nx + i) * classes + class), so that a cell's edges share cache lines.
 struct EdgeRef {
   std::uint8_t a = 0;
   std::uint8_t b = 0;
@@ -31,7 +32,9 @@ struct EdgeRef {
   /// true for edges in slice z, false for those rising from it.
   bool shared = false;
   std::size_t edgeClass = 0;
-  std::int64_t offset = 0;
+  std::int64_t cell = 0;    // lattice offset of the lower endpoint's anchor from the cell's (i, j)
+  std::int64_t stride = 0;  // classes of the plane
+  std::int64_t offset = 0;  // cell * stride + edgeClass
 };
 
 struct TetRef {
@@ -322,7 +325,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     const std::int64_t dx = na->hx >> 1;  // corner offsets 0/2 -> 0/1, centres 1 -> 0, 3 -> 1
     const std::int64_t dy = na->hy >> 1;
     r.edgeClass = it->second;
-    r.offset = static_cast<std::int64_t>(it->second) * planeSize_ + dy * nx_ + dx;
+    r.cell = dy * nx_ + dx;
     return r;
   }
 
@@ -339,7 +342,11 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     for (const EdgeRef* e : edges) {
       if (e->plane == 2) onTop[e->edgeClass] = true;
     }
-    for (EdgeRef* e : edges) e->shared = e->plane == 0 && onTop[e->edgeClass];
+    for (EdgeRef* e : edges) {
+      e->shared = e->plane == 0 && onTop[e->edgeClass];
+      e->stride = static_cast<std::int64_t>((e->plane == 1 ? oddClasses_ : evenClasses_).size());
+      e->offset = e->cell * e->stride + static_cast<std::int64_t>(e->edgeClass);
+    }
   }
 
   void clearPlane(int p) noexcept {
@@ -545,7 +552,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   }
 
   VertexId vertex(const EdgeRef& e, std::int64_t i, std::int64_t j) noexcept {
-    const std::int64_t slot = e.offset + j * nx_ + i;
+    const std::int64_t slot = e.offset + (j * nx_ + i) * e.stride;
     VertexId& id = planes_[e.plane][static_cast<std::size_t>(slot)];
     if (id == kNoVertex) {
       if (e.shared && detached_ && z_ > 0) {
