@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <stdexcept>
 #include <tuple>
 
 #include "extract/mc_table.h"
@@ -51,15 +52,42 @@ struct VariantRef {
   std::vector<EdgeRef> edges;
   /// Per tetrahedron, its six edges as indices into `edges`.
   std::vector<std::array<std::uint8_t, 6>> tetEdges;
-  /// The triangles of each node case, as indices into `edges`, in the order the tetrahedra emit
-  /// them; filled on first use (bcc12's interior variant has 4096 cases, most never seen).
+  /// Per node case, built on first use (bcc12's interior variant has 4096 cases, most never seen):
+  /// the distinct edges its triangles cut, in order of first use (indices into `edges`), and the
+  /// triangles in the order the tetrahedra emit them, as indices into that list. A cell then
+  /// looks each vertex up once, however many triangles share it.
   struct CaseSpan {
-    std::int32_t first = -1;  // into `triangles`; -1: not built yet
-    std::int32_t count = 0;
+    std::int32_t firstEdge = -1;  // into caseEdges; -1: not built yet
+    std::int32_t firstTriangle = 0;
+    std::uint8_t edgeCount = 0;
+    std::uint8_t triangleCount = 0;
   };
   std::vector<CaseSpan> cases;
-  std::vector<std::array<std::uint8_t, 3>> triangles;
+  std::vector<std::uint8_t> caseEdges;
+  std::vector<std::array<std::uint8_t, 3>> caseTriangles;
+
+  /// Records a case's triangles (given as indices into `edges`).
+  void addCase(unsigned key, const std::vector<std::array<std::uint8_t, 3>>& triangles) {
+    CaseSpan& span = cases[key];
+    span.firstEdge = static_cast<std::int32_t>(caseEdges.size());
+    span.firstTriangle = static_cast<std::int32_t>(caseTriangles.size());
+    for (const auto& tri : triangles) {
+      std::array<std::uint8_t, 3> local{};
+      for (std::size_t c = 0; c < 3; ++c) {
+        const auto begin = caseEdges.begin() + span.firstEdge;
+        const auto it = std::find(begin, caseEdges.end(), tri[c]);
+        local[c] = static_cast<std::uint8_t>(it - begin);
+        if (it == caseEdges.end()) caseEdges.push_back(tri[c]);  // may reallocate: index taken first
+      }
+      caseTriangles.push_back(local);
+    }
+    span.edgeCount = static_cast<std::uint8_t>(caseEdges.size() - static_cast<std::size_t>(span.firstEdge));
+    span.triangleCount = static_cast<std::uint8_t>(triangles.size());
+  }
 };
+
+// The most distinct edges one case can cut (bcc12's interior cell has fewer lattice edges).
+constexpr std::size_t kMaxCaseEdges = 64;
 
 // The smallest float not below iso: for every float v, v >= iso exactly when v >= this.
 float insideThreshold(double iso) noexcept {
@@ -92,8 +120,19 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
                           static_cast<std::int8_t>(2 * ((c >> 2) & 1))});
       }
       for (int e = 0; e < 12; ++e) {
-        mcEdges_[static_cast<std::size_t>(e)] = makeEdge(mc::kEdgeCorners[static_cast<std::size_t>(e)][0],
-                                                         mc::kEdgeCorners[static_cast<std::size_t>(e)][1]);
+        mcCases_.edges.push_back(makeEdge(mc::kEdgeCorners[static_cast<std::size_t>(e)][0],
+                                          mc::kEdgeCorners[static_cast<std::size_t>(e)][1]));
+      }
+      mcCases_.cases.resize(256);
+      const auto& table = mc::kCaseTable;
+      for (unsigned c = 0; c < 256; ++c) {
+        std::vector<std::array<std::uint8_t, 3>> triangles;
+        for (int t = 0; t < table.triangleCount[c]; ++t) {
+          const auto& tri = table.triangles[c][static_cast<std::size_t>(t)];
+          triangles.push_back({static_cast<std::uint8_t>(tri[0]), static_cast<std::uint8_t>(tri[1]),
+                               static_cast<std::uint8_t>(tri[2])});
+        }
+        mcCases_.addCase(c, triangles);
       }
     }
     if (scheme_) {
@@ -122,6 +161,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
           v.tets.push_back(r);
         }
         v.cases.resize(std::size_t{1} << nodes_.size());
+        if (v.edges.size() > kMaxCaseEdges) throw std::logic_error("a cell scheme variant has too many edges");
         variants_.push_back(std::move(v));
       }
     }
@@ -331,7 +371,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
 
   void markSharedEdges() {
     std::vector<EdgeRef*> edges;
-    for (auto& e : mcEdges_) edges.push_back(&e);
+    for (auto& e : mcCases_.edges) edges.push_back(&e);
     for (auto& v : variants_) {
       for (auto& t : v.tets) {
         for (auto& e : t.edges) edges.push_back(&e);
@@ -430,12 +470,17 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   }
 
   void marchCube(unsigned cornerCase, std::int64_t i, std::int64_t j) noexcept {
-    const auto& table = mc::kCaseTable;
-    const int count = table.triangleCount[cornerCase];
-    for (int t = 0; t < count; ++t) {
-      const auto& tri = table.triangles[cornerCase][static_cast<std::size_t>(t)];
-      emitTriangle(vertex(mcEdges_[tri[0]], i, j), vertex(mcEdges_[tri[1]], i, j), vertex(mcEdges_[tri[2]], i, j));
-    }
+    emitCase(mcCases_, cornerCase, i, j);
+  }
+
+  // Emits the triangles of case `key` of v (built beforehand) in cell (i, j).
+  void emitCase(const VariantRef& v, unsigned key, std::int64_t i, std::int64_t j) noexcept {
+    const VariantRef::CaseSpan& span = v.cases[key];
+    std::array<VertexId, kMaxCaseEdges> ids;
+    const std::uint8_t* edges = v.caseEdges.data() + span.firstEdge;
+    for (std::size_t k = 0; k < span.edgeCount; ++k) ids[k] = vertex(v.edges[edges[k]], i, j);
+    const auto* tri = v.caseTriangles.data() + span.firstTriangle;
+    for (std::size_t n = 0; n < span.triangleCount; ++n, ++tri) emitTriangle(ids[(*tri)[0]], ids[(*tri)[1]], ids[(*tri)[2]]);
   }
 
   // Returns the inside volume of the cell's tetrahedra, in voxel units.
@@ -468,13 +513,8 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     const unsigned key = nodeCase & used;
     if (key == 0) return 0.0;
     if (key == used) return v.volume;
-    VariantRef::CaseSpan& span = v.cases[key];
-    if (span.first < 0) buildCase(v, key);
-    const auto* tri = v.triangles.data() + span.first;
-    for (std::int32_t n = 0; n < span.count; ++n, ++tri) {
-      emitTriangle(vertex(v.edges[(*tri)[0]], i, j), vertex(v.edges[(*tri)[1]], i, j),
-                   vertex(v.edges[(*tri)[2]], i, j));
-    }
+    if (v.cases[key].firstEdge < 0) buildCase(v, key);
+    emitCase(v, key, i, j);
     if (!options_.cellVolumes) return 0.0;
     double inside = 0;
     for (const TetRef& t : v.tets) {
@@ -491,8 +531,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
 
   // The triangles of node case `key` of variant v: the tetrahedra's, in order.
   static void buildCase(VariantRef& v, unsigned key) {
-    VariantRef::CaseSpan& span = v.cases[key];
-    span.first = static_cast<std::int32_t>(v.triangles.size());
+    std::vector<std::array<std::uint8_t, 3>> triangles;
     for (std::size_t n = 0; n < v.tets.size(); ++n) {
       const TetRef& t = v.tets[n];
       unsigned cas = 0;
@@ -500,10 +539,10 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
       const auto& table = tet::kTetCases;
       for (int m = 0; m < table.triangleCount[cas]; ++m) {
         const auto& tri = table.triangles[cas][static_cast<std::size_t>(m)];
-        v.triangles.push_back({v.tetEdges[n][tri[0]], v.tetEdges[n][tri[1]], v.tetEdges[n][tri[2]]});
+        triangles.push_back({v.tetEdges[n][tri[0]], v.tetEdges[n][tri[1]], v.tetEdges[n][tri[2]]});
       }
     }
-    span.count = static_cast<std::int32_t>(v.triangles.size()) - span.first;
+    v.addCase(key, triangles);
   }
 
   // Lattice position of node n of cell (i, j, z_).
@@ -643,7 +682,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   LatticeFrame frame_;
   std::unique_ptr<CellScheme> scheme_;
   std::vector<LatticeNode> nodes_;
-  std::array<EdgeRef, 12> mcEdges_{};
+  VariantRef mcCases_;  // Marching Cubes as one "variant" whose cases come from mc_table.h
   std::vector<VariantRef> variants_;
   std::map<std::array<int, 3>, std::size_t> evenClasses_;
   std::map<std::array<int, 3>, std::size_t> oddClasses_;
