@@ -333,7 +333,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
       march(j, lo, hi);
       if (bcc) march(j, cellsPerRow - 1, cellsPerRow);
     }
-    out.cellVolume = insideVolume * cellVolume_;
+    out.cellVolume = cellVolumes() ? insideVolume * cellVolume_ : 0.0;
     if (detached_) return;  // extract() exports slice z+1's slots and clears the caches
     // Roll the caches: slice z+1 becomes the next slab's slice z.
     clearPlane(0);

@@ -154,6 +154,36 @@ TEST(Pipeline, ThreadsDeliverTheSameChunks) {
   }
 }
 
+// The inside volume per tetrahedron is optional and changes nothing else.
+TEST(Pipeline, CellVolumesAreOptional) {
+  std::vector<MeshChunk> with, without;
+  for (bool cellVolumes : {true, false}) {
+    testing::VectorSource source({16, 16, 16}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
+      return static_cast<float>(std::hypot(static_cast<double>(i) - 7.5, static_cast<double>(j) - 7.0,
+                                           static_cast<double>(k) - 8.0));
+    });
+    ExtractOptions o;
+    o.method = Method::kTetra6;
+    o.iso = 5;
+    o.cellVolumes = cellVolumes;
+    auto ex = makeExtractor(o, source.info(), LatticeFrame::physical(source.info()));
+    EXPECT_EQ(ex->cellVolumes(), cellVolumes);
+    RecordingSink sink;
+    runPipeline(source, *ex, sink, MeshHeader{});
+    (cellVolumes ? with : without) = std::move(sink.chunks);
+  }
+  ASSERT_EQ(with.size(), without.size());
+  double volume = 0;
+  for (std::size_t z = 0; z < with.size(); ++z) {
+    volume += with[z].cellVolume;
+    EXPECT_EQ(without[z].cellVolume, 0.0);
+    without[z].cellVolume = with[z].cellVolume;
+    EXPECT_TRUE(sameChunk(with[z], without[z])) << "slab " << z;
+  }
+  // The volume outside the sphere of radius 5 (values >= iso are inside): 15^3 - 4/3 pi 5^3.
+  EXPECT_NEAR(volume, 15.0 * 15.0 * 15.0 - 4.0 / 3.0 * M_PI * 125.0, 15.0);
+}
+
 TEST(SlabStitcher, RejectsPartsOutOfOrder) {
   testing::VectorSource source({5, 5, 5}, [](std::int64_t, std::int64_t, std::int64_t) { return 0.0f; });
   auto ex = makeExtractor(ExtractOptions{}, source.info(), LatticeFrame::voxel());
