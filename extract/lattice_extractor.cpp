@@ -459,13 +459,19 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   void computeCentres(int which, std::vector<float>& dst) noexcept {
     const float* a = slices_[static_cast<std::size_t>(1 + which)];
     const float* b = slices_[static_cast<std::size_t>(2 + which)];
+    // Each voxel column's four values are summed once and shared by the two cells beside it.
+    columns_.resize(static_cast<std::size_t>(nx_));
+    double* column = columns_.data();
     for (std::int64_t j = 0; j + 1 < ny_; ++j) {
-      for (std::int64_t i = 0; i + 1 < nx_; ++i) {
-        const std::int64_t p = j * nx_ + i;
-        const double sum = static_cast<double>(a[p]) + a[p + 1] + a[p + nx_] + a[p + nx_ + 1] + b[p] + b[p + 1] +
-                           b[p + nx_] + b[p + nx_ + 1];
-        dst[static_cast<std::size_t>(j * (nx_ - 1) + i)] = static_cast<float>(sum / 8.0);
+      const float* a0 = a + j * nx_;
+      const float* a1 = a0 + nx_;
+      const float* b0 = b + j * nx_;
+      const float* b1 = b0 + nx_;
+      for (std::int64_t i = 0; i < nx_; ++i) {
+        column[i] = (static_cast<double>(a0[i]) + a1[i]) + (static_cast<double>(b0[i]) + b1[i]);
       }
+      float* out = dst.data() + j * (nx_ - 1);
+      for (std::int64_t i = 0; i + 1 < nx_; ++i) out[i] = static_cast<float>((column[i] + column[i + 1]) / 8.0);
     }
   }
 
@@ -689,6 +695,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   std::array<std::vector<VertexId>, 3> planes_;
   std::array<std::vector<std::int64_t>, 3> touched_;
   std::array<std::vector<float>, 2> centres_;
+  std::vector<double> columns_;
   std::array<std::vector<RowState>, 3> rows_;
   bool needsCentres_ = false;
   bool detached_ = false;
