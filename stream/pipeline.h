@@ -1,6 +1,6 @@
-// The driver: pulls slices from a source into the slab ring, hands each slab to the extractor and
-// each resulting chunk to the sink. Single-threaded; memory is the ring (at most four slices), the
-// extractor's per-slab caches and one chunk.
+// The driver: pulls slices from a source into the slab ring, hands each slab to the extractor (or
+// to its workers) and each resulting chunk to the sink. Memory is the ring (at most three slices
+// plus one per worker), the extractors' per-slab caches and a few chunks.
 #pragma once
 
 #include <cstdint>
@@ -14,15 +14,19 @@ namespace isoslab {
 struct PipelineOptions {
   /// Show a progress line on stderr (only if stderr is a terminal and the run is long).
   bool progress = false;
-  /// 1: everything on the calling thread. 2 or more: the source is read on a thread of its own
-  /// and the sink consumes chunks on another, overlapping I/O, decoding, extraction and encoding
-  /// through small bounded queues. The output is the same for every value.
+  /// 1: everything on the calling thread. N > 1: N extraction workers (slab z on worker z % N, each
+  /// with a detached extractor, stitched in slab order), the source read on a thread of its own
+  /// and the sink fed on another, through small bounded queues. The ring holds N - 1 more slices.
+  /// The output is the same for every value.
   int threads = 1;
 };
 
 struct PipelineResult {
+  /// Time the driving thread waited for slices.
   double readSeconds = 0;
+  /// Time spent extracting, summed over the workers (so it can exceed the wall time).
   double extractSeconds = 0;
+  /// Time the driving thread spent handing chunks to the sink (waiting for it when it is slower).
   double writeSeconds = 0;
   double totalSeconds = 0;
   std::uint64_t vertices = 0;
