@@ -67,6 +67,10 @@ class Extractor {
   /// Vertices emitted so far (may exceed what VertexId holds; the pipeline checks).
   virtual std::uint64_t vertexCount() const noexcept = 0;
 
+  /// The row spans of one slice (ny of them), for SlabView::rows. Thread-safe; lets a pipeline
+  /// classify each slice once for all the workers whose slabs use it.
+  virtual void classifySlice(const float* slice, std::vector<RowSpan>& rows) const = 0;
+
   /// Whether chunks carry the tetrahedral inside volume (cellVolume).
   virtual bool cellVolumes() const noexcept = 0;
 

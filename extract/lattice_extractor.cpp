@@ -6,6 +6,9 @@
 #include "extract/lattice_extractor.h"
 
 #include <algorithm>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -236,9 +239,19 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     // also on the next cells along x, y and z (their centres), so on nine voxel rows and one cell
     // further left, and its cells on the volume boundary (pyramids) are always visited.
     const bool bcc = needsCentres_;
-    if (z_ == 0 || detached_) classifyRows(s0, rows_[0]);
-    if (z_ == 0 || !bcc || detached_) classifyRows(s1, rows_[1]);
-    if (bcc && slices_[3] != nullptr) classifyRows(slices_[3], rows_[2]);
+    // Row spans of slices z, z+1 (and z+2 for bcc12): from the view when the pipeline classified
+    // its slices once for all workers, else classified here, reusing the previous slab's.
+    std::array<const RowSpan*, 3> spans{};
+    if (slab.rows[1] != nullptr && slab.rows[2] != nullptr && (!bcc || slices_[3] == nullptr || slab.rows[3])) {
+      spans = {slab.rows[1], slab.rows[2], slab.rows[3]};
+      rowsCarried_ = false;
+    } else {
+      if (z_ == 0 || detached_ || !rowsCarried_) classifyRows(s0, rows_[0]);
+      if (z_ == 0 || !bcc || detached_ || !rowsCarried_) classifyRows(s1, rows_[1]);
+      if (bcc && slices_[3] != nullptr) classifyRows(slices_[3], rows_[2]);
+      spans = {rows_[0].data(), rows_[1].data(), rows_[2].data()};
+      rowsCarried_ = true;
+    }
     const std::int64_t cellsPerRow = nx_ - 1;
     auto march = [&](std::int64_t j, std::int64_t begin, std::int64_t end) {
       if (begin >= end) return;
@@ -287,10 +300,10 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
         march(j, 0, cellsPerRow);
         continue;
       }
-      std::array<const RowState*, 9> rows{};
+      std::array<const RowSpan*, 9> rows{};
       std::size_t count = 0;
       for (std::size_t k = 0; k < (bcc ? 3u : 2u); ++k) {
-        for (std::int64_t dj = 0; dj < (bcc ? 3 : 2); ++dj) rows[count++] = &rows_[k][static_cast<std::size_t>(j + dj)];
+        for (std::int64_t dj = 0; dj < (bcc ? 3 : 2); ++dj) rows[count++] = spans[k] + j + dj;
       }
       std::int64_t firstChange = nx_;
       std::int64_t lastChange = -1;
@@ -395,21 +408,14 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     touched_[static_cast<std::size_t>(p)].clear();
   }
 
-  // Where a voxel row changes between inside and outside: the first and last index i >= 1 whose
-  // state differs from voxel i-1 (-1 when the row is uniform), and the states at both ends.
-  struct RowState {
-    std::int64_t first = -1;
-    std::int64_t last = -1;
-    bool left = false;
-    bool right = false;
-  };
+  void classifySlice(const float* slice, std::vector<RowSpan>& rows) const override { classifyRows(slice, rows); }
 
-  void classifyRows(const float* slice, std::vector<RowState>& rows) const noexcept {
+  void classifyRows(const float* slice, std::vector<RowSpan>& rows) const {
     rows.resize(static_cast<std::size_t>(ny_));
     const float threshold = threshold_;
     for (std::int64_t j = 0; j < ny_; ++j) {
       const float* v = slice + j * nx_;
-      RowState& r = rows[static_cast<std::size_t>(j)];
+      RowSpan& r = rows[static_cast<std::size_t>(j)];
       r.left = v[0] >= threshold;
       r.right = v[nx_ - 1] >= threshold;
       r.first = firstDiffering(v, 1, nx_, r.left, threshold);
@@ -422,17 +428,32 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     }
   }
 
-  // In blocks of 16 voxels, which the compiler vectorizes; rows are mostly uniform.
+  // Rows are scanned in blocks of 16 voxels; rows are mostly uniform.
   static constexpr std::int64_t kBlock = 16;
+
+  // Bit k set when v[k] >= threshold, for k < 16.
+  static unsigned insideMask16(const float* v, float threshold) noexcept {
+#if defined(__SSE2__)
+    const __m128 t = _mm_set1_ps(threshold);
+    unsigned mask = 0;
+    for (int q = 0; q < 4; ++q) {
+      mask |= static_cast<unsigned>(_mm_movemask_ps(_mm_cmpge_ps(_mm_loadu_ps(v + 4 * q), t))) << (4 * q);
+    }
+    return mask;
+#else
+    unsigned mask = 0;
+    for (unsigned k = 0; k < 16; ++k) mask |= static_cast<unsigned>(v[k] >= threshold) << k;
+    return mask;
+#endif
+  }
 
   // The first i in [from, to) with (v[i] >= threshold) != state, or `to`.
   static std::int64_t firstDiffering(const float* v, std::int64_t from, std::int64_t to, bool state,
                                      float threshold) noexcept {
     std::int64_t i = from;
+    const unsigned uniform = state ? 0xFFFFu : 0u;
     for (; i + kBlock <= to; i += kBlock) {
-      unsigned differ = 0;
-      for (std::int64_t k = 0; k < kBlock; ++k) differ |= static_cast<unsigned>((v[i + k] >= threshold) != state);
-      if (differ != 0) break;
+      if (insideMask16(v + i, threshold) != uniform) break;
     }
     for (; i < to; ++i) {
       if ((v[i] >= threshold) != state) return i;
@@ -444,10 +465,9 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   static std::int64_t lastDiffering(const float* v, std::int64_t from, std::int64_t to, bool state,
                                     float threshold) noexcept {
     std::int64_t i = to;
+    const unsigned uniform = state ? 0xFFFFu : 0u;
     for (; i - kBlock >= from; i -= kBlock) {
-      unsigned differ = 0;
-      for (std::int64_t k = 1; k <= kBlock; ++k) differ |= static_cast<unsigned>((v[i - k] >= threshold) != state);
-      if (differ != 0) break;
+      if (insideMask16(v + i - kBlock, threshold) != uniform) break;
     }
     for (; i > from; --i) {
       if ((v[i - 1] >= threshold) != state) return i - 1;
@@ -696,7 +716,8 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   std::array<std::vector<std::int64_t>, 3> touched_;
   std::array<std::vector<float>, 2> centres_;
   std::vector<double> columns_;
-  std::array<std::vector<RowState>, 3> rows_;
+  std::array<std::vector<RowSpan>, 3> rows_;
+  bool rowsCarried_ = false;  // rows_[0..] hold the spans of this slab's slices, rolled from the last
   bool needsCentres_ = false;
   bool detached_ = false;
   bool allocated_ = false;

@@ -32,18 +32,25 @@ double since(Clock::time_point t) {
 namespace {
 
 // Slices in order from the source: read on the spot into the ring, or by a reader thread ahead
-// of time into buffers that the ring adopts (and hands back once evicted, for reuse).
+// of time into buffers that the ring adopts (and hands back once evicted, for reuse). The reader
+// thread also classifies each slice's rows once, for all the workers whose slabs use it.
 class SliceFeed {
  public:
-  SliceFeed(SliceSource& source, bool threaded) : source_(source), threaded_(threaded), queue_(3), free_(4) {
+  SliceFeed(SliceSource& source, bool threaded, const Extractor* classifier = nullptr)
+      : source_(source), threaded_(threaded), queue_(3), free_(4) {
     if (threaded_) {
-      reader_ = std::thread([this] {
+      reader_ = std::thread([this, classifier] {
         try {
           const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
           for (;;) {
             auto reused = free_.tryPop();
-            std::vector<float> slice = reused ? std::move(*reused) : std::vector<float>(n);
-            if (!source_.readSlice(slice)) break;
+            SliceBuffer slice = reused ? std::move(*reused) : SliceBuffer{std::vector<float>(n), {}};
+            if (!source_.readSlice(slice.values)) break;
+            if (classifier != nullptr) {
+              classifier->classifySlice(slice.values.data(), slice.rows);
+            } else {
+              slice.rows.clear();
+            }
             if (!queue_.push(std::move(slice))) return;
           }
         } catch (...) {
@@ -70,7 +77,7 @@ class SliceFeed {
       if (error_) std::rethrow_exception(error_);
       return false;
     }
-    std::vector<float> evicted = ring.adopt(k, std::move(*slice));
+    SliceBuffer evicted = ring.adopt(k, std::move(*slice));
     free_.tryPush(evicted);
     return true;
   }
@@ -78,8 +85,8 @@ class SliceFeed {
  private:
   SliceSource& source_;
   bool threaded_;
-  BoundedQueue<std::vector<float>> queue_;
-  BoundedQueue<std::vector<float>> free_;
+  BoundedQueue<SliceBuffer> queue_;
+  BoundedQueue<SliceBuffer> free_;
   std::thread reader_;
   std::exception_ptr error_;
 };
@@ -260,7 +267,7 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
   result.writeSeconds += since(t);
 
   const bool threaded = options.threads > 1;
-  SliceFeed feed(source, threaded);
+  SliceFeed feed(source, threaded, workers > 1 ? &extractor : nullptr);
   ChunkDrain drain(sink, threaded);
   std::int64_t loaded = 0;
   auto load = [&](std::int64_t z) {  // the slices slab z needs
@@ -280,6 +287,7 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
     v.dims = info.dims;
     v.slices = {below > 0 ? ring.slice(z - 1) : nullptr, ring.slice(z), ring.slice(z + 1),
                 above > 0 ? ring.slice(z + 2) : nullptr};
+    v.rows = {nullptr, ring.rows(z), ring.rows(z + 1), above > 0 ? ring.rows(z + 2) : nullptr};
     return v;
   };
   auto emit = [&](MeshChunk& chunk) {

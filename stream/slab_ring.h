@@ -20,12 +20,28 @@
 
 namespace isoslab {
 
+/// Where one row of voxels changes between inside and outside: the first and last index i >= 1
+/// whose state differs from voxel i - 1 (-1 when the row is uniform), and the states at both ends.
+/// An extractor derives one per row of a slice (Extractor::classifySlice) to skip uniform spans.
+struct RowSpan {
+  std::int64_t first = -1;
+  std::int64_t last = -1;
+  bool left = false;
+  bool right = false;
+};
+
+/// A slice's values and, optionally, its rows' spans, as a reader thread hands them over.
+struct SliceBuffer {
+  std::vector<float> values;
+  std::vector<RowSpan> rows;  // empty: not classified
+};
+
 class SlabRing {
  public:
   SlabRing(std::int64_t sliceVoxels, int capacity)
       : sliceVoxels_(static_cast<std::size_t>(sliceVoxels)),
         capacity_(capacity),
-        storage_(static_cast<std::size_t>(capacity), std::vector<float>(sliceVoxels_)),
+        storage_(static_cast<std::size_t>(capacity), SliceBuffer{std::vector<float>(sliceVoxels_), {}}),
         resident_(static_cast<std::size_t>(capacity), -1) {
     assert(capacity >= 2);
   }
@@ -38,23 +54,31 @@ class SlabRing {
     newest_ = k;
     const std::size_t slot = slotOf(k);
     resident_[slot] = k;
-    return storage_[slot];
+    storage_[slot].rows.clear();
+    return storage_[slot].values;
   }
 
-  /// Makes `filled` (one slice's values) slice k, evicting slice k - capacity(), whose buffer is
-  /// returned for reuse.
-  std::vector<float> adopt(std::int64_t k, std::vector<float> filled) {
-    assert(filled.size() == sliceVoxels_);
+  /// Makes `filled` (one slice's values, and perhaps its row spans) slice k, evicting slice
+  /// k - capacity(), whose buffer is returned for reuse.
+  SliceBuffer adopt(std::int64_t k, SliceBuffer filled) {
+    assert(filled.values.size() == sliceVoxels_);
     acquire(k);
     std::swap(storage_[slotOf(k)], filled);
     return filled;
+  }
+
+  /// Slice k's row spans, or nullptr if it is not resident or was not classified.
+  const RowSpan* rows(std::int64_t k) const noexcept {
+    if (slice(k) == nullptr) return nullptr;
+    const auto& r = storage_[slotOf(k)].rows;
+    return r.empty() ? nullptr : r.data();
   }
 
   /// Slice k, or nullptr if it is not resident.
   const float* slice(std::int64_t k) const noexcept {
     if (k < 0) return nullptr;
     const std::size_t slot = slotOf(k);
-    return resident_[slot] == k ? storage_[slot].data() : nullptr;
+    return resident_[slot] == k ? storage_[slot].values.data() : nullptr;
   }
 
   /// Bytes of slice storage.
@@ -65,7 +89,7 @@ class SlabRing {
 
   std::size_t sliceVoxels_;
   int capacity_;
-  std::vector<std::vector<float>> storage_;
+  std::vector<SliceBuffer> storage_;
   std::vector<std::int64_t> resident_;
   std::int64_t newest_ = -1;
 };
@@ -76,6 +100,8 @@ struct SlabView {
   std::array<std::int64_t, 3> dims{};
   /// Slices z-1, z, z+1, z+2; nullptr where outside the volume or not requested.
   std::array<const float*, 4> slices{};
+  /// Their row spans where already classified (by the extractor's classifySlice), else nullptr.
+  std::array<const RowSpan*, 4> rows{};
 };
 
 }  // namespace isoslab
