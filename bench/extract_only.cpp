@@ -1,7 +1,7 @@
 // Extraction alone, timed like the peers' in-memory runs: the whole volume is read into memory
 // first (a benchmark may hold it; the library never does), then the pipeline extracts it R times
 // into a sink that only counts, and the median wall time is printed as JSON.
-// Usage: isoslab_extract_only INPUT --iso V [--method M] [--threads N] [--runs R] [--no-cell-volumes]
+// Usage: isoslab_extract_only INPUT --iso V [--method M] [--threads N] [--runs R] [--cell-volumes]
 // load_seconds is the time to read the file once (opening, decoding, converting to float).
 #include <fmt/format.h>
 
@@ -61,7 +61,7 @@ int main(int argc, char** argv) {
   std::string method = "mc";
   int threads = 1;
   int runs = 5;
-  bool cellVolumes = true;
+  bool cellVolumes = false;  // as `isoslab extract` without --report
   for (int a = 1; a < argc; ++a) {
     const std::string arg = argv[a];
     auto value = [&] { return a + 1 < argc ? std::string(argv[++a]) : std::string(); };
@@ -71,8 +71,8 @@ int main(int argc, char** argv) {
       method = value();
     } else if (arg == "--threads") {
       threads = std::stoi(value());
-    } else if (arg == "--no-cell-volumes") {
-      cellVolumes = false;
+    } else if (arg == "--cell-volumes") {
+      cellVolumes = true;
     } else if (arg == "--runs") {
       runs = std::stoi(value());
     } else {

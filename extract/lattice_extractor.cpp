@@ -263,6 +263,10 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
       const float* b0 = s1 + j * nx_;
       const float* b1 = b0 + nx_;
       auto in = [threshold](float v) { return v >= threshold; };
+      // bcc12 cells off the volume's faces use the interior variant, whose four centres all exist.
+      const bool interiorRow = bcc && j > 0 && j + 2 < ny_ && z_ > 0 && z_ + 2 < nz_;
+      const float* centre0 = bcc ? centres_[0].data() + j * (nx_ - 1) : nullptr;
+      const float* centre1 = bcc ? centres_[1].data() + j * (nx_ - 1) : nullptr;
       unsigned cornerCase = static_cast<unsigned>(in(a0[begin])) | static_cast<unsigned>(in(a1[begin])) << 2 |
                             static_cast<unsigned>(in(b0[begin])) << 4 | static_cast<unsigned>(in(b1[begin])) << 6;
       for (std::int64_t i = begin; i < end; ++i) {
@@ -278,19 +282,20 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
             if (thisCase == 255) insideVolume += variants_[0].volume;  // the whole cube
             continue;
           }
+          // bcc12: uniform too when its own centre and the +x, +y, +z centres agree.
+          const bool inside = thisCase == 255;
+          if (interiorRow && i > 0 && i + 2 < nx_ && in(centre0[i]) == inside && in(centre0[i + 1]) == inside &&
+              in(centre0[i + nx_ - 1]) == inside && in(centre1[i]) == inside) {
+            if (inside) insideVolume += variants_[0].volume;
+            continue;
+          }
         }
-        value_[0] = a0[i];
-        value_[1] = a0[i + 1];
-        value_[2] = a1[i];
-        value_[3] = a1[i + 1];
-        value_[4] = b0[i];
-        value_[5] = b0[i + 1];
-        value_[6] = b1[i];
-        value_[7] = b1[i + 1];
+        const std::array<const float*, 4> corners{a0 + i, a1 + i, b0 + i, b1 + i};
         if (!scheme_) {
+          loadCorners(corners);
           marchCube(thisCase, i, j);
         } else {
-          insideVolume += marchTetrahedra(thisCase, i, j);
+          insideVolume += marchTetrahedra(thisCase, i, j, corners);
         }
       }
     };
@@ -510,7 +515,16 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
   }
 
   // Returns the inside volume of the cell's tetrahedra, in voxel units.
-  double marchTetrahedra(unsigned cornerCase, std::int64_t i, std::int64_t j) noexcept {
+  // The eight corner values of a cell, from its four voxel rows (y, then z) starting at its x.
+  void loadCorners(const std::array<const float*, 4>& rows) noexcept {
+    for (std::size_t r = 0; r < 4; ++r) {
+      value_[2 * r] = rows[r][0];
+      value_[2 * r + 1] = rows[r][1];
+    }
+  }
+
+  double marchTetrahedra(unsigned cornerCase, std::int64_t i, std::int64_t j,
+                         const std::array<const float*, 4>& corners) noexcept {
     std::size_t variant = 0;
     switch (scheme_->rule) {
       case VariantRule::kSingle:
@@ -539,6 +553,7 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     const unsigned key = nodeCase & used;
     if (key == 0) return 0.0;
     if (key == used) return v.volume;
+    loadCorners(corners);  // only for cells the surface crosses
     if (v.cases[key].firstEdge < 0) buildCase(v, key);
     emitCase(v, key, i, j);
     if (!options_.cellVolumes) return 0.0;
