@@ -7,6 +7,7 @@
 #include <cassert>
 #include <chrono>
 #include <condition_variable>
+#include <deque>
 #include <exception>
 #include <mutex>
 #include <limits>
@@ -156,93 +157,91 @@ class ChunkDrain {
   std::atomic<bool> failed_{false};
 };
 
-// Extraction on several threads: slab z goes to worker z % count, each with its own detached
-// extractor, and parts are collected in slab order.
+// Extraction on several threads. Slabs queue up and go to whichever worker is free (a detached
+// extractor gives the same part for a slab whichever worker runs it); up to `depth` slabs are in
+// flight, and parts are collected in slab order.
 class WorkerPool {
  public:
-  WorkerPool(const Extractor& extractor, int count) : slots_(static_cast<std::size_t>(count)) {
-    for (auto& slot : slots_) {
-      slot = std::make_unique<Slot>();
-      slot->worker = extractor.makeWorker();
-    }
-    for (auto& slot : slots_) slot->thread = std::thread([s = slot.get()] { run(*s); });
+  WorkerPool(const Extractor& extractor, int workers, int depth) : results_(static_cast<std::size_t>(depth)) {
+    for (int w = 0; w < workers; ++w) extractors_.push_back(extractor.makeWorker());
+    for (auto& ex : extractors_) threads_.emplace_back([this, e = ex.get()] { run(*e); });
   }
   ~WorkerPool() {
-    for (auto& slot : slots_) {
-      {
-        std::lock_guard lock(slot->mutex);
-        slot->stop = true;
-      }
-      slot->wake.notify_all();
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
     }
-    for (auto& slot : slots_) slot->thread.join();
+    jobReady_.notify_all();
+    for (auto& t : threads_) t.join();
   }
   WorkerPool(const WorkerPool&) = delete;
   WorkerPool& operator=(const WorkerPool&) = delete;
 
-  /// Hands slab view.z to its worker, which must have been collected from.
+  /// Queues slab view.z, whose result slot must have been collected from.
   void submit(const SlabView& view) {
-    Slot& slot = slotOf(view.z);
     {
-      std::lock_guard lock(slot.mutex);
-      assert(slot.state == State::kIdle);
-      slot.view = view;
-      slot.state = State::kPending;
+      std::lock_guard lock(mutex_);
+      Result& r = slotOf(view.z);
+      assert(!r.done);
+      r.z = view.z;
+      jobs_.push_back(view);
     }
-    slot.wake.notify_all();
+    jobReady_.notify_one();
   }
 
-  /// Waits for slab z. The part stays valid until the next submit to that worker.
+  /// Waits for slab z. The part stays valid until slab z + depth is submitted.
   SlabPart& collect(std::int64_t z) {
-    Slot& slot = slotOf(z);
-    std::unique_lock lock(slot.mutex);
-    slot.wake.wait(lock, [&] { return slot.state == State::kDone; });
-    slot.state = State::kIdle;
-    return slot.part;
+    std::unique_lock lock(mutex_);
+    Result& r = slotOf(z);
+    partReady_.wait(lock, [&] { return r.done && r.z == z; });
+    r.done = false;
+    return r.part;
   }
 
   /// Seconds spent extracting, summed over the workers.
-  double seconds() const noexcept {
-    double sum = 0;
-    for (const auto& slot : slots_) sum += slot->seconds;
-    return sum;
-  }
+  double seconds() const noexcept { return seconds_; }
 
  private:
-  enum class State : std::uint8_t { kIdle, kPending, kDone };
-  struct Slot {
-    std::thread thread;
-    std::mutex mutex;
-    std::condition_variable wake;
-    State state = State::kIdle;
-    bool stop = false;
-    SlabView view;
+  struct Result {
+    std::int64_t z = -1;
+    bool done = false;
     SlabPart part;
-    std::unique_ptr<SlabWorker> worker;
-    double seconds = 0;  // written by the worker between a submit and its collect
   };
 
-  static void run(Slot& slot) {
+  void run(SlabWorker& worker) {
     for (;;) {
+      SlabView view;
       {
-        std::unique_lock lock(slot.mutex);
-        slot.wake.wait(lock, [&] { return slot.state == State::kPending || slot.stop; });
-        if (slot.stop) return;
+        std::unique_lock lock(mutex_);
+        jobReady_.wait(lock, [&] { return !jobs_.empty() || stop_; });
+        if (stop_) return;
+        view = jobs_.front();
+        jobs_.pop_front();
       }
+      // Only this worker touches the slot's part until it is marked done.
+      SlabPart& part = slotOf(view.z).part;
       const auto t = Clock::now();
-      slot.worker->extract(slot.view, slot.part);
-      slot.seconds += since(t);
+      worker.extract(view, part);
+      const double took = since(t);
       {
-        std::lock_guard lock(slot.mutex);
-        slot.state = State::kDone;
+        std::lock_guard lock(mutex_);
+        slotOf(view.z).done = true;
+        seconds_ += took;
       }
-      slot.wake.notify_all();
+      partReady_.notify_all();
     }
   }
 
-  Slot& slotOf(std::int64_t z) { return *slots_[static_cast<std::size_t>(z) % slots_.size()]; }
+  Result& slotOf(std::int64_t z) { return results_[static_cast<std::size_t>(z) % results_.size()]; }
 
-  std::vector<std::unique_ptr<Slot>> slots_;
+  std::vector<std::unique_ptr<SlabWorker>> extractors_;
+  std::vector<std::thread> threads_;
+  std::mutex mutex_;
+  std::condition_variable jobReady_, partReady_;
+  std::deque<SlabView> jobs_;
+  std::vector<Result> results_;
+  double seconds_ = 0;
+  bool stop_ = false;
 };
 
 }  // namespace
@@ -254,10 +253,12 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
   const std::int64_t nz = info.dims[2];
   const int below = extractor.slicesBelow();
   const int above = extractor.slicesAbove();
-  // Slab z needs slices z - below .. z + 1 + above; with `workers` slabs in flight, the ring holds
-  // one more slice per extra worker.
+  // Slab z needs slices z - below .. z + 1 + above; with `depth` slabs in flight, the ring holds
+  // depth - 1 more slices.
   const int workers = std::max(1, options.threads);
-  SlabRing ring(info.sliceVoxels(), below + 1 + above + workers);
+  // With workers, twice as many slabs are in flight, so that a slow slab does not idle the others.
+  const int depth = workers > 1 ? 2 * workers : 1;
+  SlabRing ring(info.sliceVoxels(), below + 1 + above + depth);
   PipelineResult result;
   result.ringBytes = ring.bytes();
   Progress progress("extract", nz - 1, options.progress);
@@ -319,11 +320,11 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
     }
   } else {
     // Slabs collected..dispatched-1 are in flight; the ring keeps every slice they need.
-    WorkerPool pool(extractor, workers);
+    WorkerPool pool(extractor, workers, depth);
     SlabStitcher stitcher(extractor.sliceSlots());
     std::int64_t dispatched = 0;
     for (std::int64_t collected = 0; collected < slabs; ++collected) {
-      while (dispatched < slabs && dispatched - collected < workers) {
+      while (dispatched < slabs && dispatched - collected < depth) {
         load(dispatched);
         pool.submit(view(dispatched));
         ++dispatched;

@@ -14,9 +14,10 @@ namespace isoslab {
 struct PipelineOptions {
   /// Show a progress line on stderr (only if stderr is a terminal and the run is long).
   bool progress = false;
-  /// 1: everything on the calling thread. N > 1: N extraction workers (slab z on worker z % N, each
-  /// with a detached extractor, stitched in slab order), the source read on a thread of its own
-  /// and the sink fed on another, through small bounded queues. The ring holds N - 1 more slices.
+  /// 1: everything on the calling thread. N > 1: N extraction workers (each with a detached
+  /// extractor; up to 2N slabs in flight, stitched in slab order), the source read on a thread of
+  /// its own and the sink fed on another, through small bounded queues. The ring holds 2N - 1
+  /// more slices.
   /// The output is the same for every value.
   int threads = 1;
 };
