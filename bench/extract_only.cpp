@@ -104,9 +104,10 @@ int main(int argc, char** argv) {
       seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count());
     }
     std::sort(seconds.begin(), seconds.end());
-    fmt::print("{{\"method\": \"{}\", \"threads\": {}, \"runs\": {}, \"median_seconds\": {:.4f}, "
-               "\"best_seconds\": {:.4f}, \"triangles\": {}, \"load_seconds\": {:.4f}}}\n",
-               method, threads, runs, seconds[seconds.size() / 2], seconds.front(), sink.triangles, loadSeconds);
+    fmt::print(
+        "{{\"method\": \"{}\", \"threads\": {}, \"runs\": {}, \"median_seconds\": {:.4f}, "
+        "\"best_seconds\": {:.4f}, \"triangles\": {}, \"load_seconds\": {:.4f}}}\n",
+        method, threads, runs, seconds[seconds.size() / 2], seconds.front(), sink.triangles, loadSeconds);
   } catch (const std::exception& e) {
     fmt::print(stderr, "isoslab_extract_only: {}\n", e.what());
     return 1;

@@ -511,7 +511,8 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     const std::uint8_t* edges = v.caseEdges.data() + span.firstEdge;
     for (std::size_t k = 0; k < span.edgeCount; ++k) ids[k] = vertex(v.edges[edges[k]], i, j);
     const auto* tri = v.caseTriangles.data() + span.firstTriangle;
-    for (std::size_t n = 0; n < span.triangleCount; ++n, ++tri) emitTriangle(ids[(*tri)[0]], ids[(*tri)[1]], ids[(*tri)[2]]);
+    for (std::size_t n = 0; n < span.triangleCount; ++n, ++tri)
+      emitTriangle(ids[(*tri)[0]], ids[(*tri)[1]], ids[(*tri)[2]]);
   }
 
   // Returns the inside volume of the cell's tetrahedra, in voxel units.

@@ -67,7 +67,8 @@ void MeshStatsSink::consume(const MeshChunk& chunk) {
       const VertexId delta = std::max(from, to) - lo;
 
       if (delta >= (VertexId{1} << 30)) {
-        throw Error(fmt::format("the topology check supports edges spanning fewer than 2^30 vertex ids, not {}", delta));
+        throw Error(
+            fmt::format("the topology check supports edges spanning fewer than 2^30 vertex ids, not {}", delta));
       }
       const bool onFace = (boundaryOf(from) & boundaryOf(to)) != 0;
       const EdgeUse use{lo, delta << 2 | static_cast<VertexId>(from < to) << 1 | static_cast<VertexId>(onFace)};
@@ -95,7 +96,8 @@ void MeshStatsSink::settle(VertexId first, VertexId end) {
   std::size_t begin = 0;
   for (std::size_t v = 0; v < n; ++v) {
     const std::size_t stop = offsets_[v];  // advanced to the group's end by the scatter
-    std::sort(sorted_.begin() + static_cast<std::ptrdiff_t>(begin), sorted_.begin() + static_cast<std::ptrdiff_t>(stop));
+    std::sort(sorted_.begin() + static_cast<std::ptrdiff_t>(begin),
+              sorted_.begin() + static_cast<std::ptrdiff_t>(stop));
     for (std::size_t i = begin; i < stop;) {
       std::size_t j = i + 1;
       while (j < stop && (sorted_[j] >> 2) == (sorted_[i] >> 2)) ++j;

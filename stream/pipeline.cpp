@@ -9,8 +9,8 @@
 #include <condition_variable>
 #include <deque>
 #include <exception>
-#include <mutex>
 #include <limits>
+#include <mutex>
 #include <thread>
 
 #include "extract/slab_stitcher.h"
@@ -312,8 +312,7 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
       extractor.extractSlab(view(z), chunk);
       result.extractSeconds += since(t);
       if (extractor.vertexCount() > std::numeric_limits<VertexId>::max()) {
-        throw Error(
-            fmt::format("{}: the mesh exceeds {} vertices", info.source, std::numeric_limits<VertexId>::max()));
+        throw Error(fmt::format("{}: the mesh exceeds {} vertices", info.source, std::numeric_limits<VertexId>::max()));
       }
       nextVertex = chunk.endVertex();
       emit(chunk);

@@ -107,9 +107,8 @@ class RecordingSink final : public MeshSink {
 };
 
 bool sameChunk(const MeshChunk& a, const MeshChunk& b) {
-  return a.slab == b.slab && a.firstVertex == b.firstVertex && a.positions == b.positions &&
-         a.normals == b.normals && a.boundary == b.boundary && a.triangles == b.triangles &&
-         a.cellVolume == b.cellVolume;
+  return a.slab == b.slab && a.firstVertex == b.firstVertex && a.positions == b.positions && a.normals == b.normals &&
+         a.boundary == b.boundary && a.triangles == b.triangles && a.cellVolume == b.cellVolume;
 }
 
 // Parallel extraction (detached workers and the stitcher) must reproduce the sequential chunks
@@ -123,7 +122,8 @@ TEST(Pipeline, ThreadsDeliverTheSameChunks) {
         testing::VectorSource source({19, 17, 23}, [field](std::int64_t i, std::int64_t j, std::int64_t k) {
           if (field == 0) return static_cast<float>((i * 31 + j * 17 + k * 7) % 13);
           if (field == 1) return static_cast<float>((i * i + 3 * j + k * k * j) % 5);
-          const double r = std::hypot(static_cast<double>(i) - 9.0, static_cast<double>(j) - 8.0, static_cast<double>(k) - 11.0);
+          const double r =
+              std::hypot(static_cast<double>(i) - 9.0, static_cast<double>(j) - 8.0, static_cast<double>(k) - 11.0);
           return static_cast<float>(std::round(r));
         });
         ExtractOptions o;
@@ -160,8 +160,8 @@ TEST(Pipeline, CellVolumesAreOptional) {
   std::vector<MeshChunk> with, without;
   for (bool cellVolumes : {true, false}) {
     testing::VectorSource source({16, 16, 16}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
-      return static_cast<float>(std::hypot(static_cast<double>(i) - 7.5, static_cast<double>(j) - 7.0,
-                                           static_cast<double>(k) - 8.0));
+      return static_cast<float>(
+          std::hypot(static_cast<double>(i) - 7.5, static_cast<double>(j) - 7.0, static_cast<double>(k) - 8.0));
     });
     ExtractOptions o;
     o.method = Method::kTetra6;
