@@ -197,7 +197,9 @@ int runExtract(const ExtractArgs& args) {
   const int threads =
       args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   WriterOptions writerOptions;
-  writerOptions.encodeThreads = threads;
+  // The writer thread gathers chunks while threads - 1 others encode them: encoding then overlaps
+  // everything else, and memory grows by one chunk's encoder per extra thread.
+  writerOptions.encodeThreads = threads - 1;
   writerOptions.dracoLevel = args.dracoLevel;
   writerOptions.quantBits = args.quantBits;
   writerOptions.chunkTriangles = args.chunkTriangles;

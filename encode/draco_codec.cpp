@@ -28,7 +28,7 @@ float dracoDequantized(float value, float origin, const DracoSettings& s) noexce
   return static_cast<float>(q) * delta + origin;
 }
 
-std::vector<char> dracoEncode(const IndexedMesh& mesh, const DracoSettings& settings, const std::string& what) {
+std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, const std::string& what) {
   draco::Mesh m;
   const auto n = static_cast<std::uint32_t>(mesh.positions.size());
   m.set_num_points(n);
@@ -53,6 +53,7 @@ std::vector<char> dracoEncode(const IndexedMesh& mesh, const DracoSettings& sett
     m.SetFace(draco::FaceIndex(static_cast<std::uint32_t>(f)),
               {draco::PointIndex(t[0]), draco::PointIndex(t[1]), draco::PointIndex(t[2])});
   }
+  mesh = IndexedMesh{};  // Draco holds its own copy now; free ours before its working memory grows
   draco::Encoder encoder;
   const int speed = 10 - settings.level;
   encoder.SetSpeedOptions(speed, speed);

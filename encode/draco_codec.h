@@ -27,7 +27,7 @@ int defaultQuantBits(double range, double voxel) noexcept;
 
 /// Draco-encodes `mesh` (positions, optional normals, triangles) with `settings`. `what` names the
 /// output in error messages.
-std::vector<char> dracoEncode(const IndexedMesh& mesh, const DracoSettings& settings, const std::string& what);
+std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, const std::string& what);
 
 /// Decodes a Draco mesh. Throws isoslab::Error naming `what`.
 IndexedMesh dracoDecode(const char* data, std::size_t size, const std::string& what);

@@ -111,6 +111,14 @@ VertexId GlbDracoWriter::localVertex(VertexId id) {
 void GlbDracoWriter::consume(const MeshChunk& chunk) {
   window_.push(chunk);
   vertices_ += chunk.positions.size();
+  if (current_.triangles.empty()) {
+    // A chunk closes at the first slab boundary past chunkTriangles: room for that and a few
+    // slabs more, so that the vectors do not double past it.
+    const auto expected = static_cast<std::size_t>(options_.chunkTriangles) + 4 * chunk.triangles.size();
+    current_.triangles.reserve(expected);
+    current_.positions.reserve(expected / 2 + chunk.positions.size());
+    if (header_.normals) current_.normals.reserve(expected / 2 + chunk.positions.size());
+  }
   local_.resize(chunk.endVertex() - chunkFirst_, kNone);
   for (const Triangle& t : chunk.triangles) {
     current_.triangles.push_back({localVertex(t[0]), localVertex(t[1]), localVertex(t[2])});
@@ -122,12 +130,9 @@ void GlbDracoWriter::consume(const MeshChunk& chunk) {
   }
 }
 
-GlbDracoWriter::Encoded GlbDracoWriter::encode(const IndexedMesh& mesh, const DracoSettings& settings,
+GlbDracoWriter::Encoded GlbDracoWriter::encode(IndexedMesh mesh, const DracoSettings& settings,
                                                const std::string& path) {
   Encoded e;
-  const auto start = Clock::now();
-  e.bytes = dracoEncode(mesh, settings, path);
-  e.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   Primitive& p = e.primitive;
   p.points = mesh.positions.size();
   p.triangles = mesh.triangles.size();
@@ -142,6 +147,9 @@ GlbDracoWriter::Encoded GlbDracoWriter::encode(const IndexedMesh& mesh, const Dr
     }
   }
   e.worstError = quantizationError(mesh, settings);
+  const auto start = Clock::now();
+  e.bytes = dracoEncode(std::move(mesh), settings, path);
+  e.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return e;
 }
 
@@ -149,9 +157,9 @@ GlbDracoWriter::Encoded GlbDracoWriter::encode(const IndexedMesh& mesh, const Dr
 // encoded in parallel (they are spooled in order, so the file is the same either way).
 void GlbDracoWriter::flush() {
   if (current_.triangles.empty()) return;
-  if (options_.encodeThreads <= 1) {
+  if (options_.encodeThreads <= 0) {
     std::promise<Encoded> done;
-    done.set_value(encode(current_, settings_, path_));
+    done.set_value(encode(std::move(current_), settings_, path_));
     encoding_.push_back(done.get_future());
   } else {
     while (static_cast<int>(encoding_.size()) >= options_.encodeThreads) spoolOldest();
@@ -161,7 +169,7 @@ void GlbDracoWriter::flush() {
   current_ = IndexedMesh{};
   local_.clear();
   seam_.clear();
-  if (options_.encodeThreads <= 1) spoolOldest();
+  if (options_.encodeThreads <= 0) spoolOldest();
 }
 
 void GlbDracoWriter::spoolOldest() {
@@ -276,10 +284,10 @@ void DrcWriter::consume(const MeshChunk& chunk) {
 }
 
 void DrcWriter::finish() {
-  const auto start = Clock::now();
-  const std::vector<char> bytes = dracoEncode(mesh_, settings_, path_);
-  encodeSeconds_ = std::chrono::duration<double>(Clock::now() - start).count();
   worstError_ = quantizationError(mesh_, settings_);
+  const auto start = Clock::now();
+  const std::vector<char> bytes = dracoEncode(std::move(mesh_), settings_, path_);
+  encodeSeconds_ = std::chrono::duration<double>(Clock::now() - start).count();
   mesh_ = IndexedMesh{};
   file_->write(bytes.data(), bytes.size());
   bytes_ = file_->size();

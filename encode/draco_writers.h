@@ -53,7 +53,7 @@ class GlbDracoWriter final : public MeshFileSink {
     double seconds = 0;
     double worstError = 0;
   };
-  static Encoded encode(const IndexedMesh& mesh, const DracoSettings& settings, const std::string& path);
+  static Encoded encode(IndexedMesh mesh, const DracoSettings& settings, const std::string& path);
   VertexId localVertex(VertexId id);
   void flush();
   void spoolOldest();

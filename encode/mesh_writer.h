@@ -25,9 +25,9 @@ struct WriterOptions {
   int quantBits = 0;
   /// .glb: a chunk closes at the first slab boundary after it holds this many triangles.
   std::int64_t chunkTriangles = 1 << 19;
-  /// .glb: chunks encoded at the same time, each on a thread of its own when more than 1. Each
-  /// holds one chunk's encoder memory.
-  int encodeThreads = 1;
+  /// .glb: chunks encoded at the same time on threads of their own, while the writer gathers the
+  /// next one; 0 encodes on the writer's thread. Each holds one chunk's encoder memory.
+  int encodeThreads = 0;
   /// The smallest voxel edge in output units, for the default quantization.
   double voxelSize = 1;
 };
