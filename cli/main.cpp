@@ -195,7 +195,7 @@ int runExtract(const ExtractArgs& args) {
 
   const LatticeFrame frame = LatticeFrame::forSpace(info, args.space);
   const int threads =
-      args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+      args.threads > 0 ? args.threads : static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 8u));
   WriterOptions writerOptions;
   // The writer thread gathers chunks while threads - 1 others encode them: encoding then overlaps
   // everything else, and memory grows by one chunk's encoder per extra thread.
@@ -438,8 +438,9 @@ int main(int argc, char** argv) {
   extract->add_option("--report", ex.report, "Write a JSON report of the run");
   extract->add_flag("-q,--quiet", ex.quiet, "No progress line and no summary on stderr");
   extract->add_option("--threads", ex.threads,
-                      "Threads: 2 or more read, extract and write concurrently (default: the core count); the output "
-                      "is the same for every count");
+                      "Threads: N extraction workers beside a reader and a writer, and N - 1 .glb encoders "
+                      "(default: the core count, at most 8); 1 uses the least memory. The output is the same for "
+                      "every count");
   extract->add_option("--draco-level", ex.dracoLevel, "Draco (.glb, .drc): 0 fastest .. 10 smallest")
       ->capture_default_str()
       ->group("Draco output");

@@ -99,7 +99,7 @@ class ChunkDrain {
     if (threaded_) {
       writer_ = std::thread([this] {
         while (auto chunk = queue_.pop()) {
-          if (failed_) continue;  // drain without consuming after a failure
+          if (failed_ || abandoned_) continue;  // drain without consuming after a failure
           try {
             sink_.consume(*chunk);
           } catch (...) {
@@ -112,7 +112,11 @@ class ChunkDrain {
       });
     }
   }
-  ~ChunkDrain() { stop(); }
+  // Without flush() (an error elsewhere), queued chunks are dropped rather than consumed.
+  ~ChunkDrain() {
+    abandoned_ = true;
+    stop();
+  }
   ChunkDrain(const ChunkDrain&) = delete;
   ChunkDrain& operator=(const ChunkDrain&) = delete;
 
@@ -155,6 +159,7 @@ class ChunkDrain {
   std::thread writer_;
   std::exception_ptr error_;
   std::atomic<bool> failed_{false};
+  std::atomic<bool> abandoned_{false};
 };
 
 // Extraction on several threads. Slabs queue up and go to whichever worker is free (a detached
@@ -164,16 +169,14 @@ class WorkerPool {
  public:
   WorkerPool(const Extractor& extractor, int workers, int depth) : results_(static_cast<std::size_t>(depth)) {
     for (int w = 0; w < workers; ++w) extractors_.push_back(extractor.makeWorker());
-    for (auto& ex : extractors_) threads_.emplace_back([this, e = ex.get()] { run(*e); });
-  }
-  ~WorkerPool() {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
+    try {
+      for (auto& ex : extractors_) threads_.emplace_back([this, e = ex.get()] { run(*e); });
+    } catch (...) {
+      stop();
+      throw;
     }
-    jobReady_.notify_all();
-    for (auto& t : threads_) t.join();
   }
+  ~WorkerPool() { stop(); }
   WorkerPool(const WorkerPool&) = delete;
   WorkerPool& operator=(const WorkerPool&) = delete;
 
@@ -234,6 +237,16 @@ class WorkerPool {
 
   Result& slotOf(std::int64_t z) { return results_[static_cast<std::size_t>(z) % results_.size()]; }
 
+  void stop() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    jobReady_.notify_all();
+    for (auto& t : threads_) t.join();
+    threads_.clear();
+  }
+
   std::vector<std::unique_ptr<SlabWorker>> extractors_;
   std::vector<std::thread> threads_;
   std::mutex mutex_;
@@ -256,8 +269,8 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
   // Slab z needs slices z - below .. z + 1 + above; with `depth` slabs in flight, the ring holds
   // depth - 1 more slices.
   const int workers = std::max(1, options.threads);
-  // With workers, twice as many slabs are in flight, so that a slow slab does not idle the others.
-  const int depth = workers > 1 ? 2 * workers : 1;
+  // With workers, two more slabs are in flight, so that a slow slab does not idle the others.
+  const int depth = workers > 1 ? workers + 2 : 1;
   SlabRing ring(info.sliceVoxels(), below + 1 + above + depth);
   PipelineResult result;
   result.ringBytes = ring.bytes();
@@ -294,10 +307,11 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
   auto emit = [&](MeshChunk& chunk) {
     result.vertices += chunk.positions.size();
     result.triangles += chunk.triangles.size();
+    const std::int64_t slab = chunk.slab;
     const auto t0 = Clock::now();
-    drain.push(chunk);
+    drain.push(chunk);  // may move the chunk away
     result.writeSeconds += since(t0);
-    progress.update(chunk.slab + 1);
+    progress.update(slab + 1);
   };
   const std::int64_t slabs = nz - 1;
   if (workers == 1) {

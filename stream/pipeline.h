@@ -1,6 +1,7 @@
 // The driver: pulls slices from a source into the slab ring, hands each slab to the extractor (or
-// to its workers) and each resulting chunk to the sink. Memory is the ring (at most three slices
-// plus one per worker), the extractors' per-slab caches and a few chunks.
+// to its workers) and each resulting chunk to the sink. Memory is the ring (at most four slices,
+// plus N + 1 with N workers), a few slices queued by the reader, the extractors' per-slab caches
+// (one set per worker) and a few chunks.
 #pragma once
 
 #include <cstdint>
@@ -15,8 +16,8 @@ struct PipelineOptions {
   /// Show a progress line on stderr (only if stderr is a terminal and the run is long).
   bool progress = false;
   /// 1: everything on the calling thread. N > 1: N extraction workers (each with a detached
-  /// extractor; up to 2N slabs in flight, stitched in slab order), the source read on a thread of
-  /// its own and the sink fed on another, through small bounded queues. The ring holds 2N - 1
+  /// extractor; up to N + 2 slabs in flight, stitched in slab order), the source read on a thread
+  /// of its own and the sink fed on another, through small bounded queues. The ring holds N + 1
   /// more slices.
   /// The output is the same for every value.
   int threads = 1;

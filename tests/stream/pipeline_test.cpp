@@ -135,8 +135,8 @@ TEST(Pipeline, ThreadsDeliverTheSameChunks) {
         PipelineOptions p;
         p.threads = threads;
         const PipelineResult r = runPipeline(source, *ex, sink, MeshHeader{}, p);
-        // Slab z needs at most slices z-1 .. z+2; with workers, 2N slabs are in flight.
-        const int depth = threads > 1 ? 2 * threads : 1;
+        // Slab z needs at most slices z-1 .. z+2; with workers, N + 2 slabs are in flight.
+        const int depth = threads > 1 ? threads + 2 : 1;
         EXPECT_LE(r.ringBytes, static_cast<std::size_t>(3 + depth) * 19 * 17 * sizeof(float));
         ASSERT_EQ(sink.chunks.size(), 22u);
         if (threads == 1) {
