@@ -12,10 +12,21 @@ namespace isoslab {
 
 void MeshStatsSink::begin(const MeshHeader& header) {
   stats_ = MeshStats{};
+  window_ = VertexWindow{};
+  previousBoundary_.clear();
+  currentBoundary_.clear();
+  previousFirst_ = currentFirst_ = currentEnd_ = 0;
+  ready_.clear();
+  held_.clear();
+  haveBounds_ = false;
   if (header.cellVolumes) stats_.cellVolume = 0.0;
 }
 
 void MeshStatsSink::consume(const MeshChunk& chunk) {
+  if (chunk.firstVertex != currentEnd_) {
+    throw Error(fmt::format("slab {}: the chunk's vertices start at id {}, not at {} where the previous chunk's ended",
+                            chunk.slab, chunk.firstVertex, currentEnd_));
+  }
   window_.push(chunk);
   std::swap(previousBoundary_, currentBoundary_);
   currentBoundary_ = chunk.boundary;

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <set>
@@ -83,6 +84,62 @@ TEST(ExtractBlock, IsoValuesBetweenFloatsCompareExactly) {
   }
   testing::VectorSource block({10, 10, 10}, field);
   EXPECT_EQ(testing::extract(block, Method::kMarchingCubes, 0.1).stats.triangles, 428u);
+}
+
+// Row spans (used to skip uniform runs) against their definition: the first and last i >= 1 whose
+// state differs from voxel i - 1, -1 for a uniform row; NaN is never inside. Rows of 50 voxels
+// cover whole 16-voxel blocks and a tail, with changes on both sides of block borders.
+TEST(RowSpans, MatchTheirDefinition) {
+  constexpr std::int64_t nx = 50;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<std::vector<float>> rows;
+  rows.push_back(std::vector<float>(nx, 0.0f));
+  rows.push_back(std::vector<float>(nx, 1.0f));
+  for (std::int64_t at : {1, 15, 16, 17, 31, 32, 33, 47, 48, 49}) {
+    std::vector<float> up(nx, 0.0f);
+    std::fill(up.begin() + at, up.end(), 1.0f);
+    rows.push_back(up);
+    std::vector<float> blip(nx, 1.0f);
+    blip[static_cast<std::size_t>(at)] = nan;
+    rows.push_back(blip);
+  }
+  std::mt19937 rng(11);
+  for (int r = 0; r < 40; ++r) {
+    std::vector<float> row(nx, static_cast<float>(r % 2));
+    const int changes = r % 4;
+    for (int c = 0; c < changes; ++c) {
+      const auto at = static_cast<std::size_t>(rng() % nx);
+      const float v = rng() % 3 == 0 ? nan : 1.0f - row[at];
+      row[at] = v;
+    }
+    rows.push_back(row);
+  }
+  VolumeInfo info;
+  info.dims = {nx, static_cast<std::int64_t>(rows.size()), 2};
+  ExtractOptions o;
+  o.iso = 0.5;
+  auto ex = makeExtractor(o, info, LatticeFrame::voxel());
+  std::vector<float> slice;
+  for (const auto& r : rows) slice.insert(slice.end(), r.begin(), r.end());
+  std::vector<RowSpan> spans;
+  ex->classifySlice(slice.data(), spans);
+  ASSERT_EQ(spans.size(), rows.size());
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    auto inside = [&](std::int64_t i) { return rows[r][static_cast<std::size_t>(i)] >= 0.5f; };
+    RowSpan want;
+    want.left = inside(0);
+    want.right = inside(nx - 1);
+    for (std::int64_t i = 1; i < nx; ++i) {
+      if (inside(i) != inside(i - 1)) {
+        if (want.first < 0) want.first = i;
+        want.last = i;
+      }
+    }
+    EXPECT_EQ(spans[r].first, want.first) << "row " << r;
+    EXPECT_EQ(spans[r].last, want.last) << "row " << r;
+    EXPECT_EQ(spans[r].left, want.left) << "row " << r;
+    EXPECT_EQ(spans[r].right, want.right) << "row " << r;
+  }
 }
 
 TEST(ExtractBlock, ValuesEqualToIsoGiveDegenerateTrianglesButNoHole) {

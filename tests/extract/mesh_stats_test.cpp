@@ -2,6 +2,7 @@
 
 #include "encode/indexed_mesh.h"
 #include "extract/mesh_stats.h"
+#include "io/error.h"
 
 namespace isoslab {
 namespace {
@@ -59,6 +60,60 @@ TEST(MeshStats, DetectsHolesFlipsNonManifoldEdgesAndDegenerateTriangles) {
   degenerate.triangles.push_back({0, 8, 1});
   degenerate.triangles.push_back({0, 1, 8});
   EXPECT_EQ(measure(degenerate).degenerateTriangles, 2u);
+}
+
+// The cube streamed as chunks: its bottom corners and face, then the top corners and the other
+// faces (whose edges reach back into the first chunk), then an empty chunk.
+std::vector<MeshChunk> cubeChunks() {
+  const IndexedMesh cube = unitCube();
+  std::vector<MeshChunk> chunks(3);
+  for (std::int64_t z = 0; z < 3; ++z) chunks[static_cast<std::size_t>(z)].slab = z;
+  chunks[0].positions.assign(cube.positions.begin(), cube.positions.begin() + 4);
+  chunks[0].triangles.assign(cube.triangles.begin(), cube.triangles.begin() + 2);
+  chunks[1].firstVertex = 4;
+  chunks[1].positions.assign(cube.positions.begin() + 4, cube.positions.end());
+  chunks[1].triangles.assign(cube.triangles.begin() + 2, cube.triangles.end());
+  chunks[2].firstVertex = 8;
+  for (auto& c : chunks) c.boundary.assign(c.positions.size(), 0);
+  return chunks;
+}
+
+MeshStats measureChunks(const std::vector<MeshChunk>& chunks) {
+  MeshStatsSink sink;
+  sink.begin(MeshHeader{});
+  for (const MeshChunk& c : chunks) sink.consume(c);
+  sink.finish();
+  return sink.stats();
+}
+
+TEST(MeshStats, EdgesAcrossChunksAreCountedOnce) {
+  const MeshStats s = measureChunks(cubeChunks());
+  const MeshStats whole = measure(unitCube());
+  EXPECT_EQ(s.vertices, 8u);
+  EXPECT_EQ(s.edges, whole.edges);
+  EXPECT_EQ(s.euler, 2);
+  EXPECT_TRUE(s.closed());
+  EXPECT_TRUE(s.oriented());
+  EXPECT_DOUBLE_EQ(s.volume, 1.0);
+}
+
+TEST(MeshStats, RejectsChunksThatBreakTheStreamingContract) {
+  auto expectError = [](const std::vector<MeshChunk>& chunks, const char* message) {
+    try {
+      measureChunks(chunks);
+      ADD_FAILURE() << "no error for: " << message;
+    } catch (const Error& e) {
+      EXPECT_STREQ(e.what(), message);
+    }
+  };
+  std::vector<MeshChunk> gap = cubeChunks();
+  gap[1].firstVertex = 5;
+  expectError(gap, "slab 1: the chunk's vertices start at id 5, not at 4 where the previous chunk's ended");
+  std::vector<MeshChunk> old = cubeChunks();
+  old[2].positions.push_back({2, 2, 2});
+  old[2].boundary.push_back(0);
+  old[2].triangles.push_back({8, 0, 5});  // vertex 0 belongs to chunk 0, two chunks back
+  expectError(old, "slab 2: a triangle uses vertex 0, outside this chunk and the previous one");
 }
 
 TEST(MeshStats, BoundaryEdgesOnTheVolumeFacesAreNotHoles) {

@@ -185,6 +185,39 @@ TEST(Pipeline, CellVolumesAreOptional) {
   EXPECT_NEAR(volume, 15.0 * 15.0 * 15.0 - 4.0 / 3.0 * M_PI * 125.0, 15.0);
 }
 
+class FailingSink final : public MeshSink {
+ public:
+  void begin(const MeshHeader&) override {}
+  void consume(const MeshChunk& c) override {
+    if (c.slab == 5) throw Error("disk full");
+  }
+  void finish() override { finished = true; }
+  bool finished = false;
+};
+
+// An error in the sink (on the writer thread when threaded) reaches the caller, whatever the
+// thread count, and nothing hangs. (Source errors: ASourceThatEndsEarlyIsAnError.)
+TEST(Pipeline, ErrorsOnOtherThreadsReachTheCaller) {
+  for (int threads : {1, 2, 4}) {
+    testing::VectorSource source({12, 11, 30}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
+      return static_cast<float>((i + 2 * j + 3 * k) % 7);
+    });
+    ExtractOptions o;
+    o.iso = 3;
+    auto ex = makeExtractor(o, source.info(), LatticeFrame::voxel());
+    FailingSink sink;
+    PipelineOptions p;
+    p.threads = threads;
+    try {
+      runPipeline(source, *ex, sink, MeshHeader{}, p);
+      ADD_FAILURE() << "no error with " << threads << " threads";
+    } catch (const Error& e) {
+      EXPECT_STREQ(e.what(), "disk full");
+    }
+    EXPECT_FALSE(sink.finished);
+  }
+}
+
 TEST(SlabStitcher, RejectsPartsOutOfOrder) {
   testing::VectorSource source({5, 5, 5}, [](std::int64_t, std::int64_t, std::int64_t) { return 0.0f; });
   auto ex = makeExtractor(ExtractOptions{}, source.info(), LatticeFrame::voxel());
