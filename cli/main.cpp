@@ -197,9 +197,10 @@ int runExtract(const ExtractArgs& args) {
   const int threads =
       args.threads > 0 ? args.threads : static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 8u));
   WriterOptions writerOptions;
-  // The writer thread gathers chunks while threads - 1 others encode them: encoding then overlaps
-  // everything else, and memory grows by one chunk's encoder per extra thread.
-  writerOptions.encodeThreads = threads - 1;
+  // With threads, the writer gathers chunks while up to `threads` others encode them: encoding
+  // then overlaps everything else (it is the slowest stage), and memory grows by one chunk's
+  // encoder per encoding thread.
+  writerOptions.encodeThreads = threads > 1 ? threads : 0;
   writerOptions.dracoLevel = args.dracoLevel;
   writerOptions.quantBits = args.quantBits;
   writerOptions.chunkTriangles = args.chunkTriangles;
@@ -438,7 +439,7 @@ int main(int argc, char** argv) {
   extract->add_option("--report", ex.report, "Write a JSON report of the run");
   extract->add_flag("-q,--quiet", ex.quiet, "No progress line and no summary on stderr");
   extract->add_option("--threads", ex.threads,
-                      "Threads: N extraction workers beside a reader and a writer, and N - 1 .glb encoders "
+                      "Threads: N extraction workers beside a reader and a writer, and N .glb chunk encoders "
                       "(default: the core count, at most 8); 1 uses the least memory. The output is the same for "
                       "every count");
   extract->add_option("--draco-level", ex.dracoLevel, "Draco (.glb, .drc): 0 fastest .. 10 smallest")
