@@ -93,6 +93,7 @@ int main(int argc, char** argv) {
     options.cellVolumes = cellVolumes;
     const isoslab::LatticeFrame frame = isoslab::LatticeFrame::physical(source.info());
     std::vector<double> seconds;
+    isoslab::PipelineResult last;
     CountingSink sink;
     for (int r = 0; r < runs; ++r) {
       source.rewind();
@@ -100,14 +101,16 @@ int main(int argc, char** argv) {
       isoslab::PipelineOptions p;
       p.threads = threads;
       const auto t = std::chrono::steady_clock::now();
-      isoslab::runPipeline(source, *extractor, sink, isoslab::MeshHeader{}, p);
+      last = isoslab::runPipeline(source, *extractor, sink, isoslab::MeshHeader{}, p);
       seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count());
     }
     std::sort(seconds.begin(), seconds.end());
     fmt::print(
         "{{\"method\": \"{}\", \"threads\": {}, \"runs\": {}, \"median_seconds\": {:.4f}, "
-        "\"best_seconds\": {:.4f}, \"triangles\": {}, \"load_seconds\": {:.4f}}}\n",
-        method, threads, runs, seconds[seconds.size() / 2], seconds.front(), sink.triangles, loadSeconds);
+        "\"best_seconds\": {:.4f}, \"triangles\": {}, \"load_seconds\": {:.4f}, \"last_run\": {{\"read_wait\": "
+        "{:.4f}, \"worker_busy\": {:.4f}, \"write_wait\": {:.4f}}}}}\n",
+        method, threads, runs, seconds[seconds.size() / 2], seconds.front(), sink.triangles, loadSeconds,
+        last.readSeconds, last.extractSeconds, last.writeSeconds);
   } catch (const std::exception& e) {
     fmt::print(stderr, "isoslab_extract_only: {}\n", e.what());
     return 1;

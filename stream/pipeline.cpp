@@ -95,7 +95,7 @@ class SliceFeed {
 // Chunks in order to the sink: consumed on the spot, or by a writer thread.
 class ChunkDrain {
  public:
-  ChunkDrain(MeshSink& sink, bool threaded) : sink_(sink), threaded_(threaded), queue_(2), free_(2) {
+  ChunkDrain(MeshSink& sink, bool threaded) : sink_(sink), threaded_(threaded), queue_(4), free_(2) {
     if (threaded_) {
       writer_ = std::thread([this] {
         while (auto chunk = queue_.pop()) {
