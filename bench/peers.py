@@ -31,7 +31,8 @@ import time
 
 import numpy as np
 
-BUILD = next((a for a in sys.argv[1:] if not a.startswith("--")), "build")
+BUILD = next((a for i, a in enumerate(sys.argv[1:], 1)
+              if not a.startswith("--") and sys.argv[i - 1] not in ("--runs", "--rounds")), "build")
 RUNS = int(sys.argv[sys.argv.index("--runs") + 1]) if "--runs" in sys.argv else 3
 ISOSLAB = os.path.join(BUILD, "cli", "isoslab")
 EXTRACT_ONLY = os.path.join(BUILD, "bench", "isoslab_extract_only")
