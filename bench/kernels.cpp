@@ -45,6 +45,7 @@ void kernel(benchmark::State& state) {
   isoslab::ExtractOptions options;
   options.method = method;
   options.iso = 0.0;
+  options.cellVolumes = false;  // as `isoslab extract` without a report
   std::int64_t cells = 0;
   for (auto _ : state) {
     auto extractor = isoslab::makeExtractor(options, info, isoslab::LatticeFrame::voxel());
