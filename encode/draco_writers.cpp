@@ -114,8 +114,8 @@ void GlbDracoWriter::consume(const MeshChunk& chunk) {
   if (current_.triangles.empty()) {
     // A chunk closes at the first slab boundary past chunkTriangles: room for that and a few
     // slabs more, so that the vectors do not double past it.
-    const auto expected = static_cast<std::size_t>(std::min<std::int64_t>(options_.chunkTriangles, 1 << 22)) +
-                          4 * chunk.triangles.size();
+    const auto expected =
+        static_cast<std::size_t>(std::min<std::int64_t>(options_.chunkTriangles, 1 << 22)) + 4 * chunk.triangles.size();
     current_.triangles.reserve(expected);
     current_.positions.reserve(expected / 2 + chunk.positions.size());
     if (header_.normals) current_.normals.reserve(expected / 2 + chunk.positions.size());
@@ -164,10 +164,10 @@ void GlbDracoWriter::flush() {
     encoding_.push_back(done.get_future());
   } else {
     while (static_cast<int>(encoding_.size()) >= options_.encodeThreads) spoolOldest();
-    encoding_.push_back(std::async(std::launch::async,
-                                   [mesh = std::move(current_), settings = settings_, path = path_]() mutable {
-                                     return encode(std::move(mesh), settings, path);
-                                   }));
+    encoding_.push_back(
+        std::async(std::launch::async, [mesh = std::move(current_), settings = settings_, path = path_]() mutable {
+          return encode(std::move(mesh), settings, path);
+        }));
   }
   current_ = IndexedMesh{};
   local_.clear();
