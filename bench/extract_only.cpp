@@ -1,6 +1,7 @@
 // Extraction alone, timed like the peers' in-memory runs: the whole volume is read into memory
 // first (a benchmark may hold it; the library never does), then the pipeline extracts it R times
-// into a sink that only counts, and the median wall time is printed as JSON.
+// into a sink that only counts, and the median wall time is printed as JSON. The in-memory source
+// lends its slices (SliceSource::lendSlice), as VTK reads its in-memory array without a copy.
 // Usage: isoslab_extract_only INPUT --iso V [--method M] [--threads N] [--runs R] [--cell-volumes]
 // load_seconds is the time to read the file once (opening, decoding, converting to float).
 #include <fmt/format.h>
@@ -31,6 +32,11 @@ class MemorySource final : public isoslab::SliceSource {
     }
   }
   const isoslab::VolumeInfo& info() const noexcept override { return info_; }
+  bool lendsSlices() const noexcept override { return true; }
+  const float* lendSlice() override {
+    if (next_ >= info_.dims[2]) return nullptr;
+    return values_.data() + static_cast<std::size_t>(next_++) * static_cast<std::size_t>(info_.sliceVoxels());
+  }
   bool readSlice(std::span<float> slice) override {
     if (next_ >= info_.dims[2]) return false;
     const auto n = slice.size();

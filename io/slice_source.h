@@ -69,6 +69,14 @@ class SliceSource {
   /// info().sliceVoxels() values, x fastest. Returns false, leaving `slice` untouched, once all
   /// info().dims[2] slices have been read. Throws isoslab::Error if the data is short or unreadable.
   virtual bool readSlice(std::span<float> slice) = 0;
+
+  /// Whether the source holds its slices in memory as float and can lend them (lendSlice)
+  /// instead of copying them, as a volume already in memory can.
+  virtual bool lendsSlices() const noexcept { return false; }
+
+  /// The next slice's values, x fastest, valid as long as the source lives; nullptr once all
+  /// slices have been handed out. Only for sources that lend slices.
+  virtual const float* lendSlice() { return nullptr; }
 };
 
 /// Checks dims for sanity (every axis at least 2 and at most 2^31-1 points, the product

@@ -43,12 +43,20 @@ class SliceFeed {
       reader_ = std::thread([this, classifier] {
         try {
           const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
+          const bool lends = source_.lendsSlices();
           for (;;) {
             auto reused = free_.tryPop();
-            SliceBuffer slice = reused ? std::move(*reused) : SliceBuffer{std::vector<float>(n), {}};
-            if (!source_.readSlice(slice.values)) break;
+            SliceBuffer slice = reused ? std::move(*reused) : SliceBuffer{};
+            slice.lent = nullptr;
+            if (lends) {
+              slice.lent = source_.lendSlice();
+              if (slice.lent == nullptr) break;
+            } else {
+              slice.values.resize(n);
+              if (!source_.readSlice(slice.values)) break;
+            }
             if (classifier != nullptr) {
-              classifier->classifySlice(slice.values.data(), slice.rows);
+              classifier->classifySlice(slice.data(), slice.rows);
             } else {
               slice.rows.clear();
             }
@@ -72,7 +80,13 @@ class SliceFeed {
 
   /// Reads the next slice into the ring as slice k; false at the end of the data.
   bool next(SlabRing& ring, std::int64_t k) {
-    if (!threaded_) return source_.readSlice(ring.acquire(k));
+    if (!threaded_) {
+      if (!source_.lendsSlices()) return source_.readSlice(ring.acquire(k));
+      const float* lent = source_.lendSlice();
+      if (lent == nullptr) return false;
+      ring.lend(k, lent);
+      return true;
+    }
     auto slice = queue_.pop();
     if (!slice) {
       if (error_) std::rethrow_exception(error_);

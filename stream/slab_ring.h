@@ -30,10 +30,14 @@ struct RowSpan {
   bool right = false;
 };
 
-/// A slice's values and, optionally, its rows' spans, as a reader thread hands them over.
+/// A slice's values (owned, or lent by the source) and, optionally, its rows' spans, as a reader
+/// thread hands them over.
 struct SliceBuffer {
   std::vector<float> values;
-  std::vector<RowSpan> rows;  // empty: not classified
+  std::vector<RowSpan> rows;    // empty: not classified
+  const float* lent = nullptr;  // the values when a source lends them (values is then unused)
+
+  const float* data() const noexcept { return lent != nullptr ? lent : values.data(); }
 };
 
 class SlabRing {
@@ -54,14 +58,23 @@ class SlabRing {
     newest_ = k;
     const std::size_t slot = slotOf(k);
     resident_[slot] = k;
-    storage_[slot].rows.clear();
-    return storage_[slot].values;
+    SliceBuffer& b = storage_[slot];
+    b.rows.clear();
+    b.lent = nullptr;
+    b.values.resize(sliceVoxels_);
+    return b.values;
+  }
+
+  /// Makes `values`, lent by the source, slice k (evicting slice k - capacity()).
+  void lend(std::int64_t k, const float* values) {
+    acquire(k);
+    storage_[slotOf(k)].lent = values;
   }
 
   /// Makes `filled` (one slice's values, and perhaps its row spans) slice k, evicting slice
   /// k - capacity(), whose buffer is returned for reuse.
   SliceBuffer adopt(std::int64_t k, SliceBuffer filled) {
-    assert(filled.values.size() == sliceVoxels_);
+    assert(filled.lent != nullptr || filled.values.size() == sliceVoxels_);
     acquire(k);
     std::swap(storage_[slotOf(k)], filled);
     return filled;
@@ -78,7 +91,7 @@ class SlabRing {
   const float* slice(std::int64_t k) const noexcept {
     if (k < 0) return nullptr;
     const std::size_t slot = slotOf(k);
-    return resident_[slot] == k ? storage_[slot].values.data() : nullptr;
+    return resident_[slot] == k ? storage_[slot].data() : nullptr;
   }
 
   /// Bytes of slice storage.

@@ -41,6 +41,11 @@ bool VectorSource::readSlice(std::span<float> slice) {
   return true;
 }
 
+const float* VectorSource::lendSlice() {
+  if (next_ >= info_.dims[2]) return nullptr;
+  return values_.data() + static_cast<std::size_t>(info_.sliceVoxels()) * static_cast<std::size_t>(next_++);
+}
+
 Extraction extract(SliceSource& source, Method method, double iso, bool normals) {
   ExtractOptions options;
   options.method = method;

@@ -25,6 +25,10 @@ class VectorSource final : public SliceSource {
   VolumeInfo& mutableInfo() { return info_; }
   const VolumeInfo& info() const noexcept override { return info_; }
   bool readSlice(std::span<float> slice) override;
+  /// With lending on, the pipeline borrows the slices instead of copying them.
+  void setLending(bool lending) { lending_ = lending; }
+  bool lendsSlices() const noexcept override { return lending_; }
+  const float* lendSlice() override;
   /// Slices handed out so far.
   std::int64_t slicesRead() const { return next_; }
 
@@ -32,6 +36,7 @@ class VectorSource final : public SliceSource {
   VolumeInfo info_;
   std::vector<float> values_;
   std::int64_t next_ = 0;
+  bool lending_ = false;
 };
 
 struct Extraction {
