@@ -6,12 +6,9 @@ vtkFlyingEdges3D and isoslab (bench/isoslab_extract_only) back to back on the sa
 ratio is taken per round. It prints each round and the median ratio.
 Usage: bench/fe_ratio.py [BUILD_DIR] [--rounds N] [--runs N]   (run with /usr/bin/python3)
 """
-import json
 import os
 import statistics
-import subprocess
 import sys
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import peers  # noqa: E402  (volumes, NIfTI loading)
@@ -20,34 +17,17 @@ ROUNDS = int(sys.argv[sys.argv.index("--rounds") + 1]) if "--rounds" in sys.argv
 
 
 def fe_seconds(image, iso, threads, runs):
-    import vtk
-    vtk.vtkSMPTools.Initialize(threads)
-    fe = vtk.vtkFlyingEdges3D()
-    fe.SetInputData(image)
-    fe.SetValue(0, iso)
-    fe.ComputeNormalsOff()
-    fe.ComputeGradientsOff()
-    fe.ComputeScalarsOff()
-    times = []
-    for _ in range(runs):
-        fe.Modified()
-        t = time.perf_counter()
-        fe.Update()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
+    fe = peers.flying_edges(image, iso, threads)
+    return peers.median_time(lambda: (fe.Modified(), fe.Update()), runs=runs)[0]
 
 
 def main():
-    import vtk
-    from vtk.util import numpy_support
     print("| volume | threads | round | FE s | isoslab s | ratio |")
     print("|---|---|---|---|---|---|")
     summary = []
     for name, path, iso in peers.volumes():
         vol = peers.nifti(path)
-        image = vtk.vtkImageData()
-        image.SetDimensions(vol.shape[2], vol.shape[1], vol.shape[0])
-        image.GetPointData().SetScalars(numpy_support.numpy_to_vtk(vol.ravel(), deep=True))
+        image = peers.vtk_image(vol)
         for threads in (1, 2):
             ratios = []
             for r in range(ROUNDS):

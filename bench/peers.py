@@ -22,7 +22,6 @@ import gzip
 import json
 import shutil
 import os
-import resource
 import statistics
 import subprocess
 import sys
@@ -94,6 +93,29 @@ def median_time(fn, runs=RUNS):
     return statistics.median(times), result
 
 
+def vtk_image(vol):
+    """A vtkImageData holding a copy of vol (indexed [z, y, x])."""
+    import vtk
+    from vtk.util import numpy_support
+    image = vtk.vtkImageData()
+    image.SetDimensions(vol.shape[2], vol.shape[1], vol.shape[0])
+    image.GetPointData().SetScalars(numpy_support.numpy_to_vtk(vol.ravel(), deep=True))
+    return image
+
+
+def flying_edges(image, iso, threads):
+    """vtkFlyingEdges3D on image at iso, on `threads` threads, computing triangles only."""
+    import vtk
+    vtk.vtkSMPTools.Initialize(threads)
+    fe = vtk.vtkFlyingEdges3D()
+    fe.SetInputData(image)
+    fe.SetValue(0, iso)
+    fe.ComputeNormalsOff()
+    fe.ComputeGradientsOff()
+    fe.ComputeScalarsOff()
+    return fe
+
+
 def extract_only(path, iso, threads, method="mc"):
     """(median seconds, triangles, seconds to read the file once) from bench/isoslab_extract_only."""
     out = subprocess.run([EXTRACT_ONLY, path, "--iso", str(iso), "--threads", str(threads), "--method", method,
@@ -130,7 +152,6 @@ print(time.perf_counter() - t, resource.getrusage(resource.RUSAGE_SELF).ru_maxrs
 
 def main():
     import vtk
-    from vtk.util import numpy_support
     try:
         from skimage.measure import marching_cubes
     except ImportError:
@@ -142,18 +163,10 @@ def main():
     for name, path, iso in volumes():
         vol = nifti(path)
         voxels = vol.size
-        image = vtk.vtkImageData()
-        image.SetDimensions(vol.shape[2], vol.shape[1], vol.shape[0])
-        image.GetPointData().SetScalars(numpy_support.numpy_to_vtk(vol.ravel(), deep=True))
+        image = vtk_image(vol)
         rows = {}
         for threads in (1, 2):
-            vtk.vtkSMPTools.Initialize(threads)
-            fe = vtk.vtkFlyingEdges3D()
-            fe.SetInputData(image)
-            fe.SetValue(0, iso)
-            fe.ComputeNormalsOff()
-            fe.ComputeGradientsOff()
-            fe.ComputeScalarsOff()
+            fe = flying_edges(image, iso, threads)
             t, _ = median_time(lambda: (fe.Modified(), fe.Update()))
             tris = fe.GetOutput().GetNumberOfCells()
             e2e = []

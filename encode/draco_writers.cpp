@@ -159,9 +159,7 @@ GlbDracoWriter::Encoded GlbDracoWriter::encode(IndexedMesh mesh, const DracoSett
 void GlbDracoWriter::flush() {
   if (current_.triangles.empty()) return;
   if (options_.encodeThreads <= 0) {
-    std::promise<Encoded> done;
-    done.set_value(encode(std::move(current_), settings_, path_));
-    encoding_.push_back(done.get_future());
+    spool(encode(std::move(current_), settings_, path_));
   } else {
     while (static_cast<int>(encoding_.size()) >= options_.encodeThreads) spoolOldest();
     encoding_.push_back(
@@ -172,13 +170,15 @@ void GlbDracoWriter::flush() {
   current_ = IndexedMesh{};
   local_.clear();
   seam_.clear();
-  if (options_.encodeThreads <= 0) spoolOldest();
 }
 
 void GlbDracoWriter::spoolOldest() {
   std::future<Encoded> oldest = std::move(encoding_.front());
   encoding_.pop_front();
-  Encoded e = oldest.get();
+  spool(oldest.get());
+}
+
+void GlbDracoWriter::spool(const Encoded& e) {
   encodeSeconds_ += e.seconds;
   worstError_ = std::max(worstError_, e.worstError);
   Primitive p = e.primitive;

@@ -57,6 +57,7 @@ class GlbDracoWriter final : public MeshFileSink {
   VertexId localVertex(VertexId id);
   void flush();
   void spoolOldest();
+  void spool(const Encoded& e);
 
   std::string path_;
   WriterOptions options_;

@@ -279,14 +279,10 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
 // --- MetaImage ----------------------------------------------------------------------------------
 
 std::optional<VoxelType> metType(const std::string& t) {
-  static const std::map<std::string, VoxelType> kTypes = {
-      {"MET_CHAR", VoxelType::kI8},    {"MET_UCHAR", VoxelType::kU8},  {"MET_SHORT", VoxelType::kI16},
-      {"MET_USHORT", VoxelType::kU16}, {"MET_INT", VoxelType::kI32},   {"MET_UINT", VoxelType::kU32},
-      {"MET_LONG", VoxelType::kI32},   {"MET_ULONG", VoxelType::kU32}, {"MET_FLOAT", VoxelType::kF32},
-      {"MET_DOUBLE", VoxelType::kF64}};
-  const auto it = kTypes.find(t);
-  if (it == kTypes.end()) return std::nullopt;
-  return it->second;
+  // MetaIO's 32-bit "long" aliases, beside the canonical names.
+  if (t == "MET_LONG") return VoxelType::kI32;
+  if (t == "MET_ULONG") return VoxelType::kU32;
+  return voxelTypeFromMetaImage(t);
 }
 
 bool isTrue(const std::string& v) {
@@ -502,34 +498,9 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
   info.source = path;
   VolumeFileLayout layout;
   layout.describedBy = "NIfTI header";
-  switch (datatype) {
-    case 2:
-      layout.type = VoxelType::kU8;
-      break;
-    case 4:
-      layout.type = VoxelType::kI16;
-      break;
-    case 8:
-      layout.type = VoxelType::kI32;
-      break;
-    case 16:
-      layout.type = VoxelType::kF32;
-      break;
-    case 64:
-      layout.type = VoxelType::kF64;
-      break;
-    case 256:
-      layout.type = VoxelType::kI8;
-      break;
-    case 512:
-      layout.type = VoxelType::kU16;
-      break;
-    case 768:
-      layout.type = VoxelType::kU32;
-      break;
-    default:
-      throw Error(fmt::format("{}: NIfTI datatype {} is not supported", path, datatype));
-  }
+  const auto type = voxelTypeFromNifti(datatype);
+  if (!type) throw Error(fmt::format("{}: NIfTI datatype {} is not supported", path, datatype));
+  layout.type = *type;
   info.type = layout.type;
   if (dim[0] < 3 || dim[0] > 7) throw Error(fmt::format("{}: NIfTI dim[0] is {}: not a 3-D volume", path, dim[0]));
   for (std::size_t a = 0; a < 3; ++a) info.dims[a] = dim[a + 1];

@@ -68,72 +68,6 @@ std::array<double, 3> axis(const VolumeInfo& info, int a) {
           info.direction[static_cast<std::size_t>(6 + a)] * info.spacing[static_cast<std::size_t>(a)]};
 }
 
-const char* nrrdType(VoxelType t) {
-  switch (t) {
-    case VoxelType::kU8:
-      return "uint8";
-    case VoxelType::kI8:
-      return "int8";
-    case VoxelType::kU16:
-      return "uint16";
-    case VoxelType::kI16:
-      return "int16";
-    case VoxelType::kU32:
-      return "uint32";
-    case VoxelType::kI32:
-      return "int32";
-    case VoxelType::kF32:
-      return "float";
-    case VoxelType::kF64:
-      return "double";
-  }
-  return "uint8";
-}
-
-const char* metType(VoxelType t) {
-  switch (t) {
-    case VoxelType::kU8:
-      return "MET_UCHAR";
-    case VoxelType::kI8:
-      return "MET_CHAR";
-    case VoxelType::kU16:
-      return "MET_USHORT";
-    case VoxelType::kI16:
-      return "MET_SHORT";
-    case VoxelType::kU32:
-      return "MET_UINT";
-    case VoxelType::kI32:
-      return "MET_INT";
-    case VoxelType::kF32:
-      return "MET_FLOAT";
-    case VoxelType::kF64:
-      return "MET_DOUBLE";
-  }
-  return "MET_UCHAR";
-}
-
-std::int16_t niftiType(VoxelType t) {
-  switch (t) {
-    case VoxelType::kU8:
-      return 2;
-    case VoxelType::kI16:
-      return 4;
-    case VoxelType::kI32:
-      return 8;
-    case VoxelType::kF32:
-      return 16;
-    case VoxelType::kF64:
-      return 64;
-    case VoxelType::kI8:
-      return 256;
-    case VoxelType::kU16:
-      return 512;
-    case VoxelType::kU32:
-      return 768;
-  }
-  return 2;
-}
-
 // A NIfTI-1 header (352 bytes with the empty extension flag), sform from the geometry (LPS to RAS).
 std::vector<unsigned char> niftiHeader(const VolumeInfo& info, VoxelType type) {
   std::vector<unsigned char> h(352, 0);
@@ -142,7 +76,7 @@ std::vector<unsigned char> niftiHeader(const VolumeInfo& info, VoxelType type) {
   put(40, std::int16_t{3});
   for (std::size_t a = 0; a < 3; ++a) put(42 + 2 * a, static_cast<std::int16_t>(info.dims[a]));
   for (std::size_t a = 3; a < 7; ++a) put(42 + 2 * a, std::int16_t{1});
-  put(70, niftiType(type));
+  put(70, voxelTypeCodes(type).nifti);
   put(72, static_cast<std::int16_t>(8 * voxelSize(type)));
   put(76, 1.0f);
   for (std::size_t a = 0; a < 3; ++a) put(80 + 4 * a, static_cast<float>(info.spacing[a]));
@@ -177,8 +111,8 @@ std::int64_t writeVolume(SliceSource& source, const std::string& path, const Vol
   const std::size_t size = voxelSize(options.type);
   if (nrrd) {
     std::string h = "NRRD0004\n# isoslab\n";
-    h += fmt::format("type: {}\ndimension: 3\nsizes: {} {} {}\n", nrrdType(options.type), info.dims[0], info.dims[1],
-                     info.dims[2]);
+    h += fmt::format("type: {}\ndimension: 3\nsizes: {} {} {}\n", voxelTypeCodes(options.type).nrrd, info.dims[0],
+                     info.dims[1], info.dims[2]);
     h += "space: left-posterior-superior\nspace directions:";
     for (int a = 0; a < 3; ++a) {
       const auto v = axis(info, a);
@@ -200,7 +134,7 @@ std::int64_t writeVolume(SliceSource& source, const std::string& path, const Vol
     h += fmt::format("\nOffset = {:.17g} {:.17g} {:.17g}\n", info.origin[0], info.origin[1], info.origin[2]);
     h += fmt::format("ElementSpacing = {:.17g} {:.17g} {:.17g}\n", info.spacing[0], info.spacing[1], info.spacing[2]);
     h += fmt::format("DimSize = {} {} {}\nElementType = {}\nElementDataFile = LOCAL\n", info.dims[0], info.dims[1],
-                     info.dims[2], metType(options.type));
+                     info.dims[2], voxelTypeCodes(options.type).metaImage);
     file.write(h.data(), h.size());
   }
   Sink sink(file, window);

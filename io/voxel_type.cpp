@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <limits>
 #include <string>
 
@@ -112,6 +113,40 @@ std::optional<VoxelType> parseVoxelType(std::string_view name) noexcept {
   };
   for (const Alias& a : kAliases) {
     if (s == a.name) return a.type;
+  }
+  return std::nullopt;
+}
+
+namespace {
+// Indexed by VoxelType. NIfTI-1 datatype codes (nifti1.h); NRRD and MetaImage type names.
+constexpr VoxelTypeCodes kCodes[] = {
+    {VoxelType::kU8, 2, "uint8", "MET_UCHAR"},      {VoxelType::kI8, 256, "int8", "MET_CHAR"},
+    {VoxelType::kU16, 512, "uint16", "MET_USHORT"}, {VoxelType::kI16, 4, "int16", "MET_SHORT"},
+    {VoxelType::kU32, 768, "uint32", "MET_UINT"},   {VoxelType::kI32, 8, "int32", "MET_INT"},
+    {VoxelType::kF32, 16, "float", "MET_FLOAT"},    {VoxelType::kF64, 64, "double", "MET_DOUBLE"},
+};
+static_assert([] {
+  for (std::size_t i = 0; i < std::size(kCodes); ++i) {
+    if (static_cast<std::size_t>(kCodes[i].type) != i) return false;
+  }
+  return std::size(kCodes) == 8;
+}());
+}  // namespace
+
+const VoxelTypeCodes& voxelTypeCodes(VoxelType type) noexcept {
+  return kCodes[static_cast<std::size_t>(type)];
+}
+
+std::optional<VoxelType> voxelTypeFromNifti(int code) noexcept {
+  for (const auto& c : kCodes) {
+    if (c.nifti == code) return c.type;
+  }
+  return std::nullopt;
+}
+
+std::optional<VoxelType> voxelTypeFromMetaImage(std::string_view name) noexcept {
+  for (const auto& c : kCodes) {
+    if (name == c.metaImage) return c.type;
   }
   return std::nullopt;
 }

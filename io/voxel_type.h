@@ -23,6 +23,24 @@ std::string_view voxelTypeName(VoxelType type) noexcept;
 /// Parses a short name (case-insensitive; also uint8, int16, float, double, ...). Empty on failure.
 std::optional<VoxelType> parseVoxelType(std::string_view name) noexcept;
 
+/// How the volume formats name a voxel type: the NIfTI datatype code, and the canonical NRRD
+/// and MetaImage names (writers use these; readers also accept the formats' aliases).
+struct VoxelTypeCodes {
+  VoxelType type;
+  std::int16_t nifti;
+  const char* nrrd;
+  const char* metaImage;
+};
+
+/// One entry per VoxelType.
+const VoxelTypeCodes& voxelTypeCodes(VoxelType type) noexcept;
+
+/// The voxel type of a NIfTI datatype code, if isoslab reads it.
+std::optional<VoxelType> voxelTypeFromNifti(int code) noexcept;
+
+/// The voxel type of a canonical MetaImage element type (MET_UCHAR, ...).
+std::optional<VoxelType> voxelTypeFromMetaImage(std::string_view name) noexcept;
+
 /// The host's byte order.
 ByteOrder hostByteOrder() noexcept;
 
