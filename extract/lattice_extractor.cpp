@@ -43,7 +43,6 @@ struct EdgeRef {
 
 struct TetRef {
   std::array<std::uint8_t, 4> nodes{};
-  std::array<EdgeRef, 6> edges{};
   double volume = 0;  // in voxel units
 };
 
@@ -144,17 +143,13 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
         for (const Tetrahedron& t : variant) {
           TetRef r;
           r.nodes = t.nodes;
-          for (int e = 0; e < 6; ++e) {
-            r.edges[static_cast<std::size_t>(e)] = makeEdge(t.nodes[tet::kTetEdges[static_cast<std::size_t>(e)][0]],
-                                                            t.nodes[tet::kTetEdges[static_cast<std::size_t>(e)][1]]);
-          }
           const auto& n = nodes_;
           r.volume = signedVolume6(n[t.nodes[0]], n[t.nodes[1]], n[t.nodes[2]], n[t.nodes[3]]) / 48.0;
           for (auto k : t.nodes) v.nodeMask |= 1u << k;
           v.volume += r.volume;
           std::array<std::uint8_t, 6> ids{};
           for (std::size_t e = 0; e < 6; ++e) {
-            const EdgeRef& edge = r.edges[e];
+            const EdgeRef edge = makeEdge(t.nodes[tet::kTetEdges[e][0]], t.nodes[tet::kTetEdges[e][1]]);
             auto same = [&](const EdgeRef& o) { return o.a == edge.a && o.b == edge.b; };
             auto it = std::find_if(v.edges.begin(), v.edges.end(), same);
             if (it == v.edges.end()) it = v.edges.insert(v.edges.end(), edge);
@@ -391,9 +386,6 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     std::vector<EdgeRef*> edges;
     for (auto& e : mcCases_.edges) edges.push_back(&e);
     for (auto& v : variants_) {
-      for (auto& t : v.tets) {
-        for (auto& e : t.edges) edges.push_back(&e);
-      }
       for (auto& e : v.edges) edges.push_back(&e);
     }
     std::vector<bool> onTop(evenClasses_.size(), false);

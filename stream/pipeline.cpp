@@ -280,11 +280,12 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
   const std::int64_t nz = info.dims[2];
   const int below = extractor.slicesBelow();
   const int above = extractor.slicesAbove();
-  // Slab z needs slices z - below .. z + 1 + above; with `depth` slabs in flight, the ring holds
-  // depth - 1 more slices.
   const int workers = std::max(1, options.threads);
-  // With workers, two more slabs are in flight, so that a slow slab does not idle the others.
-  const int depth = workers > 1 ? workers + 2 : 1;
+  const bool threaded = workers > 1;
+  // Slab z needs slices z - below .. z + 1 + above. With workers, two more slabs than workers are
+  // in flight, so that a slow slab does not idle the others, and the ring holds depth - 1 more
+  // slices.
+  const int depth = threaded ? workers + 2 : 1;
   SlabRing ring(info.sliceVoxels(), below + 1 + above + depth);
   PipelineResult result;
   result.ringBytes = ring.bytes();
@@ -294,8 +295,7 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
   sink.begin(header);
   result.writeSeconds += since(t);
 
-  const bool threaded = options.threads > 1;
-  SliceFeed feed(source, threaded, workers > 1 ? &extractor : nullptr);
+  SliceFeed feed(source, threaded, threaded ? &extractor : nullptr);
   ChunkDrain drain(sink, threaded);
   std::int64_t loaded = 0;
   auto load = [&](std::int64_t z) {  // the slices slab z needs
@@ -328,7 +328,7 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
     progress.update(slab + 1);
   };
   const std::int64_t slabs = nz - 1;
-  if (workers == 1) {
+  if (!threaded) {
     MeshChunk chunk;
     VertexId nextVertex = 0;
     for (std::int64_t z = 0; z < slabs; ++z) {
