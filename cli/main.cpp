@@ -1,5 +1,6 @@
 // The isoslab program: extract, info and phantom. Library errors (isoslab::Error) become one line
-// on stderr, "isoslab: error: ...", and exit status 1; usage errors exit with 2.
+// on stderr, "isoslab: error: ...", and exit status 1; usage errors (CLI11's, and UsageError)
+// exit with 2. Warnings ("isoslab: warning: ...") print even with --quiet, as compilers' do.
 #include <fmt/format.h>
 #include <signal.h>
 #include <CLI/CLI.hpp>
@@ -18,6 +19,7 @@
 #include "cli/compare.h"
 #include "cli/report.h"
 #include "encode/indexed_mesh.h"
+#include "encode/mesh_metadata.h"
 #include "encode/mesh_writer.h"
 #include "encode/ply_writer.h"
 #include "extract/extractor.h"
@@ -39,6 +41,56 @@ namespace isoslab {
 namespace {
 
 constexpr const char* kVersion = ISOSLAB_VERSION;
+
+// A command line that cannot work whatever the input holds (a malformed list, an unknown name,
+// a missing value): one line on stderr and exit status 2.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// "a, b, c or d".
+std::string alternatives(const std::vector<std::string>& names) {
+  std::string text;
+  for (std::size_t n = 0; n < names.size(); ++n) {
+    text += (n == 0 ? "" : n + 1 == names.size() ? " or " : ", ") + names[n];
+  }
+  return text;
+}
+
+// A CLI11 transform (a check that may rewrite the value) that takes one of `names` in any case and
+// hands the option the name as listed; otherwise the error says "unknown WHAT 'value' (use a, b
+// or c)".
+CLI::Validator oneOf(const std::string& what, const std::vector<std::string>& names) {
+  return CLI::Validator(
+      [what, names](std::string& value) -> std::string {
+        const std::string lower = CLI::detail::to_lower(value);
+        for (const std::string& name : names) {
+          if (name == lower) {
+            value = name;
+            return {};
+          }
+        }
+        return fmt::format("unknown {} '{}' (use {})", what, value, alternatives(names));
+      },
+      "");
+}
+
+// Levenshtein distance, for "did you mean".
+std::size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
 
 struct RawArgs {
   std::string series;
@@ -69,6 +121,7 @@ void addRawOptions(CLI::App* cmd, RawArgs& raw) {
       ->group("Raw input")
       ->capture_default_str();
   cmd->add_option("--raw-endian", raw.endian, "Raw input: byte order, little or big")
+      ->transform(oneOf("byte order", {"little", "big"}))
       ->group("Raw input")
       ->capture_default_str();
   cmd->add_option("--raw-offset", raw.offset, "Raw input: header bytes to skip in each file")
@@ -87,7 +140,7 @@ std::vector<double> parseList(const std::string& text, const std::string& option
     char* end = nullptr;
     const double v = std::strtod(item.c_str(), &end);
     if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(v)) {
-      throw Error(fmt::format("{}: '{}' is not a comma-separated list of numbers", option, text));
+      throw UsageError(fmt::format("{}: '{}' is not a comma-separated list of numbers", option, text));
     }
     values.push_back(v);
     if (comma == std::string::npos) break;
@@ -106,7 +159,7 @@ SourceOptions sourceOptions(const RawArgs& raw) {
     if (!raw.spacing.empty()) {
       const auto sp = parseList(raw.spacing, "--spacing");
       if (sp.size() != 3 || !(sp[0] > 0 && sp[1] > 0 && sp[2] > 0)) {
-        throw Error(fmt::format("--spacing: '{}' needs three positive values", raw.spacing));
+        throw UsageError(fmt::format("--spacing: '{}' needs three positive values", raw.spacing));
       }
       options.spacing = std::array<double, 3>{sp[0], sp[1], sp[2]};
     }
@@ -114,28 +167,30 @@ SourceOptions sourceOptions(const RawArgs& raw) {
   }
   RawOptions r;
   const auto dims = parseList(raw.dims, "--raw-dims");
-  if (dims.size() != 2 && dims.size() != 3) throw Error(fmt::format("--raw-dims: '{}' needs X,Y or X,Y,Z", raw.dims));
+  if (dims.size() != 2 && dims.size() != 3)
+    throw UsageError(fmt::format("--raw-dims: '{}' needs X,Y or X,Y,Z", raw.dims));
   for (std::size_t a = 0; a < dims.size(); ++a) {
     if (dims[a] != std::floor(dims[a]) || dims[a] < -9.0e18 || dims[a] > 9.0e18) {
-      throw Error(fmt::format("--raw-dims: '{}' must hold whole numbers", raw.dims));
+      throw UsageError(fmt::format("--raw-dims: '{}' must hold whole numbers", raw.dims));
     }
     r.dims[a] = static_cast<std::int64_t>(dims[a]);
   }
   const auto type = parseVoxelType(raw.type);
   if (!type)
-    throw Error(fmt::format("--raw-type: unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", raw.type));
+    throw UsageError(
+        fmt::format("--raw-type: unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", raw.type));
   r.type = *type;
   if (raw.endian == "little") {
     r.byteOrder = ByteOrder::kLittle;
   } else if (raw.endian == "big") {
     r.byteOrder = ByteOrder::kBig;
   } else {
-    throw Error(fmt::format("--raw-endian: '{}' must be 'little' or 'big'", raw.endian));
+    throw UsageError(fmt::format("--raw-endian: '{}' must be 'little' or 'big'", raw.endian));
   }
   r.headerBytes = raw.offset;
   if (!raw.spacing.empty()) {
     const auto s = parseList(raw.spacing, "--spacing");
-    if (s.size() != 3) throw Error(fmt::format("--spacing: '{}' needs three values", raw.spacing));
+    if (s.size() != 3) throw UsageError(fmt::format("--spacing: '{}' needs three values", raw.spacing));
     r.spacing = {s[0], s[1], s[2]};
   }
   options.raw = r;
@@ -154,7 +209,8 @@ void writeText(const std::string& path, const std::string& text) {
 
 Sphere parseSphere(const std::string& text) {
   const auto v = parseList(text, "--sphere");
-  if (v.size() != 4 || !(v[3] > 0)) throw Error(fmt::format("--sphere: '{}' needs cx,cy,cz,r with r > 0", text));
+  if (v.size() != 4 || !(v[3] > 0))
+    throw UsageError(fmt::format("--sphere: '{}' needs cx,cy,cz,r with r > 0", text));
   return Sphere{{v[0], v[1], v[2]}, v[3]};
 }
 
@@ -172,16 +228,73 @@ struct ExtractArgs {
   int dracoLevel = 7;
   int quantBits = 0;
   std::int64_t chunkTriangles = 1 << 19;
+  std::string draco = "on";
+  std::string gltfFrame = "gltf";
   RawArgs raw;
 };
 
+std::array<double, 2> valueRange(SliceSource& source);
+
+// A value of the float slices by its shortest decimal form (999.7, not 999.7000122070312).
+double asFloat(double value) {
+  return std::strtod(fmt::format("{}", static_cast<float>(value)).c_str(), nullptr);
+}
+
+// A missing --iso, with the input's value range (one pass through it) and, for CT (DICOM Modality
+// CT, or values down to air's -1000 HU), typical Hounsfield values.
+std::string missingIsoMessage(const std::string& input, SliceSource& source) {
+  const VolumeInfo& info = source.info();
+  const std::array<double, 2> range = info.valueRange ? *info.valueRange : valueRange(source);
+  std::string text = fmt::format("{}: --iso is required for this input", input);
+  if (!(range[0] <= range[1])) return text + " (it holds no values but NaN)";
+  text += fmt::format(", whose values range from {} to {}", asFloat(range[0]), asFloat(range[1]));
+  if (CLI::detail::to_lower(info.modality) == "ct" || range[0] <= -1000) {
+    text += "; for CT in Hounsfield units try about 300..400 for bone, -500..-200 for skin or 40 for soft tissue";
+  }
+  return text;
+}
+
+// Why a run wrote no triangles, which would otherwise pass for success (an empty mesh is
+// "closed"): one warning naming the cause, or none when there are triangles.
+std::optional<std::string> emptySurfaceWarning(double iso, bool isoGiven,
+                                               const std::optional<std::array<double, 2>>& range,
+                                               std::uint64_t triangles) {
+  if (triangles > 0) return std::nullopt;
+  const std::string name = isoGiven ? fmt::format("--iso {}", iso) : fmt::format("the suggested iso {}", iso);
+  if (!range) return "0 triangles: the input holds no values but NaN";
+  const double lo = asFloat((*range)[0]);
+  const double hi = asFloat((*range)[1]);
+  if (iso > hi) {
+    return fmt::format("{} is above the input's value range {} .. {}: no voxel is inside, so the surface is empty "
+                       "(0 triangles)",
+                       name, lo, hi);
+  }
+  if (iso <= lo) {
+    return fmt::format("{} is not above the input's smallest value (range {} .. {}): every voxel is inside, so the "
+                       "surface is empty (0 triangles)",
+                       name, lo, hi);
+  }
+  return fmt::format("0 triangles: no cell crosses {} (value range {} .. {})", name, lo, hi);
+}
+
+void printWarning(const std::string& warning) {
+  std::fprintf(stderr, "isoslab: warning: %s\n", warning.c_str());
+}
+
 int runExtract(const ExtractArgs& args) {
   const auto method = parseMethod(args.method);
-  if (!method) throw Error(fmt::format("--method: unknown method '{}' (use mc, mt5, mt6 or bcc12)", args.method));
+  if (!method) throw UsageError(fmt::format("--method: unknown method '{}' (use mc, mt5, mt6 or bcc12)", args.method));
   std::vector<std::string> notes;
   auto source = openSource(args.inputs, sourceOptions(args.raw), &notes);
-  if (!args.quiet) {
-    for (const std::string& n : notes) std::fprintf(stderr, "isoslab: %s\n", n.c_str());
+  // Readers' notes that are warnings print even with --quiet and go to the report.
+  std::vector<std::string> warnings;
+  for (const std::string& n : notes) {
+    if (n.rfind("warning: ", 0) == 0) {
+      warnings.push_back(n.substr(9));
+      printWarning(warnings.back());
+    } else if (!args.quiet) {
+      std::fprintf(stderr, "isoslab: %s\n", n.c_str());
+    }
   }
   const VolumeInfo& info = source->info();
   double iso = 0;
@@ -190,7 +303,7 @@ int runExtract(const ExtractArgs& args) {
   } else if (info.suggestedIso) {
     iso = *info.suggestedIso;
   } else {
-    throw Error(fmt::format("{}: --iso is required for this input", args.inputs.front()));
+    throw UsageError(missingIsoMessage(args.inputs.front(), *source));
   }
 
   const LatticeFrame frame = LatticeFrame::forSpace(info, args.space);
@@ -204,6 +317,8 @@ int runExtract(const ExtractArgs& args) {
   writerOptions.dracoLevel = args.dracoLevel;
   writerOptions.quantBits = args.quantBits;
   writerOptions.chunkTriangles = args.chunkTriangles;
+  writerOptions.draco = args.draco == "on";
+  writerOptions.gltfFrame = args.gltfFrame == "gltf";
   writerOptions.voxelSize = args.space == "voxel" ? 1.0 : std::min({info.spacing[0], info.spacing[1], info.spacing[2]});
   auto writer = makeMeshWriter(args.output, writerOptions);
   std::optional<Sphere> sphere = phantomSphere(info);
@@ -224,6 +339,7 @@ int runExtract(const ExtractArgs& args) {
   header.space = frame.name();
   header.cellVolumes = extractor->cellVolumes();
   header.volumeBounds = frame.bounds(info.dims);
+  header.volumeFaces = frame.faces(info.dims);
 
   MeshStatsSink stats;
   std::optional<SphereErrorSink> sphereErrors;
@@ -238,6 +354,10 @@ int runExtract(const ExtractArgs& args) {
   pipelineOptions.threads = threads;
   const PipelineResult run = runPipeline(*source, *extractor, tee, header, pipelineOptions);
   const MeshStats& s = stats.stats();
+  const std::size_t readerWarnings = warnings.size();
+  for (std::string& w : source->warnings()) warnings.push_back(std::move(w));
+  if (auto w = emptySurfaceWarning(iso, args.iso.has_value(), run.valueRange, s.triangles)) warnings.push_back(*w);
+  for (std::size_t n = readerWarnings; n < warnings.size(); ++n) printWarning(warnings[n]);
 
   if (!args.report.empty()) {
     nlohmann::ordered_json r;
@@ -253,6 +373,10 @@ int runExtract(const ExtractArgs& args) {
     r["voxel_type"] = std::string(voxelTypeName(info.type));
     r["space"] = header.space;
     r["normals"] = args.normals;
+    r["value_range"] = run.valueRange ? nlohmann::ordered_json::array({asFloat((*run.valueRange)[0]),
+                                                                        asFloat((*run.valueRange)[1])})
+                                      : nlohmann::ordered_json();
+    r["warnings"] = warnings;
     addStatsJson(r, s);
     if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *sphereErrors));
     r["seconds"] = {{"read", run.readSeconds},
@@ -315,6 +439,7 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
     printGeometry(source->info());
     const auto range = valueRange(*source);
     std::printf("range      %g .. %g\n", range[0], range[1]);
+    for (const std::string& w : source->warnings()) std::printf("warning    %s\n", w.c_str());
     if (source->info().suggestedIso) std::printf("iso        %g (suggested)\n", *source->info().suggestedIso);
     return 0;
   }
@@ -351,7 +476,10 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
 }
 
 int runMetrics(const std::string& input, const std::string& sphereText, const std::string& reportPath) {
-  const IndexedMesh mesh = readMesh(input);
+  MeshMetadata meta;
+  IndexedMesh mesh = readMesh(input, &meta);
+  // The volume's faces tell the surface's cut edges from holes; without them, that is unknown.
+  if (meta.volumeFaces) mesh.boundary = volumeFaceFlags(mesh.positions, *meta.volumeFaces, meta.positionTolerance);
   MeshStatsSink stats;
   std::optional<SphereErrorSink> errors;
   std::vector<MeshSink*> sinks{&stats};
@@ -366,7 +494,12 @@ int runMetrics(const std::string& input, const std::string& sphereText, const st
   const MeshStats& s = stats.stats();
   nlohmann::ordered_json r;
   r["input"] = input;
+  if (!meta.method.empty()) r["method"] = meta.method;
+  if (meta.iso) r["iso"] = *meta.iso;
+  if (!meta.space.empty()) r["space"] = meta.space;
+  r["volume_bounds"] = meta.volumeBounds ? nlohmann::ordered_json(*meta.volumeBounds) : nlohmann::ordered_json();
   addStatsJson(r, s);
+  if (!meta.volumeFaces) r["interior_boundary_edges"] = nullptr;
   if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *errors));
   const std::string text = r.dump(2) + "\n";
   if (reportPath.empty()) {
@@ -378,11 +511,32 @@ int runMetrics(const std::string& input, const std::string& sphereText, const st
 }
 
 int runDecode(const std::string& input, const std::string& output) {
-  const IndexedMesh mesh = readMesh(input);
-  auto writer = makeMeshWriter(output);
-  MeshHeader header;
+  MeshMetadata meta;
+  IndexedMesh mesh = readMesh(input, &meta);
+  if (meta.volumeFaces) mesh.boundary = volumeFaceFlags(mesh.positions, *meta.volumeFaces, meta.positionTolerance);
+  MeshHeader header = headerFromMetadata(meta);
   header.normals = !mesh.normals.empty();
-  header.method = "decoded";
+  if (!header.volumeFaces && !mesh.positions.empty()) {
+    // Unknown volume: the mesh's own box, for a Draco grid.
+    std::array<double, 6> b{};
+    for (int a = 0; a < 3; ++a) {
+      b[static_cast<std::size_t>(a)] = std::numeric_limits<double>::infinity();
+      b[static_cast<std::size_t>(a + 3)] = -std::numeric_limits<double>::infinity();
+    }
+    for (const Vec3f& p : mesh.positions) {
+      const double c[3] = {p.x, p.y, p.z};
+      for (std::size_t a = 0; a < 3; ++a) {
+        b[a] = std::min(b[a], c[a]);
+        b[a + 3] = std::max(b[a + 3], c[a]);
+      }
+    }
+    header.volumeBounds = b;
+  }
+  WriterOptions writerOptions;
+  writerOptions.voxelSize = 1e-3 * std::max({header.volumeBounds[3] - header.volumeBounds[0],
+                                              header.volumeBounds[4] - header.volumeBounds[1],
+                                              header.volumeBounds[5] - header.volumeBounds[2], 1e-30});
+  auto writer = makeMeshWriter(output, writerOptions);
   feedMesh(mesh, header, *writer);
   std::fprintf(stderr, "isoslab: %zu triangles, %zu vertices -> %s\n", mesh.triangles.size(), mesh.positions.size(),
                output.c_str());
@@ -391,7 +545,7 @@ int runDecode(const std::string& input, const std::string& output) {
 
 int runPhantom(const std::string& spec, const std::string& output, bool compress) {
   if (!PhantomSource::isPhantom(spec))
-    throw Error(fmt::format("{}: not a phantom spec (phantom:NAME?key=value&...)", spec));
+    throw UsageError(fmt::format("{}: not a phantom spec (phantom:NAME?key=value&...)", spec));
   auto source = PhantomSource::open(spec);
   const VolumeInfo& info = source->info();
   VolumeWriteOptions write;
@@ -416,7 +570,7 @@ int main(int argc, char** argv) {
   using namespace isoslab;
   // A file-size limit then fails the write with EFBIG, reported like any write error.
   ::signal(SIGXFSZ, SIG_IGN);
-  CLI::App app{"isoslab: streaming iso-surface extraction from volumetric scanner data"};
+  CLI::App app{"isoslab: streaming iso-surface extraction from volumetric scanner data", "isoslab"};
   app.require_subcommand(1);
   app.set_version_flag("--version", kVersion);
 
@@ -430,14 +584,22 @@ int main(int argc, char** argv) {
   extract
       ->add_option("--space", ex.space,
                    "Output coordinates: physical (the input's frame; LPS for DICOM), lps, ras or voxel")
+      ->transform(oneOf("space", {"physical", "lps", "ras", "voxel"}))
       ->capture_default_str();
   extract->add_option("--iso", ex.iso,
                       "Iso value; voxels with value >= iso are inside (default: the input's suggestion, for phantoms)");
-  extract->add_option("--method", ex.method, "mc, mt5, mt6 or bcc12")->capture_default_str();
-  extract->add_option("-o,--output", ex.output, "Output mesh: .ply (binary) or .stl (binary)")->required();
-  extract->add_flag("--normals", ex.normals, "Write vertex normals from the field's gradient (PLY)");
+  extract->add_option("--method", ex.method, "mc, mt5, mt6 or bcc12")
+      ->transform(oneOf("method", {"mc", "mt5", "mt6", "bcc12"}))
+      ->capture_default_str();
+  extract
+      ->add_option("-o,--output", ex.output,
+                   "Output mesh: .ply (binary), .stl (binary), .obj, .glb (glTF 2.0, Draco-compressed chunks) or "
+                   ".drc (one Draco mesh)")
+      ->required();
+  extract->add_flag("--normals", ex.normals,
+                    "Write vertex normals from the field's gradient (PLY, OBJ and Draco; STL has facet normals)");
   extract->add_option("--report", ex.report, "Write a JSON report of the run");
-  extract->add_flag("-q,--quiet", ex.quiet, "No progress line and no summary on stderr");
+  extract->add_flag("-q,--quiet", ex.quiet, "No progress line, notes or summary on stderr (warnings still print)");
   extract->add_option("--threads", ex.threads,
                       "Threads: N extraction workers beside a reader and a writer, and N .glb chunk encoders "
                       "(default: the core count, at most 8); 1 uses the least memory. The output is the same for "
@@ -455,6 +617,19 @@ int main(int argc, char** argv) {
                    "in memory (about 28 bytes per triangle) to encode it at the end")
       ->capture_default_str()
       ->group("Draco output");
+  extract
+      ->add_option("--draco", ex.draco,
+                   ".glb: on (Draco-compressed chunks) or off (plain accessors, for readers without Draco)")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str()
+      ->group("glTF output");
+  extract
+      ->add_option("--gltf-frame", ex.gltfFrame,
+                   ".glb: gltf (a root node maps the output space to glTF's Y-up frame in metres) or raw (no "
+                   "node transform; positions in the output space's units)")
+      ->check(CLI::IsMember({"gltf", "raw"}))
+      ->capture_default_str()
+      ->group("glTF output");
 
   extract->add_option(
       "--sphere", ex.sphere,
@@ -499,7 +674,8 @@ int main(int argc, char** argv) {
 
   std::string phantomSpec;
   std::string phantomOut;
-  auto* phantom = app.add_subcommand("phantom", "Write a phantom to a raw file");
+  auto* phantom = app.add_subcommand(
+      "phantom", "Write a phantom to a volume file: .nii, .nii.gz, .nrrd, .mha, or raw voxels for any other name");
   phantom->add_option("SPEC", phantomSpec, "phantom:NAME?key=value&...")->required();
   bool phantomCompress = false;
   phantom
@@ -507,6 +683,37 @@ int main(int argc, char** argv) {
                    "Output volume: .nii, .nii.gz, .nrrd, .mha, or raw voxels for any other name")
       ->required();
   phantom->add_flag("--compress", phantomCompress, "NRRD and MetaImage: deflate the data");
+
+  // No command: the usage, on stderr as for any usage error.
+  if (argc < 2) {
+    std::fputs(app.help().c_str(), stderr);
+    return 2;
+  }
+  // The command is the first argument (isoslab itself has only --help and --version).
+  const std::vector<CLI::App*> commands = app.get_subcommands([](CLI::App*) { return true; });
+  if (argv[1][0] != '-' &&
+      std::none_of(commands.begin(), commands.end(), [&](CLI::App* c) { return c->check_name(argv[1]); })) {
+    const std::string typed = argv[1];
+    std::string nearest;
+    std::size_t distance = std::numeric_limits<std::size_t>::max();
+    std::vector<std::string> names;
+    for (const CLI::App* sub : commands) {
+      names.push_back(sub->get_name());
+      const std::size_t d = editDistance(typed, sub->get_name());
+      if (d < distance) {
+        distance = d;
+        nearest = sub->get_name();
+      }
+    }
+    if (distance <= std::max<std::size_t>(2, typed.size() / 3)) {
+      std::fprintf(stderr, "isoslab: error: unknown command '%s'; did you mean '%s'?\n", typed.c_str(),
+                   nearest.c_str());
+    } else {
+      std::fprintf(stderr, "isoslab: error: unknown command '%s' (use %s)\n", typed.c_str(),
+                   alternatives(names).c_str());
+    }
+    return 2;
+  }
 
   try {
     app.parse(argc, argv);
@@ -516,8 +723,13 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
+  } catch (const CLI::ValidationError& e) {
+    std::fprintf(stderr, "isoslab: error: %s\n", e.what());  // the message lists the choices
+    return 2;
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "isoslab: error: %s (see isoslab --help)\n", e.what());
+    const auto parsed = app.get_subcommands();
+    const std::string help = parsed.empty() ? "isoslab --help" : "isoslab " + parsed.back()->get_name() + " --help";
+    std::fprintf(stderr, "isoslab: error: %s (see %s)\n", e.what(), help.c_str());
     return 2;
   }
 
@@ -528,6 +740,9 @@ int main(int argc, char** argv) {
     if (*decode) return runDecode(decodeInput, decodeOutput);
     if (*metrics) return runMetrics(metricsInput, metricsSphere, metricsReport);
     if (*compare) return runCompare(cmp);
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "isoslab: error: %s\n", e.what());
+    return 2;
   } catch (const Error& e) {
     std::fprintf(stderr, "isoslab: error: %s\n", e.what());
     return 1;

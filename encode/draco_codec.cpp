@@ -5,6 +5,7 @@
 #include <draco/mesh/mesh.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -28,7 +29,9 @@ float dracoDequantized(float value, float origin, const DracoSettings& s) noexce
   return static_cast<float>(q) * delta + origin;
 }
 
-std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, const std::string& what) {
+std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, const std::string& what,
+                              DracoAttributeIds* ids) {
+  DracoAttributeIds attributeIds;
   draco::Mesh m;
   const auto n = static_cast<std::uint32_t>(mesh.positions.size());
   m.set_num_points(n);
@@ -43,10 +46,27 @@ std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, c
     draco::GeometryAttribute normal;
     normal.Init(draco::GeometryAttribute::NORMAL, nullptr, 3, draco::DT_FLOAT32, false, sizeof(float) * 3, 0);
     const int normalId = m.AddAttribute(normal, true, n);
+    attributeIds.normal = normalId;
     for (std::uint32_t v = 0; v < n; ++v) {
       m.attribute(normalId)->SetAttributeValue(draco::AttributeValueIndex(v), &mesh.normals[v]);
     }
   }
+  const bool seams = std::any_of(mesh.seamKeys.begin(), mesh.seamKeys.end(), [](std::uint32_t k) { return k != 0; });
+  if (seams) {
+    draco::GeometryAttribute seam;
+    seam.Init(draco::GeometryAttribute::GENERIC, nullptr, 2, draco::DT_UINT16, false, sizeof(std::uint16_t) * 2, 0);
+    const int seamId = m.AddAttribute(seam, true, n);
+    attributeIds.seam = seamId;
+    for (std::uint32_t v = 0; v < n; ++v) {
+      const std::uint32_t key = mesh.seamKeys[v];
+      const std::uint16_t halves[2] = {static_cast<std::uint16_t>(key & 0xFFFFu), static_cast<std::uint16_t>(key >> 16)};
+      m.attribute(seamId)->SetAttributeValue(draco::AttributeValueIndex(v), halves);
+    }
+  }
+  attributeIds.position = positionId;
+  // The glTF extension names attributes by unique id; make them the attribute ids.
+  for (int a = 0; a < m.num_attributes(); ++a) m.attribute(a)->set_unique_id(static_cast<std::uint32_t>(a));
+  if (ids != nullptr) *ids = attributeIds;
   m.SetNumFaces(mesh.triangles.size());
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     const Triangle& t = mesh.triangles[f];
@@ -66,7 +86,7 @@ std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, c
   return std::vector<char>(buffer.data(), buffer.data() + buffer.size());
 }
 
-IndexedMesh dracoDecode(const char* data, std::size_t size, const std::string& what) {
+IndexedMesh dracoDecode(const char* data, std::size_t size, const std::string& what, int seamId) {
   draco::DecoderBuffer buffer;
   buffer.Init(data, size);
   draco::Decoder decoder;
@@ -78,8 +98,14 @@ IndexedMesh dracoDecode(const char* data, std::size_t size, const std::string& w
   const draco::PointAttribute* position = m->GetNamedAttribute(draco::GeometryAttribute::POSITION);
   if (position == nullptr) throw Error(fmt::format("{}: the Draco mesh has no positions", what));
   const draco::PointAttribute* normal = m->GetNamedAttribute(draco::GeometryAttribute::NORMAL);
+  const draco::PointAttribute* seam =
+      seamId >= 0 ? m->GetAttributeByUniqueId(static_cast<std::uint32_t>(seamId)) : nullptr;
+  if (seamId >= 0 && (seam == nullptr || seam->num_components() != 2)) {
+    throw Error(fmt::format("{}: the Draco mesh lacks its seam attribute (unique id {})", what, seamId));
+  }
   IndexedMesh mesh;
   mesh.positions.resize(m->num_points());
+  if (seam != nullptr) mesh.seamKeys.resize(m->num_points());
   if (normal != nullptr) mesh.normals.resize(m->num_points());
   for (std::uint32_t p = 0; p < m->num_points(); ++p) {
     float v[3];
@@ -88,6 +114,11 @@ IndexedMesh dracoDecode(const char* data, std::size_t size, const std::string& w
     if (normal != nullptr) {
       normal->ConvertValue<float, 3>(normal->mapped_index(draco::PointIndex(p)), v);
       mesh.normals[p] = {v[0], v[1], v[2]};
+    }
+    if (seam != nullptr) {
+      std::uint16_t halves[2];
+      seam->ConvertValue<std::uint16_t, 2>(seam->mapped_index(draco::PointIndex(p)), halves);
+      mesh.seamKeys[p] = std::uint32_t{halves[0]} | (std::uint32_t{halves[1]} << 16);
     }
   }
   mesh.triangles.resize(m->num_faces());

@@ -25,12 +25,22 @@ struct DracoSettings {
 /// The smallest bit count whose step, over a cube of edge `range`, is at most `voxel` / 64.
 int defaultQuantBits(double range, double voxel) noexcept;
 
-/// Draco-encodes `mesh` (positions, optional normals, triangles) with `settings`. `what` names the
-/// output in error messages.
-std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, const std::string& what);
+/// Draco attribute ids of an encoded mesh: position 0, then normal and the seam keys when present.
+struct DracoAttributeIds {
+  int position = 0;
+  int normal = -1;
+  int seam = -1;
+};
 
-/// Decodes a Draco mesh. Throws isoslab::Error naming `what`.
-IndexedMesh dracoDecode(const char* data, std::size_t size, const std::string& what);
+/// Draco-encodes `mesh` (positions, optional normals, triangles, and seam keys when any is
+/// non-zero, as a generic attribute of two 16-bit components: low half, high half) with
+/// `settings`. `what` names the output in error messages.
+std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, const std::string& what,
+                              DracoAttributeIds* ids = nullptr);
+
+/// Decodes a Draco mesh; `seamId`, when not negative, is the unique id of the seam-key attribute.
+/// Throws isoslab::Error naming `what`.
+IndexedMesh dracoDecode(const char* data, std::size_t size, const std::string& what, int seamId = -1);
 
 /// The position Draco reconstructs for `value` on axis origin `origin` with `settings`' grid.
 float dracoDequantized(float value, float origin, const DracoSettings& settings) noexcept;

@@ -8,6 +8,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
+#include "encode/gltf.h"
 #include "io/error.h"
 
 namespace isoslab {
@@ -19,12 +20,6 @@ constexpr VertexId kNone = std::numeric_limits<VertexId>::max();
 std::string folderOf(const std::string& path) {
   const std::string f = std::filesystem::path(path).parent_path().string();
   return f.empty() ? "." : f;
-}
-
-std::string unitsOf(const std::string& space) {
-  if (space == "lps" || space == "ras") return "millimetre";
-  if (space == "voxel") return "voxel";
-  return "input units";
 }
 
 // The largest distance between a position and its quantized value.
@@ -103,6 +98,7 @@ VertexId GlbDracoWriter::localVertex(VertexId id) {
   if (*slot == kNone) {
     *slot = static_cast<VertexId>(current_.positions.size());
     current_.positions.push_back(window_.position(id));
+    current_.seamKeys.push_back(0);
     if (header_.normals) current_.normals.push_back(window_.normal(id));
   }
   return *slot;
@@ -118,6 +114,7 @@ void GlbDracoWriter::consume(const MeshChunk& chunk) {
         static_cast<std::size_t>(std::min<std::int64_t>(options_.chunkTriangles, 1 << 22)) + 4 * chunk.triangles.size();
     current_.triangles.reserve(expected);
     current_.positions.reserve(expected / 2 + chunk.positions.size());
+    current_.seamKeys.reserve(expected / 2 + chunk.positions.size());
     if (header_.normals) current_.normals.reserve(expected / 2 + chunk.positions.size());
   }
   local_.resize(chunk.endVertex() - chunkFirst_, kNone);
@@ -125,10 +122,38 @@ void GlbDracoWriter::consume(const MeshChunk& chunk) {
     current_.triangles.push_back({localVertex(t[0]), localVertex(t[1]), localVertex(t[2])});
   }
   triangles_ += chunk.triangles.size();
-  if (static_cast<std::int64_t>(current_.triangles.size()) >= options_.chunkTriangles) {
-    flush();
-    chunkFirst_ = chunk.endVertex();
+  // Only this slab can reference the waiting chunk's vertices: its keys are complete now.
+  if (pending_) resolveSeam();
+  if (static_cast<std::int64_t>(current_.triangles.size()) >= options_.chunkTriangles) close(chunk);
+}
+
+// Closes the current chunk after `last`, its last slab; it waits for the next slab's references.
+void GlbDracoWriter::close(const MeshChunk& last) {
+  pendingTopFirst_ = last.firstVertex;
+  pendingTop_.assign(local_.begin() + (last.firstVertex - chunkFirst_), local_.end());
+  pending_ = std::move(current_);
+  current_ = IndexedMesh{};
+  local_.clear();
+  seam_.clear();
+  chunkFirst_ = last.endVertex();
+}
+
+// Gives every vertex that the waiting chunk and the current one share the same key in both, then
+// hands the waiting chunk to the encoder.
+void GlbDracoWriter::resolveSeam() {
+  for (const auto& [id, here] : seam_) {
+    if (id < pendingTopFirst_ || id - pendingTopFirst_ >= pendingTop_.size()) continue;
+    const VertexId there = pendingTop_[id - pendingTopFirst_];
+    if (there == kNone) continue;  // first referenced by this chunk: not shared
+    if (id == kNone) throw Error(fmt::format("{}: too many vertices for seam keys", path_));
+    const std::uint32_t key = id + 1;
+    pending_->seamKeys[there] = key;
+    current_.seamKeys[here] = key;
+    ++seamVertices_;
   }
+  flush(std::move(*pending_));
+  pending_.reset();
+  pendingTop_.clear();
 }
 
 GlbDracoWriter::Encoded GlbDracoWriter::encode(IndexedMesh mesh, const DracoSettings& settings,
@@ -149,27 +174,24 @@ GlbDracoWriter::Encoded GlbDracoWriter::encode(IndexedMesh mesh, const DracoSett
   }
   e.worstError = quantizationError(mesh, settings);
   const auto start = Clock::now();
-  e.bytes = dracoEncode(std::move(mesh), settings, path);
+  e.bytes = dracoEncode(std::move(mesh), settings, path, &p.ids);
   e.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return e;
 }
 
-// Closes the current chunk: encodes it here, or hands it to a thread of its own when chunks are
-// encoded in parallel (they are spooled in order, so the file is the same either way).
-void GlbDracoWriter::flush() {
-  if (current_.triangles.empty()) return;
+// Encodes a closed chunk here, or hands it to a thread of its own when chunks are encoded in
+// parallel (they are spooled in order, so the file is the same either way).
+void GlbDracoWriter::flush(IndexedMesh mesh) {
+  if (mesh.triangles.empty()) return;
   if (options_.encodeThreads <= 0) {
-    spool(encode(std::move(current_), settings_, path_));
+    spool(encode(std::move(mesh), settings_, path_));
   } else {
     while (static_cast<int>(encoding_.size()) >= options_.encodeThreads) spoolOldest();
     encoding_.push_back(
-        std::async(std::launch::async, [mesh = std::move(current_), settings = settings_, path = path_]() mutable {
+        std::async(std::launch::async, [mesh = std::move(mesh), settings = settings_, path = path_]() mutable {
           return encode(std::move(mesh), settings, path);
         }));
   }
-  current_ = IndexedMesh{};
-  local_.clear();
-  seam_.clear();
 }
 
 void GlbDracoWriter::spoolOldest() {
@@ -191,84 +213,70 @@ void GlbDracoWriter::spool(const Encoded& e) {
 }
 
 void GlbDracoWriter::finish() {
-  flush();
+  if (pending_) {
+    flush(std::move(*pending_));
+    pending_.reset();
+  }
+  flush(std::move(current_));
+  current_ = IndexedMesh{};
   while (!encoding_.empty()) spoolOldest();
-  nlohmann::ordered_json gltf;
-  gltf["asset"] = {{"version", "2.0"},
-                   {"generator", "isoslab " ISOSLAB_VERSION},
-                   {"extras",
-                    {{"method", header_.method},
-                     {"iso", header_.iso},
-                     {"space", header_.space},
-                     {"units", unitsOf(header_.space)},
-                     {"quantization_bits", settings_.quantBits},
-                     {"chunks", primitives_.size()}}}};
+  const bool hasMesh = !primitives_.empty();
+  nlohmann::ordered_json extras = {{"quantization_bits", settings_.quantBits},
+                                   {"quantization_step", settings_.range / (std::ldexp(1.0, settings_.quantBits) - 1)},
+                                   {"chunks", primitives_.size()}};
+  if (primitives_.size() > 1) extras["seam_attribute"] = kSeamAttribute;
+  nlohmann::ordered_json gltf = gltfDocument(header_, options_, hasMesh, extras);
   gltf["extensionsUsed"] = {"KHR_draco_mesh_compression"};
   gltf["extensionsRequired"] = {"KHR_draco_mesh_compression"};
-  gltf["scene"] = 0;
-  nlohmann::ordered_json accessors = nlohmann::ordered_json::array();
-  nlohmann::ordered_json views = nlohmann::ordered_json::array();
-  nlohmann::ordered_json primitives = nlohmann::ordered_json::array();
-  for (const Primitive& p : primitives_) {
-    nlohmann::ordered_json attributes;
-    nlohmann::ordered_json dracoAttributes;
-    attributes["POSITION"] = accessors.size();
-    dracoAttributes["POSITION"] = 0;
-    accessors.push_back({{"componentType", 5126},
-                         {"count", p.points},
-                         {"type", "VEC3"},
-                         {"min", {p.min[0], p.min[1], p.min[2]}},
-                         {"max", {p.max[0], p.max[1], p.max[2]}}});
-    if (header_.normals) {
-      attributes["NORMAL"] = accessors.size();
-      dracoAttributes["NORMAL"] = 1;
-      accessors.push_back({{"componentType", 5126}, {"count", p.points}, {"type", "VEC3"}});
+  if (hasMesh) {
+    nlohmann::ordered_json accessors = nlohmann::ordered_json::array();
+    nlohmann::ordered_json views = nlohmann::ordered_json::array();
+    nlohmann::ordered_json primitives = nlohmann::ordered_json::array();
+    for (const Primitive& p : primitives_) {
+      nlohmann::ordered_json attributes;
+      nlohmann::ordered_json dracoAttributes;
+      attributes["POSITION"] = accessors.size();
+      dracoAttributes["POSITION"] = p.ids.position;
+      accessors.push_back({{"componentType", 5126},
+                           {"count", p.points},
+                           {"type", "VEC3"},
+                           {"min", {p.min[0], p.min[1], p.min[2]}},
+                           {"max", {p.max[0], p.max[1], p.max[2]}}});
+      if (p.ids.normal >= 0) {
+        attributes["NORMAL"] = accessors.size();
+        dracoAttributes["NORMAL"] = p.ids.normal;
+        accessors.push_back({{"componentType", 5126}, {"count", p.points}, {"type", "VEC3"}});
+      }
+      if (p.ids.seam >= 0) {
+        // glTF forbids unsigned int for application-specific attributes: two unsigned shorts.
+        attributes[kSeamAttribute] = accessors.size();
+        dracoAttributes[kSeamAttribute] = p.ids.seam;
+        accessors.push_back({{"componentType", 5123}, {"count", p.points}, {"type", "VEC2"}});
+      }
+      const std::size_t indices = accessors.size();
+      accessors.push_back({{"componentType", 5125}, {"count", 3 * p.triangles}, {"type", "SCALAR"}});
+      primitives.push_back(
+          {{"attributes", attributes},
+           {"indices", indices},
+           {"mode", 4},
+           {"material", 0},
+           {"extensions",
+            {{"KHR_draco_mesh_compression", {{"bufferView", views.size()}, {"attributes", dracoAttributes}}}}}});
+      views.push_back({{"buffer", 0}, {"byteOffset", p.offset}, {"byteLength", p.length}});
     }
-    const std::size_t indices = accessors.size();
-    accessors.push_back({{"componentType", 5125}, {"count", 3 * p.triangles}, {"type", "SCALAR"}});
-    primitives.push_back(
-        {{"attributes", attributes},
-         {"indices", indices},
-         {"mode", 4},
-         {"extensions",
-          {{"KHR_draco_mesh_compression", {{"bufferView", views.size()}, {"attributes", dracoAttributes}}}}}});
-    views.push_back({{"buffer", 0}, {"byteOffset", p.offset}, {"byteLength", p.length}});
-  }
-  if (primitives_.empty()) {
-    gltf["scenes"] = {{{"nodes", nlohmann::ordered_json::array()}}};
-  } else {
-    gltf["scenes"] = {{{"nodes", {0}}}};
-    gltf["nodes"] = {{{"mesh", 0}, {"name", "isosurface"}}};
     gltf["meshes"] = {{{"name", "isosurface"}, {"primitives", primitives}}};
     gltf["accessors"] = accessors;
     gltf["bufferViews"] = views;
     gltf["buffers"] = {{{"byteLength", spool_->size()}}};
   }
-  std::string json = gltf.dump();
-  json.append((4 - json.size() % 4) % 4, ' ');
-  const auto binLength = static_cast<std::uint32_t>(spool_->size());
-  const bool hasBin = binLength > 0;
-  const std::uint32_t total = 12 + 8 + static_cast<std::uint32_t>(json.size()) + (hasBin ? 8 + binLength : 0);
-  AtomicFile out(path_);
-  auto u32 = [&out](std::uint32_t v) { out.write(&v, 4); };
-  out.write("glTF", 4);
-  u32(2);
-  u32(total);
-  u32(static_cast<std::uint32_t>(json.size()));
-  u32(0x4E4F534A);  // JSON
-  out.write(json.data(), json.size());
-  if (hasBin) {
-    u32(binLength);
-    u32(0x004E4942);  // BIN
-    spool_->copyTo(out);
-  }
-  bytes_ = out.size();
-  out.commit();
+  bytes_ = writeGlbFile(path_, gltf, {spool_.get()});
   spool_.reset();
 }
 
 std::vector<std::pair<std::string, double>> GlbDracoWriter::details() const {
-  return dracoDetails(static_cast<double>(primitives_.size()), encodeSeconds_, worstError_, settings_);
+  auto d = dracoDetails(static_cast<double>(primitives_.size()), encodeSeconds_, worstError_, settings_);
+  d.emplace_back("seam_vertices", static_cast<double>(seamVertices_));
+  return d;
 }
 
 DrcWriter::DrcWriter(std::string path, const WriterOptions& options) : path_(std::move(path)), options_(options) {

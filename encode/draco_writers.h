@@ -2,10 +2,15 @@
 //
 // GlbDracoWriter: a glTF 2.0 binary file with one mesh whose primitives are independently
 // compressed chunks (KHR_draco_mesh_compression, listed in extensionsRequired). A chunk closes at
-// the first slab boundary after it reaches WriterOptions::chunkTriangles; it is encoded at once
-// and its bytes appended to a spool beside the output, so memory stays at about one chunk. Every
-// chunk is quantized on one grid (explicit quantization with the volume's box), so a vertex on a
-// seam decodes to bit-identical floats in both chunks, and welding by position restores the mesh.
+// the first slab boundary after it reaches WriterOptions::chunkTriangles. Every chunk is quantized
+// on one grid (explicit quantization with the volume's box), so a seam vertex decodes to the same
+// floats in both chunks; but distinct vertices can share a position (lattice points at the iso
+// value, vertices closer than a step), so seams are joined by identity: a vertex that two chunks
+// share carries the same key in both, in the application-specific attribute _ISOSLAB_SEAM (its
+// global id + 1, as two 16-bit halves; 0 elsewhere), and decoders join equal keys. The keys are
+// known when the next chunk's first slab has been consumed, so a closed chunk waits one slab
+// before it is encoded and appended to a spool beside the output: memory stays at about two
+// chunks. The document itself (frame node, material, extras) is described in gltf.h.
 //
 // DrcWriter: one standard Draco mesh (readable by draco_decoder). Draco's encoder needs the whole
 // mesh, so this writer holds every vertex and triangle until finish(): about 28 bytes per
@@ -17,6 +22,7 @@
 #include <deque>
 #include <future>
 #include <memory>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -40,6 +46,7 @@ class GlbDracoWriter final : public MeshFileSink {
 
  private:
   struct Primitive {
+    DracoAttributeIds ids;
     std::uint64_t points = 0;
     std::uint64_t triangles = 0;
     std::array<float, 3> min{};
@@ -55,7 +62,9 @@ class GlbDracoWriter final : public MeshFileSink {
   };
   static Encoded encode(IndexedMesh mesh, const DracoSettings& settings, const std::string& path);
   VertexId localVertex(VertexId id);
-  void flush();
+  void close(const MeshChunk& last);
+  void resolveSeam();
+  void flush(IndexedMesh mesh);
   void spoolOldest();
   void spool(const Encoded& e);
 
@@ -69,6 +78,12 @@ class GlbDracoWriter final : public MeshFileSink {
   VertexId chunkFirst_ = 0;
   std::vector<VertexId> local_;                  // for ids >= chunkFirst_
   std::unordered_map<VertexId, VertexId> seam_;  // for ids < chunkFirst_
+  // The closed chunk waiting for its seam keys, and its local ids of the vertices that the next
+  // slab may reference (those of its last slab, ids pendingTopFirst_ ..).
+  std::optional<IndexedMesh> pending_;
+  std::vector<VertexId> pendingTop_;
+  VertexId pendingTopFirst_ = 0;
+  std::uint64_t seamVertices_ = 0;
   std::vector<Primitive> primitives_;
   std::deque<std::future<Encoded>> encoding_;  // chunks being encoded, oldest first
   std::uint64_t triangles_ = 0;

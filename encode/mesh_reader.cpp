@@ -1,5 +1,7 @@
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -10,7 +12,9 @@
 #include <nlohmann/json.hpp>
 
 #include "encode/draco_codec.h"
+#include "encode/gltf.h"
 #include "encode/indexed_mesh.h"
+#include "encode/mesh_metadata.h"
 #include "io/error.h"
 
 namespace isoslab {
@@ -88,7 +92,7 @@ void addPolygon(IndexedMesh& mesh, const std::vector<std::uint64_t>& poly, const
   }
 }
 
-IndexedMesh readPly(const std::string& path, std::string data) {
+IndexedMesh readPly(const std::string& path, std::string data, MeshMetadata& meta) {
   Input in(path, std::move(data));
   if (in.line() != "ply") throw Error(fmt::format("{}: not a PLY file", path));
   std::string format;
@@ -99,6 +103,9 @@ IndexedMesh readPly(const std::string& path, std::string data) {
     s >> word;
     if (word == "format") {
       s >> format;
+    } else if (word == "comment" || word == "obj_info") {
+      const std::size_t text = l.find_first_not_of(' ', word.size());
+      if (text != std::string::npos) parseMetadataLine(l.substr(text), meta);
     } else if (word == "element") {
       Element e;
       s >> e.name >> e.count;
@@ -168,8 +175,9 @@ IndexedMesh readPly(const std::string& path, std::string data) {
   return mesh;
 }
 
-IndexedMesh readStl(const std::string& path, const std::string& data) {
+IndexedMesh readStl(const std::string& path, const std::string& data, MeshMetadata& meta) {
   if (data.size() < 84) throw Error(fmt::format("{}: the STL file is truncated", path));
+  parseMetadataLine(data.substr(0, 80), meta);
   std::uint32_t count = 0;
   std::memcpy(&count, data.data() + 80, 4);
   if (data.size() < 84 + std::uint64_t{count} * 50) throw Error(fmt::format("{}: the STL file is truncated", path));
@@ -202,7 +210,7 @@ IndexedMesh readStl(const std::string& path, const std::string& data) {
 }
 
 // Wavefront OBJ: "v" and "vn" lines and triangular or polygonal "f" lines (v, v/t, v//n, v/t/n).
-IndexedMesh readObj(const std::string& path, const std::string& data) {
+IndexedMesh readObj(const std::string& path, const std::string& data, MeshMetadata& meta) {
   IndexedMesh mesh;
   std::istringstream in(data);
   std::string line;
@@ -212,7 +220,10 @@ IndexedMesh readObj(const std::string& path, const std::string& data) {
     std::istringstream s(line);
     std::string word;
     s >> word;
-    if (word == "v" || word == "vn") {
+    if (!word.empty() && word[0] == '#') {
+      const std::size_t text = line.find_first_not_of("# ");
+      if (text != std::string::npos) parseMetadataLine(line.substr(text), meta);
+    } else if (word == "v" || word == "vn") {
       float x, y, z;
       if (!(s >> x >> y >> z)) throw Error(fmt::format("{}: line {}: a vertex needs three numbers", path, lineNo));
       (word == "v" ? mesh.positions : mesh.normals).push_back({x, y, z});
@@ -230,91 +241,244 @@ IndexedMesh readObj(const std::string& path, const std::string& data) {
   return mesh;
 }
 
-// A .glb of Draco-compressed primitives: every primitive is decoded, and a vertex of a later
-// primitive whose position equals (bit for bit) a vertex of an earlier one is welded to it, which
-// rejoins the chunks along their seams. Vertices within one primitive are never merged.
-IndexedMesh readGlb(const std::string& path, const std::string& data) {
-  auto u32 = [&](std::size_t at) {
-    std::uint32_t v = 0;
-    if (at + 4 > data.size()) throw Error(fmt::format("{}: the glTF binary is truncated", path));
-    std::memcpy(&v, data.data() + at, 4);
-    return v;
-  };
-  if (data.size() < 20 || data.compare(0, 4, "glTF") != 0 || u32(4) != 2) {
-    throw Error(fmt::format("{}: not a glTF 2.0 binary file", path));
-  }
-  const std::uint32_t jsonLength = u32(12);
-  if (u32(16) != 0x4E4F534A || 20 + std::uint64_t{jsonLength} > data.size()) {
-    throw Error(fmt::format("{}: the glTF binary has no JSON chunk", path));
-  }
-  nlohmann::json gltf;
-  try {
-    gltf = nlohmann::json::parse(data.begin() + 20, data.begin() + 20 + jsonLength);
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(fmt::format("{}: the glTF JSON is invalid: {}", path, e.what()));
-  }
-  const std::size_t binStart = 20 + jsonLength + 8;
-  const std::size_t binLength = data.size() >= binStart ? u32(20 + jsonLength) : 0;
-  if (binStart + binLength > data.size()) throw Error(fmt::format("{}: the glTF binary is truncated", path));
-  IndexedMesh mesh;
-  struct Key {
-    std::uint32_t x, y, z;
-    bool operator==(const Key&) const = default;
-  };
-  struct Hash {
-    std::size_t operator()(const Key& k) const {
-      return (std::size_t{k.x} * 73856093u) ^ (std::size_t{k.y} * 19349663u) ^ (std::size_t{k.z} * 83492791u);
+// Overflow-safe bounds: [offset, offset + length) within [0, size).
+bool within(std::uint64_t offset, std::uint64_t length, std::uint64_t size) {
+  return offset <= size && length <= size - offset;
+}
+
+class GlbReader {
+ public:
+  GlbReader(const std::string& path, const std::string& data) : path_(path), data_(data) {}
+
+  IndexedMesh read(MeshMetadata& meta) {
+    if (data_.size() < 20 || data_.compare(0, 4, "glTF") != 0 || u32(4) != 2) {
+      throw Error(fmt::format("{}: not a glTF 2.0 binary file", path_));
     }
-  };
-  std::unordered_map<Key, VertexId, Hash> earlier;
-  try {
-    for (const auto& m : gltf.value("meshes", nlohmann::json::array())) {
-      for (const auto& p : m.at("primitives")) {
-        const auto& draco = p.at("extensions").at("KHR_draco_mesh_compression");
-        const auto& view = gltf.at("bufferViews").at(draco.at("bufferView").get<std::size_t>());
-        const std::size_t offset = view.value("byteOffset", std::size_t{0});
-        const std::size_t length = view.at("byteLength").get<std::size_t>();
-        if (offset + length > binLength) throw Error(fmt::format("{}: a bufferView lies outside the BIN chunk", path));
-        const IndexedMesh part = dracoDecode(data.data() + binStart + offset, length, path);
-        std::vector<VertexId> ids(part.positions.size());
-        std::vector<Key> keys(part.positions.size());
-        for (std::size_t v = 0; v < part.positions.size(); ++v) {
-          std::memcpy(&keys[v], &part.positions[v], sizeof(Key));
-          auto found = earlier.find(keys[v]);
-          if (found != earlier.end()) {
-            ids[v] = found->second;
-          } else {
-            ids[v] = static_cast<VertexId>(mesh.positions.size());
-            mesh.positions.push_back(part.positions[v]);
-            if (!part.normals.empty()) mesh.normals.push_back(part.normals[v]);
-          }
-        }
-        for (std::size_t v = 0; v < part.positions.size(); ++v) earlier.emplace(keys[v], ids[v]);
-        for (const Triangle& t : part.triangles) mesh.triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
+    const std::uint64_t jsonLength = u32(12);
+    if (u32(16) != 0x4E4F534A || !within(20, jsonLength, data_.size())) {
+      throw Error(fmt::format("{}: the glTF binary has no JSON chunk", path_));
+    }
+    try {
+      gltf_ = nlohmann::json::parse(data_.begin() + 20, data_.begin() + 20 + static_cast<std::ptrdiff_t>(jsonLength));
+    } catch (const nlohmann::json::exception& e) {
+      throw Error(fmt::format("{}: the glTF JSON is invalid: {}", path_, e.what()));
+    }
+    const std::uint64_t binHeader = 20 + jsonLength;
+    if (within(binHeader, 8, data_.size())) {
+      binStart_ = binHeader + 8;
+      binLength_ = u32(binHeader);
+      if (u32(binHeader + 4) != 0x004E4942 || !within(binStart_, binLength_, data_.size())) {
+        throw Error(fmt::format("{}: the glTF binary is truncated", path_));
       }
     }
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(fmt::format("{}: the glTF JSON lacks a Draco primitive's fields: {}", path, e.what()));
+    try {
+      readExtras(meta);
+      for (const auto& m : gltf_.value("meshes", nlohmann::json::array())) {
+        for (const auto& p : m.at("primitives")) readPrimitive(p);
+      }
+    } catch (const nlohmann::json::exception& e) {
+      throw Error(fmt::format("{}: the glTF JSON lacks a primitive's fields: {}", path_, e.what()));
+    }
+    return std::move(mesh_);
   }
-  return mesh;
-}
+
+ private:
+  std::uint32_t u32(std::uint64_t at) const {
+    std::uint32_t v = 0;
+    if (!within(at, 4, data_.size())) throw Error(fmt::format("{}: the glTF binary is truncated", path_));
+    std::memcpy(&v, data_.data() + at, 4);
+    return v;
+  }
+
+  void readExtras(MeshMetadata& meta) {
+    const auto asset = gltf_.value("asset", nlohmann::json::object());
+    const auto extras = asset.value("extras", nlohmann::json::object());
+    if (!extras.is_object()) return;
+    if (extras.contains("method") && extras["method"].is_string()) meta.method = extras["method"].get<std::string>();
+    if (extras.contains("iso") && extras["iso"].is_number()) meta.iso = extras["iso"].get<double>();
+    if (extras.contains("space") && extras["space"].is_string()) meta.space = extras["space"].get<std::string>();
+    if (extras.contains("volume_bounds") && extras["volume_bounds"].is_array() && extras["volume_bounds"].size() == 6) {
+      meta.volumeBounds = extras["volume_bounds"].get<std::array<double, 6>>();
+    }
+    if (extras.contains("volume_faces") && extras["volume_faces"].is_array() && extras["volume_faces"].size() == 6) {
+      meta.volumeFaces = extras["volume_faces"].get<VolumeFaces>();
+    }
+    if (extras.contains("quantization_step") && extras["quantization_step"].is_number()) {
+      meta.positionTolerance = 0.5 * extras["quantization_step"].get<double>();
+    }
+  }
+
+  // The bytes of a bufferView, checked against the BIN chunk.
+  std::pair<const char*, std::uint64_t> view(std::uint64_t index) const {
+    const auto& v = gltf_.at("bufferViews").at(index);
+    const std::uint64_t offset = v.value("byteOffset", std::uint64_t{0});
+    const std::uint64_t length = v.at("byteLength").get<std::uint64_t>();
+    if (v.value("buffer", 0) != 0 || !within(offset, length, binLength_)) {
+      throw Error(fmt::format("{}: bufferView {} lies outside the BIN chunk", path_, index));
+    }
+    return {data_.data() + binStart_ + offset, length};
+  }
+
+  // A plain accessor of `components` values per element, as doubles.
+  std::vector<double> accessor(std::uint64_t index, int components) const {
+    const auto& a = gltf_.at("accessors").at(index);
+    const std::uint64_t count = a.at("count").get<std::uint64_t>();
+    const int type = a.at("componentType").get<int>();
+    const std::uint64_t size = type == 5126 || type == 5125 ? 4 : type == 5123 || type == 5122 ? 2 : 1;
+    if (type != 5126 && type != 5125 && type != 5123 && type != 5121) {
+      throw Error(fmt::format("{}: accessor {} has component type {}, which is not supported", path_, index, type));
+    }
+    const auto [bytes, length] = view(a.at("bufferView").get<std::uint64_t>());
+    const auto& v = gltf_.at("bufferViews").at(a.at("bufferView").get<std::uint64_t>());
+    const std::uint64_t element = size * static_cast<std::uint64_t>(components);
+    const std::uint64_t stride = v.value("byteStride", element);
+    const std::uint64_t offset = a.value("byteOffset", std::uint64_t{0});
+    if (count > 0 && (stride < element || count - 1 > (length - std::min(length, offset + element)) / stride ||
+                      !within(offset, element, length))) {
+      throw Error(fmt::format("{}: accessor {} lies outside its bufferView", path_, index));
+    }
+    std::vector<double> out;
+    out.reserve(count * static_cast<std::uint64_t>(components));
+    for (std::uint64_t e = 0; e < count; ++e) {
+      const char* at = bytes + offset + e * stride;
+      for (int c = 0; c < components; ++c) {
+        const char* p = at + static_cast<std::uint64_t>(c) * size;
+        if (type == 5126) {
+          float f;
+          std::memcpy(&f, p, 4);
+          out.push_back(f);
+        } else if (type == 5125) {
+          std::uint32_t u;
+          std::memcpy(&u, p, 4);
+          out.push_back(u);
+        } else if (type == 5123) {
+          std::uint16_t u;
+          std::memcpy(&u, p, 2);
+          out.push_back(u);
+        } else {
+          out.push_back(static_cast<unsigned char>(*p));
+        }
+      }
+    }
+    return out;
+  }
+
+  IndexedMesh plainPrimitive(const nlohmann::json& p) const {
+    IndexedMesh part;
+    const auto& attributes = p.at("attributes");
+    const std::vector<double> pos = accessor(attributes.at("POSITION").get<std::uint64_t>(), 3);
+    for (std::size_t k = 0; k + 2 < pos.size(); k += 3) {
+      part.positions.push_back({static_cast<float>(pos[k]), static_cast<float>(pos[k + 1]), static_cast<float>(pos[k + 2])});
+    }
+    if (attributes.contains("NORMAL")) {
+      const std::vector<double> n = accessor(attributes.at("NORMAL").get<std::uint64_t>(), 3);
+      if (n.size() == pos.size()) {
+        for (std::size_t k = 0; k + 2 < n.size(); k += 3) {
+          part.normals.push_back({static_cast<float>(n[k]), static_cast<float>(n[k + 1]), static_cast<float>(n[k + 2])});
+        }
+      }
+    }
+    if (attributes.contains(kSeamAttribute)) {
+      const std::vector<double> k = accessor(attributes.at(kSeamAttribute).get<std::uint64_t>(), 2);
+      for (std::size_t v = 0; v + 1 < k.size(); v += 2) {
+        part.seamKeys.push_back(static_cast<std::uint32_t>(k[v]) | (static_cast<std::uint32_t>(k[v + 1]) << 16));
+      }
+    }
+    if (!p.contains("indices")) throw Error(fmt::format("{}: a primitive has no indices", path_));
+    const std::vector<double> idx = accessor(p.at("indices").get<std::uint64_t>(), 1);
+    for (std::size_t t = 0; t + 2 < idx.size(); t += 3) {
+      Triangle tri{};
+      for (std::size_t c = 0; c < 3; ++c) {
+        if (idx[t + c] >= static_cast<double>(part.positions.size())) {
+          throw Error(fmt::format("{}: an index references vertex {} of {}", path_, idx[t + c], part.positions.size()));
+        }
+        tri[c] = static_cast<VertexId>(idx[t + c]);
+      }
+      part.triangles.push_back(tri);
+    }
+    return part;
+  }
+
+  void readPrimitive(const nlohmann::json& p) {
+    if (p.value("mode", 4) != 4) throw Error(fmt::format("{}: a primitive is not made of triangles", path_));
+    IndexedMesh part;
+    const auto extensions = p.value("extensions", nlohmann::json::object());
+    if (extensions.contains("KHR_draco_mesh_compression")) {
+      const auto& draco = extensions.at("KHR_draco_mesh_compression");
+      const auto& attributes = draco.at("attributes");
+      const int seamId = attributes.contains(kSeamAttribute) ? attributes.at(kSeamAttribute).get<int>() : -1;
+      const auto [bytes, length] = view(draco.at("bufferView").get<std::uint64_t>());
+      part = dracoDecode(bytes, length, path_, seamId);
+    } else {
+      part = plainPrimitive(p);
+    }
+    // Join vertices by identity: a key that an earlier primitive holds is that vertex.
+    std::vector<VertexId> ids(part.positions.size());
+    const bool keyed = !part.seamKeys.empty();
+    for (std::size_t v = 0; v < part.positions.size(); ++v) {
+      const std::uint32_t key = keyed ? part.seamKeys[v] : 0;
+      if (key != 0) {
+        const auto found = keys_.find(key);
+        if (found != keys_.end()) {
+          ids[v] = found->second;
+          continue;
+        }
+      }
+      ids[v] = static_cast<VertexId>(mesh_.positions.size());
+      mesh_.positions.push_back(part.positions[v]);
+      if (!part.normals.empty()) mesh_.normals.push_back(part.normals[v]);
+      if (key != 0) keys_.emplace(key, ids[v]);
+    }
+    for (const Triangle& t : part.triangles) mesh_.triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
+  }
+
+  const std::string& path_;
+  const std::string& data_;
+  nlohmann::json gltf_;
+  std::uint64_t binStart_ = 0;
+  std::uint64_t binLength_ = 0;
+  IndexedMesh mesh_;
+  std::unordered_map<std::uint32_t, VertexId> keys_;
+};
 
 }  // namespace
 
-IndexedMesh readMesh(const std::string& path) {
+IndexedMesh readMesh(const std::string& path, MeshMetadata* metadata) {
+  MeshMetadata scratch;
+  MeshMetadata& meta = metadata != nullptr ? *metadata : scratch;
+  meta = MeshMetadata{};
   std::ifstream f(path, std::ios::binary);
   if (!f) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(errno)));
   std::string data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  if (data.compare(0, 4, "ply\n") == 0 || data.compare(0, 5, "ply\r\n") == 0) return readPly(path, std::move(data));
+  if (data.compare(0, 4, "ply\n") == 0 || data.compare(0, 5, "ply\r\n") == 0) return readPly(path, std::move(data), meta);
   if (data.compare(0, 5, "solid") == 0) throw Error(fmt::format("{}: ASCII STL is not supported", path));
   const std::size_t dot = path.rfind('.');
   std::string ext = dot == std::string::npos ? "" : path.substr(dot);
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == ".stl") return readStl(path, data);
-  if (ext == ".obj") return readObj(path, data);
-  if (data.compare(0, 4, "glTF") == 0) return readGlb(path, data);
+  if (ext == ".stl") return readStl(path, data, meta);
+  if (ext == ".obj") return readObj(path, data, meta);
+  if (data.compare(0, 4, "glTF") == 0) return GlbReader(path, data).read(meta);
   if (data.compare(0, 5, "DRACO") == 0) return dracoDecode(data.data(), data.size(), path);
   throw Error(fmt::format("{}: unknown mesh format (PLY, binary STL, .glb or .drc expected)", path));
+}
+
+std::vector<std::uint8_t> volumeFaceFlags(const std::vector<Vec3f>& positions, const VolumeFaces& faces,
+                                          double extra) {
+  // The tolerance of float positions a few roundings away from a plane: relative to the volume's
+  // distance from the origin and its size.
+  double scale = 0;
+  for (const FacePlane& f : faces) scale = std::max(scale, std::abs(f[3]));
+  const double tolerance = 4e-6 * scale + 1e-9 + extra;
+  std::vector<std::uint8_t> flags(positions.size(), 0);
+  for (std::size_t v = 0; v < positions.size(); ++v) {
+    const Vec3f& p = positions[v];
+    for (std::size_t k = 0; k < 6; ++k) {
+      const FacePlane& f = faces[k];
+      const double d = f[0] * p.x + f[1] * p.y + f[2] * p.z - f[3];
+      if (std::abs(d) <= tolerance) flags[v] |= static_cast<std::uint8_t>(1u << k);
+    }
+  }
+  return flags;
 }
 
 void feedMesh(const IndexedMesh& mesh, const MeshHeader& header, MeshSink& sink) {

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "encode/draco_writers.h"
+#include "encode/gltf.h"
 #include "encode/obj_writer.h"
 #include "encode/ply_writer.h"
 #include "encode/stl_writer.h"
@@ -21,7 +22,10 @@ std::unique_ptr<MeshFileSink> makeMeshWriter(const std::string& path, const Writ
   if (ext == ".ply") return std::make_unique<PlyWriter>(path);
   if (ext == ".stl") return std::make_unique<StlWriter>(path);
   if (ext == ".obj") return std::make_unique<ObjWriter>(path);
-  if (ext == ".glb") return std::make_unique<GlbDracoWriter>(path, options);
+  if (ext == ".glb") {
+    if (!options.draco) return std::make_unique<GlbPlainWriter>(path, options);
+    return std::make_unique<GlbDracoWriter>(path, options);
+  }
   if (ext == ".drc") return std::make_unique<DrcWriter>(path, options);
   throw Error(fmt::format("{}: unknown mesh format '{}' (use .ply, .stl, .obj, .glb or .drc)", path, ext));
 }

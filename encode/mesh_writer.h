@@ -30,6 +30,11 @@ struct WriterOptions {
   int encodeThreads = 0;
   /// The smallest voxel edge in output units, for the default quantization.
   double voxelSize = 1;
+  /// .glb: Draco-compressed chunks (KHR_draco_mesh_compression), or plain accessors.
+  bool draco = true;
+  /// .glb: a root node maps the output space to glTF's frame (Y up, metres, front +Z); false
+  /// keeps the raw output frame (positions as written, no node transform).
+  bool gltfFrame = true;
 };
 
 /// .ply, .stl, .obj, .glb (chunked Draco in glTF 2.0) or .drc (one Draco mesh), by extension

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "encode/mesh_metadata.h"
+
 namespace isoslab {
 
 ObjWriter::ObjWriter(std::string path) : path_(std::move(path)) {}
@@ -10,7 +12,8 @@ ObjWriter::~ObjWriter() = default;
 void ObjWriter::begin(const MeshHeader& header) {
   normals_ = header.normals;
   file_ = std::make_unique<AtomicFile>(path_);
-  const std::string head = fmt::format("# isoslab {} iso {} space {}\n", header.method, header.iso, header.space);
+  std::string head;
+  for (const std::string& line : metadataLines(header)) head += "# " + line + "\n";
   file_->write(head.data(), head.size());
 }
 

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "encode/binary_buffer.h"
+#include "encode/mesh_metadata.h"
 #include "io/error.h"
 
 namespace isoslab {
@@ -21,7 +22,7 @@ PlyWriter::~PlyWriter() = default;
 
 std::string PlyWriter::header(std::uint64_t vertices, std::uint64_t faces, std::size_t padTo) const {
   std::string head = "ply\nformat binary_little_endian 1.0\n";
-  head += fmt::format("comment isoslab {} iso {} space {}\n", meshHeader_.method, meshHeader_.iso, meshHeader_.space);
+  for (const std::string& line : metadataLines(meshHeader_)) head += "comment " + line + "\n";
   std::string tail = fmt::format("element vertex {}\nproperty float x\nproperty float y\nproperty float z\n", vertices);
   if (meshHeader_.normals) tail += "property float nx\nproperty float ny\nproperty float nz\n";
   tail += fmt::format("element face {}\nproperty list uchar uint vertex_indices\nend_header\n", faces);

@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "encode/binary_buffer.h"
+#include "encode/mesh_metadata.h"
 #include "io/error.h"
 
 namespace isoslab {
@@ -20,7 +21,10 @@ void StlWriter::begin(const MeshHeader& header) {
   }
   file_ = std::make_unique<AtomicFile>(path_);
   // The 80-byte header must not start with "solid", which marks ASCII STL.
-  std::string text = fmt::format("isoslab binary STL, method {}, iso {}", header.method, header.iso);
+  // 3D Slicer reads SPACE=LPS or SPACE=RAS anywhere in it.
+  std::string text = fmt::format("isoslab {} iso {} space {}", header.method, header.iso, header.space);
+  const std::string tag = spaceTag(header.space);
+  if (!tag.empty()) text += " SPACE=" + tag;
   text.resize(80, ' ');
   file_->write(text.data(), text.size());
   const std::uint32_t zero = 0;

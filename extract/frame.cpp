@@ -85,6 +85,54 @@ std::array<double, 6> LatticeFrame::bounds(const std::array<std::int64_t, 3>& di
   return b;
 }
 
+std::optional<VolumeFaces> LatticeFrame::faces(const std::array<std::int64_t, 3>& dims) const {
+  const double last[3] = {static_cast<double>(dims[0] - 1), static_cast<double>(dims[1] - 1),
+                          static_cast<double>(dims[2] - 1)};
+  if (!(last[0] > 0 && last[1] > 0 && last[2] > 0)) return std::nullopt;
+  auto corner = [&](int c) { return map((c & 1) ? last[0] : 0.0, (c & 2) ? last[1] : 0.0, (c & 4) ? last[2] : 0.0); };
+  Vec3d centre{0, 0, 0};
+  double scale = 0;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3d p = corner(c);
+    for (std::size_t a = 0; a < 3; ++a) {
+      centre[a] += p[a] / 8;
+      scale = std::max(scale, std::abs(p[a]));
+    }
+  }
+  auto sub = [](const Vec3d& a, const Vec3d& b) { return Vec3d{a[0] - b[0], a[1] - b[1], a[2] - b[2]}; };
+  auto dot = [](const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+  VolumeFaces faces{};
+  for (int axis = 0; axis < 3; ++axis) {
+    const int u = 1 << ((axis + 1) % 3);
+    const int v = 1 << ((axis + 2) % 3);
+    for (int side = 0; side < 2; ++side) {
+      const int base = side ? (1 << axis) : 0;
+      const Vec3d o = corner(base);
+      const Vec3d e1 = sub(corner(base | u), o);
+      const Vec3d e2 = sub(corner(base | v), o);
+      Vec3d n{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+      const double len = std::sqrt(dot(n, n));
+      if (!(len > 0)) return std::nullopt;
+      for (double& x : n) x /= len;
+      if (dot(n, sub(o, centre)) < 0) n = {-n[0], -n[1], -n[2]};
+      const double d = dot(n, o);
+      // Every slice's corners on this face must lie on the plane (uneven or bent stacks).
+      const double tolerance = 1e-6 * scale;
+      const std::int64_t slices = axis == 2 ? 1 : dims[2];
+      for (std::int64_t k = 0; k < slices; ++k) {
+        for (int c = 0; c < 4; ++c) {
+          const double kk = axis == 2 ? (side ? last[2] : 0.0) : static_cast<double>(k);
+          const double ii = axis == 0 ? (side ? last[0] : 0.0) : ((c & 1) ? last[0] : 0.0);
+          const double jj = axis == 1 ? (side ? last[1] : 0.0) : ((c & 2) ? last[1] : 0.0);
+          if (std::abs(dot(n, map(ii, jj, kk)) - d) > tolerance) return std::nullopt;
+        }
+      }
+      faces[static_cast<std::size_t>(2 * axis + side)] = {n[0], n[1], n[2], d};
+    }
+  }
+  return faces;
+}
+
 Vec3d LatticeFrame::gradient(const Vec3d& g) const noexcept {
   const auto& m = inverseT_;
   return {m[0] * g[0] + m[1] * g[1] + m[2] * g[2], m[3] * g[0] + m[4] * g[1] + m[5] * g[2],

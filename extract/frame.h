@@ -2,9 +2,11 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "extract/mesh_sink.h"
 #include "io/slice_source.h"
 
 namespace isoslab {
@@ -37,6 +39,10 @@ class LatticeFrame {
 
   /// The box around the lattice's eight corners in output coordinates: xmin ymin zmin xmax ymax zmax.
   std::array<double, 6> bounds(const std::array<std::int64_t, 3>& dims) const noexcept;
+
+  /// The lattice's six faces as planes (MeshHeader::volumeFaces), or nothing when the slices'
+  /// origins bend a face out of its plane by more than a rounding tolerance.
+  std::optional<VolumeFaces> faces(const std::array<std::int64_t, 3>& dims) const;
 
   /// Output volume of one unit lattice cube.
   double cellVolume() const noexcept { return determinant_ < 0 ? -determinant_ : determinant_; }

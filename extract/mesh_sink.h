@@ -12,6 +12,7 @@
 #include <array>
 #include <cassert>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,11 @@ struct MeshChunk {
   VertexId endVertex() const noexcept { return firstVertex + static_cast<VertexId>(positions.size()); }
 };
 
+/// A plane n . p = d in output coordinates: {nx, ny, nz, d}, n a unit vector out of the volume.
+using FacePlane = std::array<double, 4>;
+/// The lattice's six faces in BoundaryFace order: x min, x max, y min, y max, z min, z max.
+using VolumeFaces = std::array<FacePlane, 6>;
+
 /// What a sink learns before the first chunk.
 struct MeshHeader {
   bool normals = false;
@@ -69,6 +75,11 @@ struct MeshHeader {
   std::string space;  // output coordinate frame: "voxel", "physical", "lps", ...
   /// Bounding box of the volume's lattice in output coordinates: xmin ymin zmin xmax ymax zmax.
   std::array<double, 6> volumeBounds{};
+  /// The lattice's faces as planes, when they are planes in the output frame. Unknown (for a mesh
+  /// read from a file that does not carry them) or not planar (a curved stack of slices): empty.
+  std::optional<VolumeFaces> volumeFaces;
+  /// How far positions may lie from where extraction put them (a decoded .glb's quantization).
+  double positionTolerance = 0;
   /// Whether the method fills cells with tetrahedra, so that chunks carry cellVolume.
   bool cellVolumes = false;
 };

@@ -527,6 +527,7 @@ class DicomSource final : public SliceSource {
     info.reader = "dicom";
     info.source = first;
     info.frame = "lps";
+    info.modality = series.modality;
     const bool positioned = series.slices.front().position.has_value();
     Vec3 kdir = normal;
     double kspacing = 1;

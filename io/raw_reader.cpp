@@ -44,6 +44,7 @@ std::unique_ptr<SliceSource> RawReader::open(const std::string& input, const Raw
   layout.skipBytes = options.headerBytes;
   layout.type = options.type;
   layout.byteOrder = options.byteOrder;
+  layout.warnExtraBytes = true;
   VolumeInfo info;
   info.dims = dims;
   info.spacing = options.spacing;

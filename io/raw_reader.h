@@ -28,6 +28,8 @@ class RawReader {
  public:
   /// Opens `input`: a file (gzip is recognised by its magic bytes and inflated as a stream), a
   /// printf pattern, or a folder. Checks dims and, for plain files, that every file is long enough.
+  /// Data longer than the dims need is read, with a warning from the source's warnings() that
+  /// says how many bytes are left over and which dims or voxel type would use them all.
   static std::unique_ptr<SliceSource> open(const std::string& input, const RawOptions& options);
 };
 

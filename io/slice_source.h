@@ -52,6 +52,8 @@ struct VolumeInfo {
   /// Which reader made this source ("raw", "phantom", "dicom", ...) and what it read.
   std::string reader;
   std::string source;
+  /// The imaging modality where the input names it (DICOM's Modality: "CT", "MR", ...), else empty.
+  std::string modality;
 
   std::int64_t sliceVoxels() const noexcept { return dims[0] * dims[1]; }
 };
@@ -77,6 +79,12 @@ class SliceSource {
   /// The next slice's values, x fastest, valid as long as the source lives; nullptr once all
   /// slices have been handed out. Only for sources that lend slices.
   virtual const float* lendSlice() { return nullptr; }
+
+  /// Problems with the data that are not errors, one line each without a prefix, for the user
+  /// (for example bytes left over after the last slice, which suggest wrong dims or type). Call it
+  /// after reading every slice: a reader may then read what is left of a compressed stream to
+  /// count it. Empty for most sources.
+  virtual std::vector<std::string> warnings() { return {}; }
 };
 
 /// Checks dims for sanity (every axis at least 2 and at most 2^31-1 points, the product

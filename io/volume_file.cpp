@@ -86,6 +86,27 @@ class ByteStream {
     position_ += n;
   }
 
+  /// Reads a compressed stream to its end and returns how many inflated bytes were left. Only
+  /// counts: a corrupt or truncated end stops it quietly.
+  std::int64_t countRest() {
+    std::vector<unsigned char> scratch(1 << 16);
+    std::int64_t rest = 0;
+    while (inflating_ && !ended_) {
+      if (z_.avail_in == 0) {
+        z_.avail_in = static_cast<uInt>(std::fread(input_.data(), 1, input_.size(), file_));
+        z_.next_in = input_.data();
+        if (z_.avail_in == 0) break;
+      }
+      z_.next_out = scratch.data();
+      z_.avail_out = static_cast<uInt>(scratch.size());
+      const int status = inflate(&z_, Z_NO_FLUSH);
+      rest += static_cast<std::int64_t>(scratch.size() - z_.avail_out);
+      if (status == Z_STREAM_END) ended_ = true;
+      if (status != Z_OK && status != Z_STREAM_END && !(status == Z_BUF_ERROR && z_.avail_in == 0)) break;
+    }
+    return rest;
+  }
+
   void skip(std::int64_t n, std::int64_t expected) {
     std::vector<unsigned char> scratch(static_cast<std::size_t>(std::min<std::int64_t>(n, 1 << 20)));
     while (n > 0) {
@@ -122,6 +143,38 @@ std::string dimsText(const std::array<std::int64_t, 3>& d) {
   return fmt::format("{}x{}x{}", d[0], d[1], d[2]);
 }
 
+// "a 2-byte type (u16 or i16)" for a voxel size that some type has, else empty.
+std::string typesOfSize(std::int64_t bytes) {
+  std::vector<std::string_view> names;
+  for (VoxelType t : {VoxelType::kU8, VoxelType::kI8, VoxelType::kU16, VoxelType::kI16, VoxelType::kU32,
+                      VoxelType::kI32, VoxelType::kF32, VoxelType::kF64}) {
+    if (static_cast<std::int64_t>(voxelSize(t)) == bytes) names.push_back(voxelTypeName(t));
+  }
+  if (names.empty()) return {};
+  std::string list(names.front());
+  for (std::size_t n = 1; n < names.size(); ++n) list += fmt::format("{}{}", n + 1 == names.size() ? " or " : ", ", names[n]);
+  return fmt::format("{} {}-byte type ({})", bytes == 8 ? "an" : "a", bytes, list);
+}
+
+// What would use every byte of `dataBytes` (the data after the header): the number of slices
+// for a whole volume, or a voxel type, or (for one slice) the number of rows. Empty if nothing does.
+std::string extraBytesHint(std::int64_t dataBytes, const std::array<std::int64_t, 3>& dims, VoxelType type,
+                           bool oneSlice) {
+  const auto voxel = static_cast<std::int64_t>(voxelSize(type));
+  const std::int64_t voxels = dims[0] * dims[1] * (oneSlice ? 1 : dims[2]);
+  if (!oneSlice && dataBytes % (dims[0] * dims[1] * voxel) == 0) {
+    return fmt::format("; dims {}x{}x{} would use them all", dims[0], dims[1], dataBytes / (dims[0] * dims[1] * voxel));
+  }
+  if (dataBytes % voxels == 0 && dataBytes / voxels != voxel) {
+    const std::string types = typesOfSize(dataBytes / voxels);
+    if (!types.empty()) return fmt::format("; {} would use them all", types);
+  }
+  if (oneSlice && dataBytes % (dims[0] * voxel) == 0) {
+    return fmt::format("; a {}x{} slice would use them all", dims[0], dataBytes / (dims[0] * voxel));
+  }
+  return {};
+}
+
 class VolumeFileSource final : public SliceSource {
  public:
   VolumeFileSource(const VolumeInfo& info, const VolumeFileLayout& layout) : info_(info), layout_(layout) {
@@ -133,6 +186,10 @@ class VolumeFileSource final : public SliceSource {
     }
     const auto voxel = static_cast<std::int64_t>(voxelSize(layout.type)) * layout.components;
     sliceBytes_ = info_.dims[0] * info_.dims[1] * voxel;
+    const std::int64_t header = layout.fileOffset + layout.skipBytes;
+    std::int64_t longFiles = 0;  // plain files with bytes left over
+    std::string firstLong;
+    std::int64_t firstLongSize = 0;
     for (std::size_t f = 0; f < (layout.perSlice ? static_cast<std::size_t>(info_.dims[2]) : 1); ++f) {
       const std::string& path = layout.files[f];
       std::error_code ec;
@@ -149,6 +206,24 @@ class VolumeFileSource final : public SliceSource {
                                 dimsText(info_.dims), voxelTypeName(layout.type), layout.fileOffset + layout.skipBytes,
                                 need, layout.perSlice ? " (one slice per file)" : ""));
       }
+      if (layout.warnExtraBytes && size > need && ++longFiles == 1) {
+        firstLong = path;
+        firstLongSize = size;
+      }
+    }
+    if (longFiles > 0 && !layout.perSlice) {
+      warnings_.push_back(extraBytesWarning(firstLong, firstLongSize, false));
+    } else if (longFiles > 0) {
+      const std::string others =
+          longFiles == 1 ? std::string()
+          : longFiles == info_.dims[2]
+              ? fmt::format(", as do all {} slice files", longFiles)
+              : fmt::format(", as do {} of the {} slice files", longFiles, info_.dims[2]);
+      const std::int64_t need = header + sliceBytes_;
+      warnings_.push_back(fmt::format(
+          "{}: holds {} bytes, {} more than one {}x{} slice of {}{} needs{}; the extra bytes are ignored{}", firstLong,
+          firstLongSize, firstLongSize - need, info_.dims[0], info_.dims[1], voxelTypeName(layout.type),
+          headerText(), others, extraBytesHint(firstLongSize - header, info_.dims, layout.type, true)));
     }
     bytes_.resize(static_cast<std::size_t>(sliceBytes_));
     if (layout.components > 1)
@@ -157,6 +232,18 @@ class VolumeFileSource final : public SliceSource {
   }
 
   const VolumeInfo& info() const noexcept override { return info_; }
+
+  std::vector<std::string> warnings() override {
+    // A compressed volume file: what is left once every slice has been read.
+    if (layout_.warnExtraBytes && !layout_.perSlice && !restCounted_ && next_ == info_.dims[2] && stream_ &&
+        stream_->inflating()) {
+      restCounted_ = true;
+      const std::int64_t rest = stream_->countRest();
+      const std::int64_t size = layout_.skipBytes + sliceBytes_ * info_.dims[2] + rest;
+      if (rest > 0) warnings_.push_back(extraBytesWarning(layout_.files.front(), size, true));
+    }
+    return warnings_;
+  }
 
   bool readSlice(std::span<float> slice) override {
     if (next_ >= info_.dims[2]) return false;
@@ -194,8 +281,26 @@ class VolumeFileSource final : public SliceSource {
   std::int64_t sliceBytes_ = 0;
   std::vector<std::byte> bytes_;
   std::vector<std::byte> component_;
+  // " after a 16-byte header", or empty without one.
+  std::string headerText() const {
+    const std::int64_t header = layout_.fileOffset + layout_.skipBytes;
+    return header > 0 ? fmt::format(" after a {}-byte header", header) : std::string();
+  }
+
+  // The warning for a whole-volume file of `size` bytes (inflated ones if `inflated`).
+  std::string extraBytesWarning(const std::string& path, std::int64_t size, bool inflated) const {
+    const std::int64_t header = layout_.fileOffset + layout_.skipBytes;
+    const std::int64_t need = header + sliceBytes_ * info_.dims[2];
+    return fmt::format("{}: holds {} bytes{}, {} more than dims {} of {}{} need; the extra bytes are ignored{}", path,
+                       size, inflated ? " once inflated" : "", size - need, dimsText(info_.dims),
+                       voxelTypeName(layout_.type), headerText(),
+                       extraBytesHint(size - header, info_.dims, layout_.type, false));
+  }
+
   std::unique_ptr<ByteStream> stream_;
   std::int64_t next_ = 0;
+  std::vector<std::string> warnings_;
+  bool restCounted_ = false;
 };
 
 }  // namespace

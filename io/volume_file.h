@@ -33,6 +33,10 @@ struct VolumeFileLayout {
   double intercept = 0;
   /// What the header that described this data is called, for messages ("raw", "NRRD header", ...).
   std::string describedBy = "raw";
+  /// Whether data longer than the dims need gives a warning (SliceSource::warnings()): plain
+  /// files are measured when opened, a compressed volume file once it has been read to its end
+  /// (compressed per-slice files are not checked). Only for components == 1.
+  bool warnExtraBytes = false;
 };
 
 /// Opens the data described by `layout` for a volume of `info`. Plain files are checked for length

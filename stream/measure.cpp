@@ -26,6 +26,7 @@ Measurement measureExtraction(SliceSource& source, const ExtractOptions& options
   header.iso = options.iso;
   header.space = frame.name();
   header.volumeBounds = frame.bounds(info.dims);
+  header.volumeFaces = frame.faces(info.dims);
   header.cellVolumes = extractor->cellVolumes();
   Measurement m;
   m.run = runPipeline(source, *extractor, tee, header);

@@ -28,13 +28,37 @@ double since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
+// The smallest and largest value seen, NaN skipped (it compares false both ways).
+class ValueRange {
+ public:
+  void add(const float* values, std::size_t n) noexcept {
+    float lo = lo_;
+    float hi = hi_;
+    for (std::size_t i = 0; i < n; ++i) {
+      lo = values[i] < lo ? values[i] : lo;
+      hi = values[i] > hi ? values[i] : hi;
+    }
+    lo_ = lo;
+    hi_ = hi;
+  }
+  std::optional<std::array<double, 2>> range() const {
+    if (lo_ > hi_) return std::nullopt;
+    return std::array<double, 2>{lo_, hi_};
+  }
+
+ private:
+  float lo_ = std::numeric_limits<float>::infinity();
+  float hi_ = -std::numeric_limits<float>::infinity();
+};
+
 }  // namespace
 
 namespace {
 
 // Slices in order from the source: read on the spot into the ring, or by a reader thread ahead
 // of time into buffers that the ring adopts (and hands back once evicted, for reuse). The reader
-// thread also classifies each slice's rows once, for all the workers whose slabs use it.
+// thread also classifies each slice's rows once, for all the workers whose slabs use it. Every
+// slice's value range is tracked on the way (by the reader thread, when there is one).
 class SliceFeed {
  public:
   SliceFeed(SliceSource& source, bool threaded, const Extractor* classifier = nullptr)
@@ -55,6 +79,7 @@ class SliceFeed {
               slice.values.resize(n);
               if (!source_.readSlice(slice.values)) break;
             }
+            range_.add(slice.data(), n);
             if (classifier != nullptr) {
               classifier->classifySlice(slice.data(), slice.rows);
             } else {
@@ -69,21 +94,23 @@ class SliceFeed {
       });
     }
   }
-  ~SliceFeed() {
-    if (threaded_) {
-      queue_.close();
-      reader_.join();
-    }
-  }
+  ~SliceFeed() { stop(); }
   SliceFeed(const SliceFeed&) = delete;
   SliceFeed& operator=(const SliceFeed&) = delete;
 
   /// Reads the next slice into the ring as slice k; false at the end of the data.
   bool next(SlabRing& ring, std::int64_t k) {
     if (!threaded_) {
-      if (!source_.lendsSlices()) return source_.readSlice(ring.acquire(k));
+      const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
+      if (!source_.lendsSlices()) {
+        const std::span<float> slice = ring.acquire(k);
+        if (!source_.readSlice(slice)) return false;
+        range_.add(slice.data(), n);
+        return true;
+      }
       const float* lent = source_.lendSlice();
       if (lent == nullptr) return false;
+      range_.add(lent, n);
       ring.lend(k, lent);
       return true;
     }
@@ -97,13 +124,27 @@ class SliceFeed {
     return true;
   }
 
+  /// The value range of the slices read, once every slice has been taken: stops the reader.
+  std::optional<std::array<double, 2>> finish() {
+    stop();
+    return range_.range();
+  }
+
  private:
+  void stop() {
+    if (threaded_ && reader_.joinable()) {
+      queue_.close();
+      reader_.join();
+    }
+  }
+
   SliceSource& source_;
   bool threaded_;
   BoundedQueue<SliceBuffer> queue_;
   BoundedQueue<SliceBuffer> free_;
   std::thread reader_;
   std::exception_ptr error_;
+  ValueRange range_;
 };
 
 // Chunks in order to the sink: consumed on the spot, or by a writer thread.
@@ -367,6 +408,7 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
     }
     result.extractSeconds = pool.seconds();
   }
+  result.valueRange = feed.finish();
   t = Clock::now();
   drain.flush();
   sink.finish();

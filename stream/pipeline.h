@@ -4,7 +4,9 @@
 // (one set per worker) and a few chunks.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <optional>
 
 #include "extract/extractor.h"
 #include "extract/mesh_sink.h"
@@ -34,6 +36,9 @@ struct PipelineResult {
   std::uint64_t vertices = 0;
   std::uint64_t triangles = 0;
   std::size_t ringBytes = 0;
+  /// The smallest and largest value over every slice read (NaN is skipped); empty when no slice
+  /// held a value that is not NaN. Tracked as the slices stream past, so the volume is never held.
+  std::optional<std::array<double, 2>> valueRange;
 };
 
 /// Runs the whole volume. The sink gets begin(header), a chunk per slab in order, and finish(), all

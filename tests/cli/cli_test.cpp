@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -83,8 +84,6 @@ TEST(Cli, BadInputGivesOneLineANonZeroExitAndNoOutput) {
        dir + "/short.raw: dims 4000000000x4000000000x4000000000 are invalid: an axis exceeds 2147483647 points"},
       {"extract " + dir + "/short.raw --raw-dims 2000000000,2000000000,2000000000 --iso 1" + out,
        dir + "/short.raw: dims 2000000000x2000000000x2000000000 are invalid: the voxel count overflows"},
-      {"extract " + dir + "/short.raw --raw-dims 8,8,8 --raw-type u12 --iso 1" + out,
-       "--raw-type: unknown voxel type 'u12' (use u8 i8 u16 i16 u32 i32 f32 f64)"},
       {"extract " + dir + "/missing.raw --raw-dims 8,8,8 --iso 1" + out,
        dir + "/missing.raw: cannot open: No such file or directory"},
       {"extract " + dir + "/missing.raw --iso 1" + out, dir + "/missing.raw: cannot open: No such file or directory"},
@@ -93,8 +92,6 @@ TEST(Cli, BadInputGivesOneLineANonZeroExitAndNoOutput) {
       {"extract 'phantom:sphere?n=16' -o " + dir + "/no/such/folder/out.ply",
        dir + "/no/such/folder/out.ply: cannot create the output: the folder '" + dir +
            "/no/such/folder' does not exist"},
-      {"extract 'phantom:sphere?n=16' --method mt7" + out,
-       "--method: unknown method 'mt7' (use mc, mt5, mt6 or bcc12)"},
       {"extract 'phantom:sphere?n=16'" + out.substr(0, out.size() - 3) + "xyz",
        dir + "/out.xyz: unknown mesh format '.xyz' (use .ply, .stl, .obj, .glb or .drc)"},
   };
@@ -106,11 +103,202 @@ TEST(Cli, BadInputGivesOneLineANonZeroExitAndNoOutput) {
   }
 }
 
-TEST(Cli, UsageErrorsExitWithTwo) {
-  const auto r = runCli("extract");
-  EXPECT_EQ(r.exitCode, 2);
-  EXPECT_EQ(r.err, "isoslab: error: INPUT is required (see isoslab --help)\n");
+TEST(Cli, UsageErrorsExitWithTwoAndOneLine) {
+  const std::string dir = testing::tempDir();
+  {
+    std::ofstream f(dir + "/v.raw", std::ios::binary);
+    for (int v = 0; v < 64; ++v) f.put(static_cast<char>(v * 3));  // 4x4x4 u8, values 0 .. 189
+  }
+  const std::string raw = dir + "/v.raw --raw-dims 4,4,4";
+  const std::string out = " -o " + dir + "/out.ply";
+  const std::vector<BadCase> cases = {
+      {"extract", "INPUT is required (see isoslab extract --help)"},
+      {"extract 'phantom:sphere?n=16'", "--output is required (see isoslab extract --help)"},
+      {"extract 'phantom:sphere?n=16' --method mt7" + out, "--method: unknown method 'mt7' (use mc, mt5, mt6 or bcc12)"},
+      {"extract 'phantom:sphere?n=16' --space lsp" + out,
+       "--space: unknown space 'lsp' (use physical, lps, ras or voxel)"},
+      {"extract " + dir + "/v.raw --raw-dims 4,4,x --iso 1" + out,
+       "--raw-dims: '4,4,x' is not a comma-separated list of numbers"},
+      {"extract " + dir + "/v.raw --raw-dims 4 --iso 1" + out, "--raw-dims: '4' needs X,Y or X,Y,Z"},
+      {"extract " + dir + "/v.raw --raw-dims 4,4.5,4 --iso 1" + out, "--raw-dims: '4,4.5,4' must hold whole numbers"},
+      {"extract " + raw + " --raw-type u12 --iso 1" + out,
+       "--raw-type: unknown voxel type 'u12' (use u8 i8 u16 i16 u32 i32 f32 f64)"},
+      {"extract " + raw + " --raw-endian middle --iso 1" + out,
+       "--raw-endian: unknown byte order 'middle' (use little or big)"},
+      {"extract " + raw + " --spacing 1,1 --iso 1" + out, "--spacing: '1,1' needs three values"},
+      {"extract " + raw + " --iso 1 --sphere 1,2,3" + out, "--sphere: '1,2,3' needs cx,cy,cz,r with r > 0"},
+      {"extract " + raw + out, dir + "/v.raw: --iso is required for this input, whose values range from 0 to 189"},
+      {"extract " + raw + " --iso" + out, "--iso: 1 required FLOAT missing (see isoslab extract --help)"},
+      {"phantom 'sphere?n=8' -o " + dir + "/p.raw", "sphere?n=8: not a phantom spec (phantom:NAME?key=value&...)"},
+      {"extrct 'phantom:sphere?n=16'" + out, "unknown command 'extrct'; did you mean 'extract'?"},
+      {"inf x", "unknown command 'inf'; did you mean 'info'?"},
+      {"frobnicate", "unknown command 'frobnicate' (use extract, metrics, compare, decode, info or phantom)"},
+      {"--bogus", "The following argument was not expected: --bogus (see isoslab --help)"},
+  };
+  for (const BadCase& c : cases) {
+    const auto r = runCli(c.args);
+    EXPECT_EQ(r.exitCode, 2) << c.args;
+    EXPECT_EQ(r.err, "isoslab: error: " + c.error + "\n") << c.args;
+    EXPECT_EQ(r.out, "") << c.args;
+    EXPECT_EQ(testing::fileCount(dir), 1) << c.args;  // only v.raw
+  }
   EXPECT_EQ(runCli("--help").exitCode, 0);
+}
+
+TEST(Cli, IsoslabAlonePrintsItsUsageOnStderr) {
+  const auto r = runCli("");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(r.err.rfind("isoslab: streaming iso-surface extraction from volumetric scanner data\n"
+                        "Usage: isoslab [OPTIONS] SUBCOMMAND\n",
+                        0),
+            0u)
+      << r.err;
+  EXPECT_NE(r.err.find("\n  extract "), std::string::npos) << r.err;
+  EXPECT_EQ(r.err, runCli("--help").out);
+}
+
+TEST(Cli, AMissingIsoForCtSuggestsHounsfieldValues) {
+  const std::string dir = testing::tempDir();
+  {
+    std::ofstream f(dir + "/ct.raw", std::ios::binary);
+    for (int v = 0; v < 64; ++v) {
+      const auto hu = static_cast<std::int16_t>(v < 32 ? -1024 : 40 + v);
+      f.write(reinterpret_cast<const char*>(&hu), 2);
+    }
+  }
+  const auto r = runCli("extract " + dir + "/ct.raw --raw-dims 4,4,4 --raw-type i16 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.exitCode, 2);
+  const std::string hint =
+      "; for CT in Hounsfield units try about 300..400 for bone, -500..-200 for skin or 40 for soft tissue\n";
+  EXPECT_EQ(r.err, "isoslab: error: " + dir + "/ct.raw: --iso is required for this input, whose values range from " +
+                       "-1024 to 103" + hint);
+  const std::string philips = testing::sharedData("ct-philips-head");
+  if (philips.empty()) GTEST_SKIP() << "../shared/data/ct-philips-head is absent";
+  const auto d = runCli("extract " + philips + " -q -o " + dir + "/out.ply");
+  EXPECT_EQ(d.exitCode, 2);
+  EXPECT_EQ(d.err, "isoslab: error: " + philips +
+                       ": --iso is required for this input, whose values range from -1024 to 1033" + hint);
+  EXPECT_EQ(testing::fileCount(dir), 1);
+}
+
+TEST(Cli, MethodAndSpaceNamesAreCaseInsensitive) {
+  const std::string dir = testing::tempDir();
+  const std::string spec = "'phantom:sphere?n=24&r=8' -q";
+  ASSERT_EQ(runCli("extract " + spec + " --method MT6 --space RAS -o " + dir + "/a.ply --report " + dir + "/a.json")
+                .exitCode,
+            0);
+  ASSERT_EQ(runCli("extract " + spec + " --method mt6 --space ras -o " + dir + "/b.ply").exitCode, 0);
+  EXPECT_EQ(slurp(dir + "/a.ply"), slurp(dir + "/b.ply"));
+  const auto report = nlohmann::json::parse(slurp(dir + "/a.json"));
+  EXPECT_EQ(report["method"], "mt6");
+  EXPECT_EQ(report["space"], "ras");
+  EXPECT_EQ(runCli("extract " + spec + " --method Bcc12 --space Voxel --raw-endian BIG -o " + dir + "/c.ply").exitCode,
+            0);
+}
+
+TEST(Cli, AnIsoOutsideTheValueRangeWarnsEvenWhenQuietAndInTheReport) {
+  const std::string dir = testing::tempDir();
+  const std::string box = "extract 'phantom:box?n=12' -q -o " + dir + "/b.ply --report " + dir + "/r.json";
+  struct Case {
+    std::string iso;
+    std::string warning;
+  };
+  const std::vector<Case> cases = {
+      {"150", "--iso 150 is above the input's value range 0 .. 100: no voxel is inside, so the surface is empty "
+              "(0 triangles)"},
+      {"0", "--iso 0 is not above the input's smallest value (range 0 .. 100): every voxel is inside, so the surface "
+            "is empty (0 triangles)"},
+      {"-3.5", "--iso -3.5 is not above the input's smallest value (range 0 .. 100): every voxel is inside, so the "
+               "surface is empty (0 triangles)"},
+  };
+  for (const Case& c : cases) {
+    for (const char* threads : {"1", "3"}) {
+      const auto r = runCli(box + " --iso " + c.iso + " --threads " + threads);
+      ASSERT_EQ(r.exitCode, 0) << r.err;
+      EXPECT_EQ(r.err, "isoslab: warning: " + c.warning + "\n");
+      const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+      EXPECT_EQ(report["triangles"], 0);
+      EXPECT_EQ(report["closed"], true);
+      EXPECT_EQ(report["value_range"], nlohmann::json::array({0, 100}));
+      EXPECT_EQ(report["warnings"], nlohmann::json::array({c.warning}));
+    }
+  }
+  const auto ok = runCli(box + " --iso 50");
+  ASSERT_EQ(ok.exitCode, 0);
+  EXPECT_EQ(ok.err, "");
+  const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+  EXPECT_EQ(report["warnings"], nlohmann::json::array());
+  EXPECT_EQ(report["value_range"], nlohmann::json::array({0, 100}));
+  EXPECT_GT(report["triangles"].get<int>(), 0);
+}
+
+TEST(Cli, AnEmptySurfaceForAnyOtherReasonWarns) {
+  const std::string dir = testing::tempDir();
+  {
+    std::ofstream f(dir + "/nan.raw", std::ios::binary);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    for (int v = 0; v < 27; ++v) f.write(reinterpret_cast<const char*>(&nan), 4);
+  }
+  const auto r = runCli("extract " + dir + "/nan.raw --raw-dims 3,3,3 --raw-type f32 --iso 1 -q -o " + dir +
+                        "/n.ply --report " + dir + "/r.json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(r.err, "isoslab: warning: 0 triangles: the input holds no values but NaN\n");
+  const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+  EXPECT_TRUE(report["value_range"].is_null());
+  EXPECT_EQ(report["warnings"], nlohmann::json::array({"0 triangles: the input holds no values but NaN"}));
+}
+
+TEST(Cli, ARawFileLongerThanItsDimsNeedWarns) {
+  const std::string dir = testing::tempDir();
+  {
+    std::ofstream f(dir + "/v.raw", std::ios::binary);
+    for (int v = 0; v < 4 * 4 * 5; ++v) f.put(static_cast<char>(v));
+  }
+  const std::string warning = dir + "/v.raw: holds 80 bytes, 16 more than dims 4x4x4 of u8 need; the extra bytes are "
+                                    "ignored; dims 4x4x5 would use them all";
+  const auto r = runCli("extract " + dir + "/v.raw --raw-dims 4,4,4 --iso 30 -q -o " + dir + "/v.ply --report " + dir +
+                        "/r.json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(r.err, "isoslab: warning: " + warning + "\n");
+  const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+  EXPECT_EQ(report["warnings"], nlohmann::json::array({warning}));
+  EXPECT_EQ(report["value_range"], nlohmann::json::array({0, 63}));
+  const auto info = runCli("info " + dir + "/v.raw --raw-dims 4,4,4");
+  EXPECT_NE(info.out.find("\nwarning    " + warning + "\n"), std::string::npos) << info.out;
+
+  const std::string engine = testing::sharedData("engine/engine_256x256x128_uint8.raw.gz");
+  if (engine.empty()) GTEST_SKIP() << "../shared/data/engine is absent";
+  const auto e = runCli("extract " + engine + " --raw-dims 256,256,127 --iso 90 -q -o " + dir + "/e.ply --report " +
+                        dir + "/e.json");
+  ASSERT_EQ(e.exitCode, 0) << e.err;
+  const std::string inflated = engine +
+                               ": holds 8388608 bytes once inflated, 65536 more than dims 256x256x127 of u8 need; "
+                               "the extra bytes are ignored; dims 256x256x128 would use them all";
+  EXPECT_EQ(e.err, "isoslab: warning: " + inflated + "\n");
+  EXPECT_EQ(nlohmann::json::parse(slurp(dir + "/e.json"))["warnings"], nlohmann::json::array({inflated}));
+}
+
+TEST(Cli, SliceFilesOfTheWrongTypeWarnAndNameTheTypeThatFits) {
+  const std::string cthead = testing::sharedData("cthead");
+  if (cthead.empty()) GTEST_SKIP() << "../shared/data/cthead is absent";
+  const std::string dir = testing::tempDir();
+  const auto r = runCli("extract " + cthead + " --raw-dims 256,256 --iso 100 -q -o " + dir + "/c.ply --report " + dir +
+                        "/r.json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const std::string warning = cthead +
+                              "/CThead.1: holds 131072 bytes, 65536 more than one 256x256 slice of u8 needs, as do "
+                              "all 113 slice files; the extra bytes are ignored; a 2-byte type (u16 or i16) would "
+                              "use them all";
+  EXPECT_EQ(r.err, "isoslab: warning: " + warning + "\n");
+  EXPECT_EQ(nlohmann::json::parse(slurp(dir + "/r.json"))["warnings"], nlohmann::json::array({warning}));
+  const auto right =
+      runCli("extract " + cthead + " --raw-dims 256,256 --raw-type u16 --raw-endian big --iso 600 -q -o " + dir +
+             "/d.ply --report " + dir + "/d.json");
+  ASSERT_EQ(right.exitCode, 0) << right.err;
+  EXPECT_EQ(right.err, "");
+  const auto report = nlohmann::json::parse(slurp(dir + "/d.json"));
+  EXPECT_EQ(report["value_range"], nlohmann::json::array({0, 3272}));
 }
 
 TEST(Cli, AFullDiskLeavesNoPartialFile) {

@@ -117,5 +117,63 @@ TEST(RawReader, BadInputsGiveOneClearMessage) {
             dir + "/none.%d: the pattern matches no file (tried indices 0 and 1)");
 }
 
+TEST(RawReader, DataLongerThanTheDimsNeedGivesAWarningThatSaysWhatWouldFit) {
+  const std::string dir = testing::tempDir();
+  writeBytes(dir + "/exact.raw", std::vector<std::uint8_t>(24, 1));
+  auto exact = RawReader::open(dir + "/exact.raw", u16Options(3));
+  readAll(*exact);
+  EXPECT_TRUE(exact->warnings().empty());
+
+  writeBytes(dir + "/long.raw", std::vector<std::uint8_t>(32, 1));
+  const std::vector<std::string> expected = {
+      dir + "/long.raw: holds 32 bytes, 8 more than dims 2x2x3 of u16 need; the extra bytes are ignored; dims 2x2x4 "
+            "would use them all"};
+  auto plain = RawReader::open(dir + "/long.raw", u16Options(3));
+  EXPECT_EQ(plain->warnings(), expected);  // a plain file is measured when opened
+  EXPECT_EQ(readAll(*plain).size(), 3u);
+  EXPECT_EQ(plain->warnings(), expected);
+
+  RawOptions header = u16Options(3);
+  header.headerBytes = 3;
+  EXPECT_EQ(RawReader::open(dir + "/long.raw", header)->warnings(),
+            std::vector<std::string>{dir + "/long.raw: holds 32 bytes, 5 more than dims 2x2x3 of u16 after a 3-byte "
+                                           "header need; the extra bytes are ignored"});
+
+  gzFile f = gzopen((dir + "/v.raw.gz").c_str(), "wb");
+  const std::uint8_t data[8] = {1, 0, 2, 0, 3, 0, 4, 0};
+  for (int n = 0; n < 3; ++n) gzwrite(f, data, 8);
+  gzclose(f);
+  auto gz = RawReader::open(dir + "/v.raw.gz", u16Options(2));
+  EXPECT_TRUE(gz->warnings().empty());  // a compressed stream is measured at its end
+  EXPECT_EQ(readAll(*gz).size(), 2u);
+  const std::vector<std::string> inflated = {dir +
+                                             "/v.raw.gz: holds 24 bytes once inflated, 8 more than dims 2x2x2 of u16 "
+                                             "need; the extra bytes are ignored; dims 2x2x3 would use them all"};
+  EXPECT_EQ(gz->warnings(), inflated);
+  EXPECT_EQ(gz->warnings(), inflated);  // counted once
+}
+
+TEST(RawReader, SliceFilesLongerThanASliceGiveOneWarning) {
+  const std::string dir = testing::tempDir();
+  for (int k = 1; k <= 3; ++k) writeBytes(dir + "/s." + std::to_string(k), std::vector<std::uint8_t>(16, 0));
+  auto all = RawReader::open(dir + "/s.%d", u16Options(0));
+  EXPECT_EQ(all->warnings(),
+            std::vector<std::string>{dir + "/s.1: holds 16 bytes, 8 more than one 2x2 slice of u16 needs, as do all 3 "
+                                           "slice files; the extra bytes are ignored; a 4-byte type (u32, i32 or "
+                                           "f32) would use them all"});
+  writeBytes(dir + "/s.1", std::vector<std::uint8_t>(8, 0));
+  writeBytes(dir + "/s.3", std::vector<std::uint8_t>(8, 0));
+  writeBytes(dir + "/s.2", std::vector<std::uint8_t>(12, 0));
+  auto one = RawReader::open(dir, u16Options(0));
+  EXPECT_EQ(one->warnings(), std::vector<std::string>{dir + "/s.2: holds 12 bytes, 4 more than one 2x2 slice of u16 "
+                                                            "needs; the extra bytes are ignored; a 2x3 slice would "
+                                                            "use them all"});
+  writeBytes(dir + "/s.1", std::vector<std::uint8_t>(16, 0));
+  EXPECT_EQ(RawReader::open(dir, u16Options(0))->warnings(),
+            std::vector<std::string>{dir + "/s.1: holds 16 bytes, 8 more than one 2x2 slice of u16 needs, as do 2 of "
+                                           "the 3 slice files; the extra bytes are ignored; a 4-byte type (u32, i32 "
+                                           "or f32) would use them all"});
+}
+
 }  // namespace
 }  // namespace isoslab

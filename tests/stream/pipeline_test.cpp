@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "extract/frame.h"
 #include "extract/slab_stitcher.h"
@@ -219,6 +220,33 @@ TEST(Pipeline, ErrorsOnOtherThreadsReachTheCaller) {
     }
     EXPECT_FALSE(sink.finished);
   }
+}
+
+TEST(Pipeline, TracksTheValueRangeOfEverySliceSkippingNaN) {
+  for (int threads : {1, 3}) {
+    for (bool lending : {false, true}) {
+      testing::VectorSource source({6, 5, 7}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
+        if (i == 2 && j == 3) return std::numeric_limits<float>::quiet_NaN();
+        return static_cast<float>(i * 10 + j - k * 100);
+      });
+      source.setLending(lending);
+      ExtractOptions o;
+      o.iso = 5000;
+      auto ex = makeExtractor(o, source.info(), LatticeFrame::physical(source.info()));
+      ContractSink sink;
+      PipelineOptions p;
+      p.threads = threads;
+      const PipelineResult r = runPipeline(source, *ex, sink, MeshHeader{}, p);
+      EXPECT_EQ(r.triangles, 0u);
+      ASSERT_TRUE(r.valueRange.has_value()) << threads << " " << lending;
+      EXPECT_EQ((*r.valueRange)[0], -600.0);  // i = j = 0, k = 6
+      EXPECT_EQ((*r.valueRange)[1], 54.0);    // i = 5, j = 4, k = 0
+    }
+  }
+  testing::VectorSource nan({3, 3, 3}, std::vector<float>(27, std::numeric_limits<float>::quiet_NaN()));
+  auto ex = makeExtractor(ExtractOptions{}, nan.info(), LatticeFrame::physical(nan.info()));
+  ContractSink sink;
+  EXPECT_FALSE(runPipeline(nan, *ex, sink, MeshHeader{}).valueRange.has_value());
 }
 
 TEST(SlabStitcher, RejectsPartsOutOfOrder) {

@@ -1,0 +1,77 @@
+#include "encode/mesh_metadata.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace isoslab {
+
+std::string spaceTag(const std::string& space) {
+  if (space == "lps") return "LPS";
+  if (space == "ras") return "RAS";
+  return "";
+}
+
+std::vector<std::string> metadataLines(const MeshHeader& h) {
+  std::vector<std::string> lines;
+  lines.push_back(fmt::format("isoslab {} iso {} space {}", h.method, h.iso, h.space));
+  const std::string tag = spaceTag(h.space);
+  if (!tag.empty()) lines.push_back("SPACE=" + tag);
+  if (h.volumeFaces) {
+    const auto& b = h.volumeBounds;
+    lines.push_back(fmt::format("volume_bounds {} {} {} {} {} {}", b[0], b[1], b[2], b[3], b[4], b[5]));
+    std::string faces = "volume_faces";
+    for (const FacePlane& f : *h.volumeFaces) faces += fmt::format(" {} {} {} {}", f[0], f[1], f[2], f[3]);
+    lines.push_back(faces);
+    if (h.positionTolerance > 0) lines.push_back(fmt::format("position_tolerance {}", h.positionTolerance));
+  }
+  return lines;
+}
+
+void parseMetadataLine(const std::string& line, MeshMetadata& meta) {
+  std::istringstream s(line);
+  std::string word;
+  s >> word;
+  if (word == "isoslab") {
+    std::string method, isoWord, spaceWord, space;
+    double iso = 0;
+    if (s >> method >> isoWord >> iso && isoWord == "iso" && std::isfinite(iso)) {
+      meta.method = method;
+      meta.iso = iso;
+      if (s >> spaceWord >> space && spaceWord == "space") meta.space = space;
+    }
+  } else if (word == "volume_bounds") {
+    std::array<double, 6> b{};
+    for (double& v : b) {
+      if (!(s >> v) || !std::isfinite(v)) return;
+    }
+    meta.volumeBounds = b;
+  } else if (word == "position_tolerance") {
+    double t = 0;
+    if (s >> t && std::isfinite(t) && t >= 0) meta.positionTolerance = t;
+  } else if (word == "volume_faces") {
+    VolumeFaces faces{};
+    for (FacePlane& f : faces) {
+      for (double& v : f) {
+        if (!(s >> v) || !std::isfinite(v)) return;
+      }
+    }
+    meta.volumeFaces = faces;
+  }
+}
+
+MeshHeader headerFromMetadata(const MeshMetadata& meta) {
+  MeshHeader h;
+  h.method = meta.method.empty() ? "decoded" : meta.method;
+  h.iso = meta.iso.value_or(0.0);
+  h.space = meta.space;
+  if (meta.volumeBounds && meta.volumeFaces) {
+    h.volumeBounds = *meta.volumeBounds;
+    h.volumeFaces = meta.volumeFaces;
+    h.positionTolerance = meta.positionTolerance;
+  }
+  return h;
+}
+
+}  // namespace isoslab
