@@ -97,6 +97,7 @@ struct RawArgs {
   bool strict = false;
   bool skipBad = false;
   int channel = -1;
+  std::string niftiXform;  // empty: the sform when sform_code > 0, else the qform
   std::string dims;
   std::string type = "u8";
   std::string endian = "little";
@@ -108,12 +109,17 @@ void addRawOptions(CLI::App* cmd, RawArgs& raw) {
   cmd->add_option("--series", raw.series,
                   "DICOM: the series to read, by SeriesInstanceUID or index (default: the largest)")
       ->group("DICOM input");
-  cmd->add_flag("--strict", raw.strict, "DICOM: treat series warnings (gaps, duplicates) as errors")
+  cmd->add_flag("--strict", raw.strict, "DICOM: treat series warnings (a slice may be missing, duplicates) as errors")
       ->group("DICOM input");
   cmd->add_flag("--skip-bad", raw.skipBad, "DICOM: skip corrupt or unreadable files with a warning")
       ->group("DICOM input");
   cmd->add_option("--channel", raw.channel,
                   "Colour or multi-component input (DICOM, image stacks, NRRD, MetaImage): the channel to use, from 0")
+      ->group("DICOM input");
+  cmd->add_option("--nifti-xform", raw.niftiXform,
+                  "NIfTI: the world transform, sform or qform (default: the sform when sform_code > 0, else the "
+                  "qform)")
+      ->check(CLI::IsMember({"sform", "qform"}))
       ->group("DICOM input");
   cmd->add_option("--raw-dims", raw.dims, "Raw input: lattice points X,Y,Z (Z may be left out for per-slice files)")
       ->group("Raw input");
@@ -155,6 +161,8 @@ SourceOptions sourceOptions(const RawArgs& raw) {
   options.dicom.strict = raw.strict;
   options.dicom.skipBad = raw.skipBad;
   options.dicom.channel = raw.channel;
+  if (raw.niftiXform == "sform") options.niftiXform = NiftiXform::kSform;
+  if (raw.niftiXform == "qform") options.niftiXform = NiftiXform::kQform;
   if (raw.dims.empty()) {
     if (!raw.spacing.empty()) {
       const auto sp = parseList(raw.spacing, "--spacing");
@@ -177,8 +185,7 @@ SourceOptions sourceOptions(const RawArgs& raw) {
   }
   const auto type = parseVoxelType(raw.type);
   if (!type)
-    throw UsageError(
-        fmt::format("--raw-type: unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", raw.type));
+    throw UsageError(fmt::format("--raw-type: unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", raw.type));
   r.type = *type;
   if (raw.endian == "little") {
     r.byteOrder = ByteOrder::kLittle;
@@ -209,8 +216,7 @@ void writeText(const std::string& path, const std::string& text) {
 
 Sphere parseSphere(const std::string& text) {
   const auto v = parseList(text, "--sphere");
-  if (v.size() != 4 || !(v[3] > 0))
-    throw UsageError(fmt::format("--sphere: '{}' needs cx,cy,cz,r with r > 0", text));
+  if (v.size() != 4 || !(v[3] > 0)) throw UsageError(fmt::format("--sphere: '{}' needs cx,cy,cz,r with r > 0", text));
   return Sphere{{v[0], v[1], v[2]}, v[3]};
 }
 
@@ -265,14 +271,16 @@ std::optional<std::string> emptySurfaceWarning(double iso, bool isoGiven,
   const double lo = asFloat((*range)[0]);
   const double hi = asFloat((*range)[1]);
   if (iso > hi) {
-    return fmt::format("{} is above the input's value range {} .. {}: no voxel is inside, so the surface is empty "
-                       "(0 triangles)",
-                       name, lo, hi);
+    return fmt::format(
+        "{} is above the input's value range {} .. {}: no voxel is inside, so the surface is empty "
+        "(0 triangles)",
+        name, lo, hi);
   }
   if (iso <= lo) {
-    return fmt::format("{} is not above the input's smallest value (range {} .. {}): every voxel is inside, so the "
-                       "surface is empty (0 triangles)",
-                       name, lo, hi);
+    return fmt::format(
+        "{} is not above the input's smallest value (range {} .. {}): every voxel is inside, so the "
+        "surface is empty (0 triangles)",
+        name, lo, hi);
   }
   return fmt::format("0 triangles: no cell crosses {} (value range {} .. {})", name, lo, hi);
 }
@@ -373,9 +381,9 @@ int runExtract(const ExtractArgs& args) {
     r["voxel_type"] = std::string(voxelTypeName(info.type));
     r["space"] = header.space;
     r["normals"] = args.normals;
-    r["value_range"] = run.valueRange ? nlohmann::ordered_json::array({asFloat((*run.valueRange)[0]),
-                                                                        asFloat((*run.valueRange)[1])})
-                                      : nlohmann::ordered_json();
+    r["value_range"] =
+        run.valueRange ? nlohmann::ordered_json::array({asFloat((*run.valueRange)[0]), asFloat((*run.valueRange)[1])})
+                       : nlohmann::ordered_json();
     r["warnings"] = warnings;
     addStatsJson(r, s);
     if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *sphereErrors));
@@ -434,17 +442,23 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
   const bool dicom = !options.raw && !PhantomSource::isPhantom(inputs.front()) &&
                      std::all_of(inputs.begin(), inputs.end(), [](const std::string& in) { return isDicomInput(in); });
   if (!dicom) {
-    auto source = openSource(inputs, options);
+    std::vector<std::string> notes;
+    auto source = openSource(inputs, options, &notes);
     std::printf("input      %s\n", inputs.front().c_str());
     printGeometry(source->info());
     const auto range = valueRange(*source);
     std::printf("range      %g .. %g\n", range[0], range[1]);
+    for (const std::string& n : notes) {
+      const bool warning = n.rfind("warning: ", 0) == 0;
+      std::printf("%s%s\n", warning ? "warning    " : "note       ", n.c_str() + (warning ? 9 : 0));
+    }
     for (const std::string& w : source->warnings()) std::printf("warning    %s\n", w.c_str());
     if (source->info().suggestedIso) std::printf("iso        %g (suggested)\n", *source->info().suggestedIso);
     return 0;
   }
   const DicomScan scan = scanDicom(inputs, options.dicom);
-  std::printf("%zu DICOM series; %d files skipped (not DICOM images)\n", scan.series.size(), scan.skipped);
+  std::printf("%zu DICOM series; %d %s skipped (not DICOM images)\n", scan.series.size(), scan.skipped,
+              scan.skipped == 1 ? "file" : "files");
   for (const std::string& w : scan.warnings) std::printf("warning: %s\n", w.c_str());
   for (std::size_t n = 0; n < scan.series.size(); ++n) {
     const DicomSeries& s = scan.series[n];
@@ -460,10 +474,38 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
       std::sort(g.begin(), g.end());
       std::printf("  slice spacing  min %g, median %g, max %g\n", g.front(), g[g.size() / 2], g.back());
     }
+    std::optional<std::array<double, 2>> thickness;
+    for (const DicomSlice& slice : s.slices) {
+      if (!slice.thickness) continue;
+      const double t = *slice.thickness;
+      thickness = thickness ? std::array<double, 2>{std::min((*thickness)[0], t), std::max((*thickness)[1], t)}
+                            : std::array<double, 2>{t, t};
+    }
+    if (thickness) {
+      const auto& t = *thickness;
+      std::printf("  thickness      %s mm (SliceThickness)\n",
+                  t[0] == t[1] ? fmt::format("{:g}", t[0]).c_str() : fmt::format("{:g} .. {:g}", t[0], t[1]).c_str());
+    }
     const auto& o = s.orientation;
     std::printf("  orientation    %g %g %g  %g %g %g\n", o[0], o[1], o[2], o[3], o[4], o[5]);
+    const std::string headerTilt =
+        s.gantryTilt ? fmt::format("{:g} degrees (GantryDetectorTilt)", *s.gantryTilt) : "not in the headers";
+    const auto tilt = geometricTilt(s);
+    std::printf("  gantry tilt    %s; %s\n", headerTilt.c_str(),
+                tilt ? fmt::format("{:.2f} degrees between the slice normal and the slice steps", *tilt).c_str()
+                     : "the geometry cannot tell (one slice or no positions)");
+    if (const auto& p = s.slices.front().position) {
+      std::printf("  first slice    %g %g %g (ImagePositionPatient of %s)\n", (*p)[0], (*p)[1], (*p)[2],
+                  s.slices.front().path.c_str());
+    }
+    if (const auto box = patientExtent(s)) {
+      const auto& b = *box;
+      std::printf("  extent         x %g .. %g, y %g .. %g, z %g .. %g (LPS mm, corner pixel centres)\n", b[0], b[3],
+                  b[1], b[4], b[2], b[5]);
+    }
     std::printf("  transfer       %s (%s)\n", s.transferSyntax.c_str(), s.transferSyntaxUid.c_str());
     for (const std::string& w : s.warnings) std::printf("  warning        %s\n", w.c_str());
+    for (const std::string& note : s.notes) std::printf("  note           %s\n", note.c_str());
     try {
       auto source = openDicomSeries(s, options.dicom);
       const auto range = valueRange(*source);

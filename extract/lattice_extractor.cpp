@@ -666,9 +666,18 @@ class LatticeExtractor final : public Extractor, public SlabWorker {
     if (options_.normals) {
       const Vec3d ga = nodeGradient(e.a, i, j);
       const Vec3d gb = nodeGradient(e.b, i, j);
-      const Vec3d g =
+      Vec3d g =
           frame_.gradient({ga[0] + t * (gb[0] - ga[0]), ga[1] + t * (gb[1] - ga[1]), ga[2] + t * (gb[2] - ga[2])});
-      const double len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+      double len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+      if (!(len > 0)) {
+        // The central differences cancel (a symmetric extremum at the vertex): take the one-sided
+        // difference along the vertex's own edge. It is never zero, since the edge crosses the
+        // iso value, and it points from the inside end to the outside end.
+        const Vec3d d{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        const double scale = (vb - va) / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        g = frame_.gradient({d[0] * scale, d[1] * scale, d[2] * scale});
+        len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+      }
       // The normal points down the gradient, from higher to lower values.
       const double s = len > 0 ? -1.0 / len : 0.0;
       out_->normals.push_back(

@@ -21,8 +21,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <mutex>
+#include <numbers>
 #include <numeric>
 #include <set>
 
@@ -35,6 +37,8 @@ namespace isoslab {
 namespace {
 
 using Vec3 = std::array<double, 3>;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
 
 void initDcmtk() {
   static std::once_flag once;
@@ -88,6 +92,7 @@ struct FrameGeometry {
   std::optional<Vec3> position;
   std::optional<std::array<double, 6>> orientation;
   std::optional<std::array<double, 2>> spacing;
+  std::optional<double> thickness;
   double slope = 1;
   double intercept = 0;
 };
@@ -104,6 +109,7 @@ FrameGeometry frameGeometry(DcmItem* plain, DcmItem* perFrame, DcmItem* shared) 
     }
     if (getDoubles(subItem(level, DCM_PixelMeasuresSequence), DCM_PixelSpacing, v, 2))
       g.spacing = std::array<double, 2>{v[0], v[1]};
+    if (getDoubles(subItem(level, DCM_PixelMeasuresSequence), DCM_SliceThickness, v, 1)) g.thickness = v[0];
     DcmItem* transform = subItem(level, DCM_PixelValueTransformationSequence);
     if (getDoubles(transform, DCM_RescaleSlope, v, 1)) g.slope = v[0];
     if (getDoubles(transform, DCM_RescaleIntercept, v, 1)) g.intercept = v[0];
@@ -115,6 +121,7 @@ FrameGeometry frameGeometry(DcmItem* plain, DcmItem* perFrame, DcmItem* shared) 
       g.orientation = std::array<double, 6>{v[0], v[1], v[2], v[3], v[4], v[5]};
     }
     if (!g.spacing && getDoubles(plain, DCM_PixelSpacing, v, 2)) g.spacing = std::array<double, 2>{v[0], v[1]};
+    if (!g.thickness && getDoubles(plain, DCM_SliceThickness, v, 1)) g.thickness = v[0];
     if (getDoubles(plain, DCM_RescaleSlope, v, 1)) g.slope = v[0];
     if (getDoubles(plain, DCM_RescaleIntercept, v, 1)) g.intercept = v[0];
   }
@@ -144,6 +151,12 @@ std::vector<std::string> dicomdirFiles(const std::string& path) {
     files.push_back((base / rel).string());
   }
   return files;
+}
+
+// How far a gap may exceed the slices' thickness and still be covered by them: positions and
+// SliceThickness are often rounded to 0.01 mm and 0.1 mm.
+double thicknessTolerance(double thickness) {
+  return std::max(0.02, 0.02 * thickness);
 }
 
 std::string seriesLabel(const DicomSeries& s) {
@@ -236,6 +249,7 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
     s.samplesPerPixel = getU16(ds, DCM_SamplesPerPixel, 1);
     s.planarConfiguration = getU16(ds, DCM_PlanarConfiguration);
     s.photometric = getString(ds, DCM_PhotometricInterpretation);
+    if (double tilt = 0; getDoubles(ds, DCM_GantryDetectorTilt, &tilt, 1)) s.gantryTilt = tilt;
     Sint32 frames = 1;
     if (ds->findAndGetSint32(DCM_NumberOfFrames, frames).bad() || frames < 1) frames = 1;
     DcmItem* shared = subItem(ds, DCM_SharedFunctionalGroupsSequence);
@@ -273,6 +287,7 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
       slice.instanceNumber = s.multiFrame ? f + 1 : instance;
       slice.slope = g.slope;
       slice.intercept = g.intercept;
+      if (g.thickness && *g.thickness > 0 && std::isfinite(*g.thickness)) slice.thickness = g.thickness;
       into.slices.push_back(slice);
     }
     if (stacks.size() > 1) {
@@ -350,23 +365,70 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
         std::vector<double> sorted = s.gaps;
         std::sort(sorted.begin(), sorted.end());
         const double median = sorted[sorted.size() / 2];
-        // One warning per run of consecutive large gaps.
+        // A gap over 1.5 times the median spacing is a missing slice unless the slices on either side
+        // are thick enough to meet across it (half of each one's SliceThickness): series that change
+        // their slice thickness part-way, like the GE tilt series (4 mm, then 7 mm), space their
+        // slices by it. One message per run of consecutive large gaps of the same kind: a warning
+        // when a slice may be missing, a note when the thickness covers the gaps.
+        enum class GapKind { kEven, kCovered, kMissing };
+        auto pairThickness = [&](std::size_t k) -> std::optional<double> {
+          const auto& a = s.slices[k].thickness;
+          const auto& b = s.slices[k + 1].thickness;
+          if (!a || !b) return std::nullopt;
+          return (*a + *b) / 2;
+        };
+        auto kindOf = [&](std::size_t k) {
+          if (s.gaps[k] <= 1.5 * median) return GapKind::kEven;
+          const auto t = pairThickness(k);
+          return t && s.gaps[k] <= *t + thicknessTolerance(*t) ? GapKind::kCovered : GapKind::kMissing;
+        };
+        auto range = [](double lo, double hi) {
+          const std::string a = fmt::format("{:.3g}", lo);
+          const std::string b = fmt::format("{:.3g}", hi);
+          return a == b ? a : fmt::format("{} to {}", a, b);
+        };
         for (std::size_t k = 0; k < s.gaps.size();) {
-          if (s.gaps[k] <= 1.5 * median) {
+          const GapKind kind = kindOf(k);
+          if (kind == GapKind::kEven) {
             ++k;
             continue;
           }
           std::size_t end = k;
-          double widest = 0;
-          while (end < s.gaps.size() && s.gaps[end] > 1.5 * median) widest = std::max(widest, s.gaps[end++]);
-          if (end - k == 1) {
-            s.warnings.push_back(
-                fmt::format("gap of {:.3g} mm between {} and {} (median spacing {:.3g} mm): a slice may be missing",
-                            widest, s.slices[k].path, s.slices[k + 1].path, median));
+          double narrowest = s.gaps[k], widest = s.gaps[k];
+          bool equal = true;  // every gap equals its slices' thickness (rather than being below it)
+          while (end < s.gaps.size() && kindOf(end) == kind) {
+            narrowest = std::min(narrowest, s.gaps[end]);
+            widest = std::max(widest, s.gaps[end]);
+            if (kind == GapKind::kCovered) {
+              const double t = *pairThickness(end);
+              equal = equal && std::abs(s.gaps[end] - t) <= thicknessTolerance(t);
+            }
+            ++end;
+          }
+          // SliceThickness of the slices around the run, when every one of them has it.
+          std::optional<std::array<double, 2>> thick = std::array<double, 2>{kInf, -kInf};
+          for (std::size_t n = k; n <= end && thick; ++n) {
+            const auto& t = s.slices[n].thickness;
+            thick = t ? std::optional(std::array<double, 2>{std::min((*thick)[0], *t), std::max((*thick)[1], *t)})
+                      : std::nullopt;
+          }
+          const std::size_t count = end - k;
+          const bool one = count == 1;
+          const std::string where =
+              one ? fmt::format("gap of {:.3g} mm between {} and {}", widest, s.slices[k].path, s.slices[k + 1].path)
+                  : fmt::format("{} gaps of {} mm from {} to {}", count, range(narrowest, widest), s.slices[k].path,
+                                s.slices[end].path);
+          if (kind == GapKind::kCovered) {
+            const char* verb = equal ? (one ? "equals" : "equal") : (one ? "is within" : "are within");
+            s.notes.push_back(fmt::format(
+                "uneven slice spacing: {}{} (median spacing {:.3g} mm) {} the slice thickness ({} mm): no slice is "
+                "missing",
+                one ? "a " : "", where, median, verb, range((*thick)[0], (*thick)[1])));
           } else {
-            s.warnings.push_back(fmt::format(
-                "{} gaps of up to {:.3g} mm from {} to {} (median spacing {:.3g} mm): slices may be missing", end - k,
-                widest, s.slices[k].path, s.slices[end].path, median));
+            const std::string thickness =
+                thick ? fmt::format(", slice thickness {} mm", range((*thick)[0], (*thick)[1])) : std::string();
+            s.warnings.push_back(fmt::format("{} (median spacing {:.3g} mm{}): {}", where, median, thickness,
+                                             one ? "a slice may be missing" : "slices may be missing"));
           }
           k = end;
         }
@@ -378,6 +440,46 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
   }
   scan.series = std::move(series);
   return scan;
+}
+
+std::optional<double> geometricTilt(const DicomSeries& series) {
+  if (series.slices.size() < 2 || !series.slices.front().position || !series.slices.back().position) {
+    return std::nullopt;
+  }
+  const auto& o = series.orientation;
+  const Vec3 normal = cross({o[0], o[1], o[2]}, {o[3], o[4], o[5]});
+  const Vec3& a = *series.slices.front().position;
+  const Vec3& b = *series.slices.back().position;
+  const Vec3 step{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const double lengths = std::sqrt(dot(normal, normal) * dot(step, step));
+  if (!(lengths > 0)) return std::nullopt;
+  // Slices are sorted along the normal, so the angle is below 90 degrees; the clamp guards acos
+  // against rounding.
+  const double c = std::clamp(dot(normal, step) / lengths, -1.0, 1.0);
+  return std::acos(c) * 180 / std::numbers::pi;
+}
+
+std::optional<std::array<double, 6>> patientExtent(const DicomSeries& series) {
+  std::array<double, 6> box{kInf, kInf, kInf, -kInf, -kInf, -kInf};
+  const auto& o = series.orientation;
+  // ImagePositionPatient is the centre of the first pixel; the row direction runs along a row
+  // (columns apart by the column spacing), the column direction down a column.
+  const double across = (series.columns - 1.0) * series.pixelSpacing[1];
+  const double down = (series.rows - 1.0) * series.pixelSpacing[0];
+  for (const DicomSlice& slice : series.slices) {
+    if (!slice.position) return std::nullopt;
+    for (const double i : {0.0, across}) {
+      for (const double j : {0.0, down}) {
+        for (std::size_t c = 0; c < 3; ++c) {
+          const double v = (*slice.position)[c] + i * o[c] + j * o[3 + c];
+          box[c] = std::min(box[c], v);
+          box[3 + c] = std::max(box[3 + c], v);
+        }
+      }
+    }
+  }
+  if (series.slices.empty()) return std::nullopt;
+  return box;
 }
 
 const DicomSeries& chooseSeries(const DicomScan& scan, const DicomOptions& options, std::string* chosenNote) {
@@ -400,8 +502,9 @@ const DicomSeries& chooseSeries(const DicomScan& scan, const DicomOptions& optio
     if (scan.series[i].slices.size() > scan.series[best].slices.size()) best = i;
   }
   if (chosenNote != nullptr && scan.series.size() > 1) {
-    *chosenNote = fmt::format("{} series found; using series {} ({}, {} images), the largest; choose with --series",
-                              scan.series.size(), best, scan.series[best].uid, scan.series[best].slices.size());
+    const std::size_t images = scan.series[best].slices.size();
+    *chosenNote = fmt::format("{} series found; using series {} ({}, {} image{}), the largest; choose with --series",
+                              scan.series.size(), best, scan.series[best].uid, images, images == 1 ? "" : "s");
   }
   return scan.series[best];
 }

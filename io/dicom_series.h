@@ -25,7 +25,7 @@ struct DicomOptions {
   /// Series to read: its SeriesInstanceUID, or its index in scan order (as "isoslab info" lists).
   /// Empty: the series with the most images.
   std::string series;
-  /// Turn series warnings (gaps, duplicates) into errors.
+  /// Turn series warnings (a slice may be missing, duplicates) into errors; notes stay notes.
   bool strict = false;
   /// Skip unreadable or corrupt files with a warning instead of failing.
   bool skipBad = false;
@@ -41,6 +41,7 @@ struct DicomSlice {
   std::int32_t instanceNumber = 0;
   double slope = 1;
   double intercept = 0;
+  std::optional<double> thickness;  // SliceThickness, mm
 };
 
 struct DicomSeries {
@@ -60,8 +61,15 @@ struct DicomSeries {
   std::array<double, 2> pixelSpacing{1, 1};  // row spacing (between rows), column spacing
   std::array<double, 6> orientation{1, 0, 0, 0, 1, 0};
   bool multiFrame = false;
+  /// GantryDetectorTilt of the first image, in degrees, when present.
+  std::optional<double> gantryTilt;
   std::vector<DicomSlice> slices;  // sorted
+  /// Problems that may make the volume wrong (a slice may be missing, duplicates); --strict makes
+  /// the first one an error.
   std::vector<std::string> warnings;
+  /// Facts worth knowing that do not make the volume wrong (uneven spacing that the slices'
+  /// thickness covers); never an error.
+  std::vector<std::string> notes;
   /// Distances between consecutive slice origins along the normal, after sorting.
   std::vector<double> gaps;
 };
@@ -85,6 +93,15 @@ bool isDicomInput(const std::string& path);
 /// corrupt files (unless skipBad), for series mixing sizes, orientations or pixel types (naming
 /// the files), and, when strict, for any series warning.
 DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& options);
+
+/// The angle in degrees between the slice normal (row x column of ImageOrientationPatient) and the
+/// line from the first slice's position to the last one's: the gantry tilt the geometry shows.
+/// Empty when positions are missing or the series has fewer than two slices.
+std::optional<double> geometricTilt(const DicomSeries& series);
+
+/// The LPS box, in mm, around the corner pixel centres of every slice: xmin ymin zmin xmax ymax
+/// zmax. Empty when positions are missing.
+std::optional<std::array<double, 6>> patientExtent(const DicomSeries& series);
 
 /// Picks the series named by options.series, or the largest one (`chosenNote` then says so).
 const DicomSeries& chooseSeries(const DicomScan& scan, const DicomOptions& options, std::string* chosenNote);

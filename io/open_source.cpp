@@ -30,7 +30,9 @@ std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, 
     if (inputs.size() > 1) throw Error(fmt::format("{}: raw input takes one file, pattern or folder", inputs[1]));
     return RawReader::open(input, *options.raw);
   }
-  if (inputs.size() == 1 && isVolumeFormat(input)) return openVolumeFormat(input, options.dicom.channel, notes);
+  if (inputs.size() == 1 && isVolumeFormat(input)) {
+    return openVolumeFormat(input, options.dicom.channel, notes, options.niftiXform);
+  }
   if (isImageStack(inputs) || (inputs.size() == 1 && isImageFile(input) && !std::filesystem::exists(input))) {
     ImageStackOptions stack;
     stack.channel = options.dicom.channel;
@@ -46,15 +48,21 @@ std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, 
   if (std::all_of(inputs.begin(), inputs.end(), [](const std::string& in) { return isDicomInput(in); })) {
     const DicomScan scan = scanDicom(inputs, options.dicom);
     if (scan.series.empty()) {
-      throw Error(fmt::format("{}: no DICOM image found ({} files skipped)", input, scan.skipped));
+      throw Error(fmt::format("{}: no DICOM image found ({} file{} skipped)", input, scan.skipped,
+                              scan.skipped == 1 ? "" : "s"));
     }
     std::string chosen;
     const DicomSeries& series = chooseSeries(scan, options.dicom, &chosen);
     if (notes != nullptr) {
       if (!chosen.empty()) notes->push_back(chosen);
-      if (scan.skipped > 0) notes->push_back(fmt::format("skipped {} files that are not DICOM images", scan.skipped));
+      if (scan.skipped > 0) {
+        notes->push_back(
+            fmt::format("skipped {} {}", scan.skipped,
+                        scan.skipped == 1 ? "file that is not a DICOM image" : "files that are not DICOM images"));
+      }
       for (const std::string& w : scan.warnings) notes->push_back("warning: " + w);
       for (const std::string& w : series.warnings) notes->push_back("warning: " + w);
+      notes->insert(notes->end(), series.notes.begin(), series.notes.end());
     }
     return openDicomSeries(series, options.dicom);
   }

@@ -9,6 +9,7 @@
 #include "io/dicom_series.h"
 #include "io/raw_reader.h"
 #include "io/slice_source.h"
+#include "io/volume_formats.h"
 
 namespace isoslab {
 
@@ -18,6 +19,8 @@ struct SourceOptions {
   DicomOptions dicom;
   /// Spacing given by the user for inputs that lack one (image stacks).
   std::optional<std::array<double, 3>> spacing;
+  /// NIfTI: the transform to take the world frame from (--nifti-xform).
+  NiftiXform niftiXform = NiftiXform::kDefault;
 };
 
 /// Opens `inputs`: one phantom spec; raw data when options.raw is set; otherwise DICOM (folders,

@@ -152,7 +152,8 @@ std::string typesOfSize(std::int64_t bytes) {
   }
   if (names.empty()) return {};
   std::string list(names.front());
-  for (std::size_t n = 1; n < names.size(); ++n) list += fmt::format("{}{}", n + 1 == names.size() ? " or " : ", ", names[n]);
+  for (std::size_t n = 1; n < names.size(); ++n)
+    list += fmt::format("{}{}", n + 1 == names.size() ? " or " : ", ", names[n]);
   return fmt::format("{} {}-byte type ({})", bytes == 8 ? "an" : "a", bytes, list);
 }
 
@@ -214,16 +215,15 @@ class VolumeFileSource final : public SliceSource {
     if (longFiles > 0 && !layout.perSlice) {
       warnings_.push_back(extraBytesWarning(firstLong, firstLongSize, false));
     } else if (longFiles > 0) {
-      const std::string others =
-          longFiles == 1 ? std::string()
-          : longFiles == info_.dims[2]
-              ? fmt::format(", as do all {} slice files", longFiles)
-              : fmt::format(", as do {} of the {} slice files", longFiles, info_.dims[2]);
+      const std::string others = longFiles == 1 ? std::string()
+                                 : longFiles == info_.dims[2]
+                                     ? fmt::format(", as do all {} slice files", longFiles)
+                                     : fmt::format(", as do {} of the {} slice files", longFiles, info_.dims[2]);
       const std::int64_t need = header + sliceBytes_;
       warnings_.push_back(fmt::format(
           "{}: holds {} bytes, {} more than one {}x{} slice of {}{} needs{}; the extra bytes are ignored{}", firstLong,
-          firstLongSize, firstLongSize - need, info_.dims[0], info_.dims[1], voxelTypeName(layout.type),
-          headerText(), others, extraBytesHint(firstLongSize - header, info_.dims, layout.type, true)));
+          firstLongSize, firstLongSize - need, info_.dims[0], info_.dims[1], voxelTypeName(layout.type), headerText(),
+          others, extraBytesHint(firstLongSize - header, info_.dims, layout.type, true)));
     }
     bytes_.resize(static_cast<std::size_t>(sliceBytes_));
     if (layout.components > 1)

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <sstream>
 
 #include "io/error.h"
@@ -419,7 +420,64 @@ T get(const std::vector<unsigned char>& h, std::size_t at, bool swap) {
   return v;
 }
 
-std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std::string>* notes) {
+// What differs between a NIfTI file's sform and qform (axes and origin in RAS, mm per voxel
+// index), or empty when they agree: the sform's shear (the largest departure of an angle between
+// its axes from 90 degrees) and the largest distance between the two maps over the volume's eight
+// corner voxels. The text ends by saying which one isoslab uses and how.
+std::string xformDisagreement(const std::array<Vec3, 3>& sformAxes, const Vec3& sformOrigin,
+                              const std::array<Vec3, 3>& qformAxes, const Vec3& qformOrigin,
+                              const std::array<std::int64_t, 3>& dims, bool useSform) {
+  // Float32 srow values are good to about 1e-7: a cosine of 1e-4 (0.006 degrees) is a real shear,
+  // and 0.01 mm a real disagreement, well below any voxel.
+  constexpr double kCosineTolerance = 1e-4;
+  constexpr double kDistanceTolerance = 0.01;
+  auto dotProduct = [](const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+  double shear = 0;  // degrees
+  bool sheared = false;
+  for (std::size_t a = 0; a < 3; ++a) {
+    for (std::size_t b = a + 1; b < 3; ++b) {
+      const double lengths = std::sqrt(dotProduct(sformAxes[a], sformAxes[a]) * dotProduct(sformAxes[b], sformAxes[b]));
+      if (!(lengths > 0)) continue;
+      const double cosine = std::clamp(dotProduct(sformAxes[a], sformAxes[b]) / lengths, -1.0, 1.0);
+      sheared = sheared || std::abs(cosine) > kCosineTolerance;
+      shear = std::max(shear, std::abs(90.0 - std::acos(cosine) * 180.0 / std::numbers::pi));
+    }
+  }
+  double apart = 0;  // mm
+  for (int corner = 0; corner < 8; ++corner) {
+    Vec3 s = sformOrigin;
+    Vec3 q = qformOrigin;
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double index = (corner >> a) & 1 ? static_cast<double>(std::max<std::int64_t>(dims[a] - 1, 0)) : 0.0;
+      for (std::size_t r = 0; r < 3; ++r) {
+        s[r] += index * sformAxes[a][r];
+        q[r] += index * qformAxes[a][r];
+      }
+    }
+    const Vec3 d{s[0] - q[0], s[1] - q[1], s[2] - q[2]};
+    apart = std::max(apart, std::sqrt(dotProduct(d, d)));
+  }
+  const bool disagree = apart > kDistanceTolerance;
+  if (!sheared && !disagree) return {};
+  std::string what;
+  if (sheared) {
+    what = fmt::format(
+        "the sform is not orthogonal: its axes are sheared by up to {:.3g} degrees (a tilted-gantry series gives "
+        "this)",
+        shear);
+    if (disagree) what += fmt::format(", and the rigid qform places the volume's corners up to {:.3g} mm away", apart);
+  } else {
+    what =
+        fmt::format("the sform and the qform disagree: they place the volume's corners up to {:.3g} mm apart", apart);
+  }
+  if (!useSform) return what + "; isoslab uses the qform, as --nifti-xform asks";
+  if (sheared) {
+    return what + "; isoslab applies the sform as it is, shear included (--nifti-xform qform takes the rigid qform)";
+  }
+  return what + "; isoslab uses the sform (--nifti-xform qform takes the qform)";
+}
+
+std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std::string>* notes, NiftiXform xform) {
   // The header, read through the same (possibly gzip) stream as the data.
   std::vector<unsigned char> h(540, 0);
   std::int64_t got = 0;
@@ -512,21 +570,40 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
     layout.slope = slope;
     layout.intercept = inter;
   }
-  // World frame: sform, then qform, then pixdim; NIfTI's RAS world becomes LPS.
-  std::array<Vec3, 3> axes{};
-  Vec3 origin{};
-  const double qfac = pixdim[0] < 0 ? -1.0 : 1.0;
-  if (sformCode > 0) {
-    for (std::size_t a = 0; a < 3; ++a) axes[a] = {srow[0][a], srow[1][a], srow[2][a]};
-    origin = {srow[0][3], srow[1][3], srow[2][3]};
-    info.frame = "lps";
-  } else if (qformCode > 0) {
+  // World frame: sform, then qform, then pixdim (or the one --nifti-xform names); NIfTI's RAS
+  // world becomes LPS. Both transforms are affine maps of the voxel index (i, j, k), in RAS.
+  if (xform == NiftiXform::kSform && sformCode <= 0) {
+    throw Error(fmt::format("{}: --nifti-xform sform: the file has no sform (sform_code is {})", path, sformCode));
+  }
+  if (xform == NiftiXform::kQform && qformCode <= 0) {
+    throw Error(fmt::format("{}: --nifti-xform qform: the file has no qform (qform_code is {})", path, qformCode));
+  }
+  std::array<Vec3, 3> sformAxes{};
+  const Vec3 sformOrigin{srow[0][3], srow[1][3], srow[2][3]};
+  for (std::size_t a = 0; a < 3; ++a) sformAxes[a] = {srow[0][a], srow[1][a], srow[2][a]};
+  std::array<Vec3, 3> qformAxes{};
+  {
+    const double qfac = pixdim[0] < 0 ? -1.0 : 1.0;
     const double qa = std::sqrt(std::max(0.0, 1.0 - (qb * qb + qc * qc + qd * qd)));
     const double R[3][3] = {{qa * qa + qb * qb - qc * qc - qd * qd, 2 * (qb * qc - qa * qd), 2 * (qb * qd + qa * qc)},
                             {2 * (qb * qc + qa * qd), qa * qa + qc * qc - qb * qb - qd * qd, 2 * (qc * qd - qa * qb)},
                             {2 * (qb * qd - qa * qc), 2 * (qc * qd + qa * qb), qa * qa + qd * qd - qc * qc - qb * qb}};
     const double scale[3] = {pixdim[1], pixdim[2], pixdim[3] * qfac};
-    for (std::size_t a = 0; a < 3; ++a) axes[a] = {R[0][a] * scale[a], R[1][a] * scale[a], R[2][a] * scale[a]};
+    for (std::size_t a = 0; a < 3; ++a) qformAxes[a] = {R[0][a] * scale[a], R[1][a] * scale[a], R[2][a] * scale[a]};
+  }
+  const bool useSform = sformCode > 0 && xform != NiftiXform::kQform;
+  if (sformCode > 0 && qformCode > 0 && notes != nullptr) {
+    const std::string problem = xformDisagreement(sformAxes, sformOrigin, qformAxes, qoffset, info.dims, useSform);
+    if (!problem.empty()) notes->push_back(fmt::format("warning: {}: {}", path, problem));
+  }
+  std::array<Vec3, 3> axes{};
+  Vec3 origin{};
+  if (useSform) {
+    axes = sformAxes;
+    origin = sformOrigin;
+    info.frame = "lps";
+  } else if (qformCode > 0) {
+    axes = qformAxes;
     origin = qoffset;
     info.frame = "lps";
   } else {
@@ -565,12 +642,13 @@ bool isVolumeFormat(const std::string& path) {
   return false;
 }
 
-std::unique_ptr<SliceSource> openVolumeFormat(const std::string& path, int channel, std::vector<std::string>* notes) {
+std::unique_ptr<SliceSource> openVolumeFormat(const std::string& path, int channel, std::vector<std::string>* notes,
+                                              NiftiXform xform) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(ENOENT)));
   if (endsWith(path, ".nrrd") || endsWith(path, ".nhdr")) return openNrrd(path, channel, notes);
   if (endsWith(path, ".mha") || endsWith(path, ".mhd")) return openMetaImage(path, channel);
-  return openNifti(path, notes);
+  return openNifti(path, notes, xform);
 }
 
 }  // namespace isoslab

@@ -6,7 +6,9 @@
 //   ElementByteOrderMSB, Offset, TransformMatrix, ElementSpacing, HeaderSize, CompressedData (zlib).
 // - NIfTI-1 and NIfTI-2 (.nii, .nii.gz, .hdr/.img pairs): scl_slope and scl_inter; the world
 //   frame from the sform when sform_code > 0, else from the qform when qform_code > 0, else from
-//   pixdim alone; NIfTI's RAS world is converted to LPS. 4-D data: the first volume, with a note.
+//   pixdim alone (NiftiXform picks one); NIfTI's RAS world is converted to LPS. A sheared sform is
+//   applied as it is (VolumeInfo::direction then has unit columns that are not perpendicular).
+//   4-D data: the first volume, with a note.
 // All of them report frame "lps" when the file defines a world frame.
 #pragma once
 
@@ -18,12 +20,22 @@
 
 namespace isoslab {
 
+/// Which NIfTI transform gives the world frame.
+enum class NiftiXform {
+  kDefault,  // the sform when sform_code > 0, else the qform when qform_code > 0, else pixdim
+  kSform,    // the sform; an error when sform_code is 0
+  kQform,    // the qform (rigid, as ITK-based tools take it); an error when qform_code is 0
+};
+
 /// True if the file name says NRRD, MetaImage or NIfTI (.nrrd .nhdr .mha .mhd .nii .nii.gz .hdr).
 bool isVolumeFormat(const std::string& path);
 
 /// Opens a NRRD, MetaImage or NIfTI file by its extension. `channel` picks a component of
 /// multi-component data (-1: an error if there is more than one). Notes for the user are appended
-/// to `notes`. Throws isoslab::Error naming the file and the problem.
-std::unique_ptr<SliceSource> openVolumeFormat(const std::string& path, int channel, std::vector<std::string>* notes);
+/// to `notes`; for NIfTI with both transforms, a "warning: " note when the sform is not orthogonal or
+/// disagrees with the qform. `xform` applies to NIfTI only. Throws isoslab::Error naming the file
+/// and the problem.
+std::unique_ptr<SliceSource> openVolumeFormat(const std::string& path, int channel, std::vector<std::string>* notes,
+                                              NiftiXform xform = NiftiXform::kDefault);
 
 }  // namespace isoslab

@@ -164,10 +164,14 @@ TEST(GlbDraco, RealClientsLoadIt) {
   EXPECT_EQ(seen["triangles"], report["triangles"]);
   EXPECT_EQ(seen["primitives"].get<double>(), report["output"]["chunks"].get<double>());
   EXPECT_GT(report["output"]["chunks"].get<double>(), 2.0);
-  const double halfStep = 0.5 * report["output"]["quantization_step"].get<double>() * (1 + 1e-5);
+  // three.js applies the root node: glTF's frame in metres, (x, y, z) = 0.001 (x, z, -y).
+  const double halfStep = 0.001 * 0.5 * report["output"]["quantization_step"].get<double>() * (1 + 1e-5);
+  const auto& b = report["bounds"];
+  const double lo[3] = {b[0].get<double>(), b[2].get<double>(), -b[4].get<double>()};
+  const double hi[3] = {b[3].get<double>(), b[5].get<double>(), -b[1].get<double>()};
   for (int a = 0; a < 3; ++a) {
-    EXPECT_NEAR(seen["min"][a].get<double>(), report["bounds"][a].get<double>(), halfStep);
-    EXPECT_NEAR(seen["max"][a].get<double>(), report["bounds"][a + 3].get<double>(), halfStep);
+    EXPECT_NEAR(seen["min"][a].get<double>(), 0.001 * lo[a], halfStep + 1e-9);
+    EXPECT_NEAR(seen["max"][a].get<double>(), 0.001 * hi[a], halfStep + 1e-9);
   }
   EXPECT_EQ(seen["extras"]["method"], "mc");
   EXPECT_EQ(seen["extras"]["iso"], -400);

@@ -359,5 +359,52 @@ TEST(ExtractSliceOrigins, UnevenSlicesPutVerticesInTheirSlicesPlanes) {
   EXPECT_EQ(zs, (std::set<float>{0, 4, 5, 12}));
 }
 
+// A single voxel of 1 among zeros, at iso 1: every vertex lies on the voxel itself, where the
+// central differences cancel. The fallback (the one-sided difference along the vertex's edge) must
+// give unit normals pointing out of the voxel along its edges: for mc, exactly the six axis
+// directions, once each; for the tetrahedral methods, unit length and pointing away from the voxel.
+TEST(Normals, UnitWhereTheCentralDifferenceVanishes) {
+  for (const Method method : kAllMethods) {
+    testing::VectorSource source({5, 5, 5}, [](std::int64_t x, std::int64_t y, std::int64_t z) {
+      return x == 2 && y == 2 && z == 2 ? 1.0f : 0.0f;
+    });
+    source.mutableInfo().spacing = {1, 2, 3};
+    const Extraction x = testing::extract(source, method, 1.0, true);
+    ASSERT_FALSE(x.mesh.normals.empty()) << name(method);
+    ASSERT_EQ(x.mesh.normals.size(), x.mesh.positions.size());
+    std::multiset<std::array<float, 3>> directions;
+    for (std::size_t v = 0; v < x.mesh.normals.size(); ++v) {
+      const Vec3f& n = x.mesh.normals[v];
+      const Vec3f& p = x.mesh.positions[v];
+      EXPECT_NEAR(std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z), 1.0, 1e-6) << name(method) << " vertex " << v;
+      // Vertices on the voxel's edges point along them, away from the voxel (2, 4, 6).
+      const std::array<double, 3> out{p.x - 2.0, p.y - 4.0, p.z - 6.0};
+      if (out[0] * out[0] + out[1] * out[1] + out[2] * out[2] == 0) {
+        directions.insert({n.x, n.y, n.z});
+      } else {
+        EXPECT_GT(n.x * out[0] + n.y * out[1] + n.z * out[2], 0) << name(method) << " vertex " << v;
+      }
+    }
+    if (method == Method::kMarchingCubes) {
+      EXPECT_EQ(x.mesh.positions.size(), 6u);
+      EXPECT_EQ(directions, (std::multiset<std::array<float, 3>>{
+                                {1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}}));
+    }
+  }
+}
+
+// The MRI brain template that showed 45 zero-length normals at iso 103.5 (Debian's mricron-data).
+TEST(Normals, EveryNormalOfABrainIsUnitLength) {
+  const std::string brain = "/usr/share/mricron/templates/ch2better.nii.gz";
+  if (testing::slurp(brain).empty()) GTEST_SKIP() << brain << " is absent (Debian's mricron-data)";
+  const Extraction x = testing::extract(brain, Method::kMarchingCubes, 103.5, true);
+  ASSERT_GT(x.mesh.normals.size(), 100000u);
+  std::size_t bad = 0;
+  for (const Vec3f& n : x.mesh.normals) {
+    if (!(std::abs(std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z) - 1.0) < 1e-5)) ++bad;
+  }
+  EXPECT_EQ(bad, 0u);
+}
+
 }  // namespace
 }  // namespace isoslab

@@ -126,8 +126,9 @@ TEST(RawReader, DataLongerThanTheDimsNeedGivesAWarningThatSaysWhatWouldFit) {
 
   writeBytes(dir + "/long.raw", std::vector<std::uint8_t>(32, 1));
   const std::vector<std::string> expected = {
-      dir + "/long.raw: holds 32 bytes, 8 more than dims 2x2x3 of u16 need; the extra bytes are ignored; dims 2x2x4 "
-            "would use them all"};
+      dir +
+      "/long.raw: holds 32 bytes, 8 more than dims 2x2x3 of u16 need; the extra bytes are ignored; dims 2x2x4 "
+      "would use them all"};
   auto plain = RawReader::open(dir + "/long.raw", u16Options(3));
   EXPECT_EQ(plain->warnings(), expected);  // a plain file is measured when opened
   EXPECT_EQ(readAll(*plain).size(), 3u);

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 
 #include "extract/frame.h"
 #include "io/error.h"
@@ -232,6 +233,184 @@ TEST(VolumeFormats, Nifti2ScalingAndTheQformSformPrecedence) {
       EXPECT_NEAR(lps[2], ras[2], 1e-9) << name;
     }
   }
+}
+
+using Affine = std::array<std::array<double, 4>, 3>;  // RAS rows: x y z = row . (i, j, k, 1)
+
+// A NIfTI-1 file (348-byte header, the 4-byte extension flag, then the data) for the phantom's
+// int16 voxels: pixdim 0.8 0.9 1.5 with qfac `qfac`, the qform quaternion (b, c, d) and offset, and
+// the sform rows, each with its code.
+void writeNifti1(const std::string& path, double qfac, const std::array<double, 3>& quatern,
+                 const std::array<double, 3>& qoffset, int qcode, const Affine& srow, int scode) {
+  std::string h(352, '\0');
+  auto put = [&h](std::size_t at, auto v) { std::memcpy(h.data() + at, &v, sizeof v); };
+  put(0, std::int32_t{348});
+  put(40, std::int16_t{3});
+  for (std::size_t a = 0; a < 3; ++a) put(42 + 2 * a, static_cast<std::int16_t>(kDims[a]));
+  put(70, std::int16_t{4});  // DT_INT16
+  put(72, std::int16_t{16});
+  const float pixdim[4] = {static_cast<float>(qfac), 0.8f, 0.9f, 1.5f};
+  for (std::size_t a = 0; a < 4; ++a) put(76 + 4 * a, pixdim[a]);
+  put(108, 352.0f);
+  put(252, static_cast<std::int16_t>(qcode));
+  put(254, static_cast<std::int16_t>(scode));
+  for (std::size_t a = 0; a < 3; ++a) put(256 + 4 * a, static_cast<float>(quatern[a]));
+  for (std::size_t a = 0; a < 3; ++a) put(268 + 4 * a, static_cast<float>(qoffset[a]));
+  for (std::size_t r = 0; r < 3; ++r) {
+    for (std::size_t c = 0; c < 4; ++c) put(280 + 16 * r + 4 * c, static_cast<float>(srow[r][c]));
+  }
+  std::memcpy(h.data() + 344, "n+1\0", 4);
+  writeFile(path, h, voxels(VoxelType::kI16, ByteOrder::kLittle));
+}
+
+// The qform of these tests: 30 degrees about x, quaternion (cos 15, sin 15, 0, 0), with qfac -1
+// and offset (-5, 7, 11). Worked by hand: R = [1 0 0; 0 cos30 -sin30; 0 sin30 cos30], and the
+// axes are R's columns times (0.8, 0.9, -1.5).
+constexpr double kDeg = std::numbers::pi / 180;
+const std::array<double, 3> kQuatern{std::sin(15 * kDeg), 0, 0};
+const std::array<double, 3> kQoffset{-5, 7, 11};
+const Affine kQform{{{0.8, 0, 0, -5},
+                     {0, 0.9 * std::cos(30 * kDeg), 1.5 * std::sin(30 * kDeg), 7},
+                     {0, 0.9 * std::sin(30 * kDeg), -1.5 * std::cos(30 * kDeg), 11}}};
+
+// The largest distance between two affines over the phantom's eight corner voxels.
+double cornerDistance(const Affine& a, const Affine& b) {
+  double worst = 0;
+  for (int corner = 0; corner < 8; ++corner) {
+    double sum = 0;
+    for (std::size_t r = 0; r < 3; ++r) {
+      double d = a[r][3] - b[r][3];
+      for (std::size_t c = 0; c < 3; ++c) {
+        const double index = (corner >> c) & 1 ? static_cast<double>(kDims[c] - 1) : 0.0;
+        d += index * (a[r][c] - b[r][c]);
+      }
+      sum += d * d;
+    }
+    worst = std::max(worst, std::sqrt(sum));
+  }
+  return worst;
+}
+
+// The VolumeInfo of `affine` (RAS) in LPS: spacing, unit direction columns, origin.
+void expectGeometry(const VolumeInfo& info, const Affine& affine, const std::string& what) {
+  const double flip[3] = {-1, -1, 1};
+  for (std::size_t a = 0; a < 3; ++a) {
+    const double length = std::hypot(affine[0][a], affine[1][a], affine[2][a]);
+    EXPECT_NEAR(info.spacing[a], length, 1e-6) << what << " axis " << a;
+    for (std::size_t r = 0; r < 3; ++r) {
+      EXPECT_NEAR(info.direction[3 * r + a], flip[r] * affine[r][a] / length, 1e-6) << what << " " << r << a;
+    }
+    EXPECT_NEAR(info.origin[a], flip[a] * affine[a][3], 1e-5) << what;
+  }
+  const LatticeFrame frame = LatticeFrame::physical(info);
+  const auto p = frame.map(21, 19, 17);
+  for (std::size_t r = 0; r < 3; ++r) {
+    EXPECT_NEAR(p[r], flip[r] * (affine[r][0] * 21 + affine[r][1] * 19 + affine[r][2] * 17 + affine[r][3]), 1e-4)
+        << what;
+  }
+}
+
+TEST(VolumeFormats, NiftiShearedSformWarnsAndQformGivesTheRigidGeometry) {
+  const std::string dir = testing::tempDir();
+  const std::string path = dir + "/tilt.nii";
+  // As dcm2niix writes a tilted-gantry series without tilt correction: the slice axis leans 20
+  // degrees towards j, so the sform's third column is not perpendicular to the second.
+  const Affine sheared{
+      {{0.8, 0, 0, 10}, {0, 0.9, 1.5 * std::sin(20 * kDeg), 20}, {0, 0, 1.5 * std::cos(20 * kDeg), 30}}};
+  writeNifti1(path, -1, kQuatern, kQoffset, 1, sheared, 1);
+  const std::string what = fmt::format(
+      "{}: the sform is not orthogonal: its axes are sheared by up to 20 degrees (a tilted-gantry series gives "
+      "this), and the rigid qform places the volume's corners up to {:.3g} mm away",
+      path, cornerDistance(sheared, kQform));
+  {
+    std::vector<std::string> notes;
+    auto source = openSource(path, {}, &notes);
+    ASSERT_EQ(notes.size(), 1u);
+    EXPECT_EQ(notes.front(), "warning: " + what +
+                                 "; isoslab applies the sform as it is, shear included (--nifti-xform qform takes "
+                                 "the rigid qform)");
+    expectGeometry(source->info(), sheared, "sform");
+    // The direction keeps the shear: unit columns, 70 degrees apart.
+    const auto& d = source->info().direction;
+    EXPECT_NEAR(d[1] * d[2] + d[4] * d[5] + d[7] * d[8], std::cos(70 * kDeg), 1e-6);
+    EXPECT_TRUE(voxelMesh(*source, 937) == reference(VoxelType::kI16));
+  }
+  SourceOptions qform;
+  qform.niftiXform = NiftiXform::kQform;
+  {
+    std::vector<std::string> notes;
+    auto source = openSource(path, qform, &notes);
+    ASSERT_EQ(notes.size(), 1u);
+    EXPECT_EQ(notes.front(), "warning: " + what + "; isoslab uses the qform, as --nifti-xform asks");
+    expectGeometry(source->info(), kQform, "qform");
+    const VolumeInfo& info = source->info();
+    // By hand, in LPS: origin (5, -7, 11); columns (-1, 0, 0), (0, -cos30, sin30), (0, -sin30, -cos30).
+    const double c30 = std::cos(30 * kDeg), s30 = std::sin(30 * kDeg);
+    const std::array<double, 9> direction{-1, 0, 0, 0, -c30, -s30, 0, s30, -c30};
+    for (std::size_t n = 0; n < 9; ++n) EXPECT_NEAR(info.direction[n], direction[n], 1e-6) << n;
+    EXPECT_EQ(info.origin, (std::array<double, 3>{5, -7, 11}));
+    for (std::size_t a = 0; a < 3; ++a) EXPECT_NEAR(info.spacing[a], (std::array{0.8, 0.9, 1.5})[a], 1e-6);
+  }
+  // Through the program: info and extract print the warning; --nifti-xform qform moves the origin.
+  const auto info = testing::runCli("info " + path);
+  ASSERT_EQ(info.exitCode, 0) << info.err;
+  EXPECT_NE(info.out.find("origin     -10 -20 30\n"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("\nwarning    " + what + "; isoslab applies the sform as it is"), std::string::npos)
+      << info.out;
+  const auto rigid = testing::runCli("info " + path + " --nifti-xform qform");
+  ASSERT_EQ(rigid.exitCode, 0) << rigid.err;
+  EXPECT_NE(rigid.out.find("origin     5 -7 11\n"), std::string::npos) << rigid.out;
+  const auto extract = testing::runCli("extract " + path + " --nifti-xform qform --iso 937 -q -o " + dir + "/m.ply");
+  ASSERT_EQ(extract.exitCode, 0) << extract.err;
+  EXPECT_EQ(extract.err, "isoslab: warning: " + what + "; isoslab uses the qform, as --nifti-xform asks\n");
+  const auto bad = testing::runCli("info " + path + " --nifti-xform rigid");
+  EXPECT_EQ(bad.exitCode, 2);
+  EXPECT_NE(bad.err.find("--nifti-xform"), std::string::npos) << bad.err;
+}
+
+TEST(VolumeFormats, NiftiSformAndQformThatDisagreeWarnAndAMissingTransformIsAnError) {
+  const std::string dir = testing::tempDir();
+  // The qform's axes, moved by (3, 4, 0): 5 mm apart everywhere.
+  Affine moved = kQform;
+  moved[0][3] += 3;
+  moved[1][3] += 4;
+  writeNifti1(dir + "/moved.nii", -1, kQuatern, kQoffset, 1, moved, 1);
+  std::vector<std::string> notes;
+  auto source = openSource(dir + "/moved.nii", {}, &notes);
+  EXPECT_EQ(notes, std::vector<std::string>{"warning: " + dir +
+                                            "/moved.nii: the sform and the qform disagree: they place the volume's "
+                                            "corners up to 5 mm apart; isoslab uses the sform (--nifti-xform qform "
+                                            "takes the qform)"});
+  expectGeometry(source->info(), moved, "moved sform");
+  // Agreeing transforms (float32 rounding apart) say nothing.
+  writeNifti1(dir + "/same.nii", -1, kQuatern, kQoffset, 2, kQform, 1);
+  notes.clear();
+  openSource(dir + "/same.nii", {}, &notes);
+  EXPECT_TRUE(notes.empty()) << notes.front();
+  // A transform asked for but absent.
+  writeNifti1(dir + "/sonly.nii", 1, {0, 0, 0}, {0, 0, 0}, 0, moved, 1);
+  writeNifti1(dir + "/qonly.nii", -1, kQuatern, kQoffset, 1, Affine{}, 0);
+  SourceOptions qform;
+  qform.niftiXform = NiftiXform::kQform;
+  SourceOptions sform;
+  sform.niftiXform = NiftiXform::kSform;
+  auto errorOf = [](const std::string& path, const SourceOptions& options) {
+    try {
+      openSource(path, options);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(errorOf(dir + "/sonly.nii", qform),
+            dir + "/sonly.nii: --nifti-xform qform: the file has no qform (qform_code is 0)");
+  EXPECT_EQ(errorOf(dir + "/qonly.nii", sform),
+            dir + "/qonly.nii: --nifti-xform sform: the file has no sform (sform_code is 0)");
+  expectGeometry(openSource(dir + "/qonly.nii", {})->info(), kQform, "qform by default");
+  const auto r = testing::runCli("info " + dir + "/sonly.nii --nifti-xform qform");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_EQ(r.err,
+            "isoslab: error: " + dir + "/sonly.nii: --nifti-xform qform: the file has no qform (qform_code is 0)\n");
 }
 
 TEST(VolumeFormats, NrrdDirectionsAndOriginPlaceTheVertices) {
