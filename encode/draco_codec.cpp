@@ -19,6 +19,12 @@ int defaultQuantBits(double range, double voxel) noexcept {
   return bits;
 }
 
+std::int32_t dracoQuantized(float value, float origin, const DracoSettings& s) noexcept {
+  const float maxQ = static_cast<float>((1u << s.quantBits) - 1u);
+  const float inverseDelta = maxQ / s.range;
+  return static_cast<std::int32_t>(std::floor((value - origin) * inverseDelta + 0.5f));
+}
+
 float dracoDequantized(float value, float origin, const DracoSettings& s) noexcept {
   // Draco's quantizer: q = floor((v - origin) * max / range + 0.5), then v' = q * (range / max) + origin.
   const float maxQ = static_cast<float>((1u << s.quantBits) - 1u);
@@ -80,6 +86,9 @@ std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, c
   encoder.SetAttributeExplicitQuantization(draco::GeometryAttribute::POSITION, settings.quantBits, 3,
                                            settings.origin.data(), settings.range);
   if (normals) encoder.SetAttributeQuantization(draco::GeometryAttribute::NORMAL, settings.normalBits);
+  // Seam marks are sparse and unrelated to their neighbours: no prediction compresses them best
+  // (Philips skull, 4 chunks: 0.72% of the file against 0.89% with the difference predictor).
+  if (seams) encoder.SetAttributePredictionScheme(draco::GeometryAttribute::GENERIC, draco::PREDICTION_NONE);
   draco::EncoderBuffer buffer;
   const draco::Status status = encoder.EncodeMeshToBuffer(m, &buffer);
   if (!status.ok()) throw Error(fmt::format("{}: Draco encoding failed: {}", what, status.error_msg_string()));

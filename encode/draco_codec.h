@@ -42,6 +42,9 @@ std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, c
 /// Throws isoslab::Error naming `what`.
 IndexedMesh dracoDecode(const char* data, std::size_t size, const std::string& what, int seamId = -1);
 
+/// The grid index Draco's quantizer gives `value` on axis origin `origin` with `settings`' grid.
+std::int32_t dracoQuantized(float value, float origin, const DracoSettings& settings) noexcept;
+
 /// The position Draco reconstructs for `value` on axis origin `origin` with `settings`' grid.
 float dracoDequantized(float value, float origin, const DracoSettings& settings) noexcept;
 

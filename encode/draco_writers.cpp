@@ -123,7 +123,15 @@ void GlbDracoWriter::consume(const MeshChunk& chunk) {
   }
   triangles_ += chunk.triangles.size();
   // Only this slab can reference the waiting chunk's vertices: its keys are complete now.
-  if (pending_) resolveSeam();
+  if (pending_) {
+    if (options_.seamKeys) {
+      resolveSeam();
+    } else {
+      ++seams_;
+      flush(std::move(*pending_));
+      pending_.reset();
+    }
+  }
   if (static_cast<std::int64_t>(current_.triangles.size()) >= options_.chunkTriangles) close(chunk);
 }
 
@@ -138,19 +146,85 @@ void GlbDracoWriter::close(const MeshChunk& last) {
   chunkFirst_ = last.endVertex();
 }
 
-// Gives every vertex that the waiting chunk and the current one share the same key in both, then
-// hands the waiting chunk to the encoder.
+// Marks the seam between the waiting chunk and the current one so that decoders join it exactly
+// (see draco_writers.h): at a quantized position that both chunks hold, one vertex each and the
+// same vertex is left unmarked (0), and decoders weld it by position; anywhere else, a shared vertex
+// gets its key (global id + 2) in both chunks and every other vertex there gets 1, "never weld".
+// Only the waiting chunk's last slab can lie within a quantization step of the current chunk's
+// first slab, so only those vertices are compared. Then hands the waiting chunk to the encoder.
 void GlbDracoWriter::resolveSeam() {
+  struct Group {
+    std::vector<VertexId> there;  // in the waiting chunk
+    std::vector<VertexId> here;   // in the current chunk
+  };
+  auto quantized = [this](const Vec3f& p) {
+    std::array<std::int32_t, 3> q{};
+    const float c[3] = {p.x, p.y, p.z};
+    for (std::size_t a = 0; a < 3; ++a) q[a] = dracoQuantized(c[a], settings_.origin[a], settings_);
+    return q;
+  };
+  struct Hash {
+    std::size_t operator()(const std::array<std::int32_t, 3>& q) const noexcept {
+      return (static_cast<std::size_t>(static_cast<std::uint32_t>(q[0])) * 73856093u) ^
+             (static_cast<std::size_t>(static_cast<std::uint32_t>(q[1])) * 19349663u) ^
+             (static_cast<std::size_t>(static_cast<std::uint32_t>(q[2])) * 83492791u);
+    }
+  };
+  std::unordered_map<std::array<std::int32_t, 3>, Group, Hash> groups;
+  groups.reserve(pendingTop_.size());
+  for (const VertexId there : pendingTop_) {
+    if (there != kNone) groups[quantized(pending_->positions[there])].there.push_back(there);
+  }
+  // The shared vertices: the current chunk's partner of each waiting-chunk vertex.
+  std::unordered_map<VertexId, std::pair<VertexId, VertexId>> partner;  // here -> (there, global id)
   for (const auto& [id, here] : seam_) {
     if (id < pendingTopFirst_ || id - pendingTopFirst_ >= pendingTop_.size()) continue;
     const VertexId there = pendingTop_[id - pendingTopFirst_];
-    if (there == kNone) continue;  // first referenced by this chunk: not shared
-    if (id == kNone) throw Error(fmt::format("{}: too many vertices for seam keys", path_));
-    const std::uint32_t key = id + 1;
-    pending_->seamKeys[there] = key;
-    current_.seamKeys[here] = key;
-    ++seamVertices_;
+    if (there != kNone) partner.emplace(here, std::make_pair(there, id));
   }
+  for (VertexId here = 0; here < current_.positions.size(); ++here) {
+    const auto found = groups.find(quantized(current_.positions[here]));
+    if (found != groups.end()) found->second.here.push_back(here);
+  }
+  std::uint32_t keysThisSeam = 0;
+  std::vector<std::uint32_t>& thereKeys = pending_->seamKeys;
+  std::vector<std::uint32_t>& hereKeys = current_.seamKeys;
+  for (auto& [q, g] : groups) {
+    if (g.here.empty()) continue;
+    if (g.there.size() == 1 && g.here.size() == 1 && thereKeys[g.there[0]] == 0) {
+      const auto p = partner.find(g.here[0]);
+      if (p != partner.end() && p->second.first == g.there[0]) {
+        ++seamVertices_;
+        continue;  // unambiguous: decoders weld it by position
+      }
+    }
+    for (const VertexId here : g.here) {
+      const auto p = partner.find(here);
+      if (p == partner.end()) {
+        if (hereKeys[here] == 0) {
+          hereKeys[here] = 1;
+          ++unweldedVertices_;
+        }
+        continue;
+      }
+      // Small keys compress well: 2, 4, 6, ... on even seams and 3, 5, 7, ... on odd ones, so that a
+      // chunk's keys with its lower and its upper neighbour never collide.
+      const std::uint64_t wide = 2 + 2 * std::uint64_t{keysThisSeam++} + (seams_ & 1);
+      if (wide > 0xFFFFFFFFu) throw Error(fmt::format("{}: too many seam keys", path_));
+      const auto key = static_cast<std::uint32_t>(wide);
+      hereKeys[here] = key;
+      thereKeys[p->second.first] = key;
+      ++seamVertices_;
+      ++keyedVertices_;
+    }
+    for (const VertexId there : g.there) {
+      if (thereKeys[there] == 0) {
+        thereKeys[there] = 1;
+        ++unweldedVertices_;
+      }
+    }
+  }
+  ++seams_;
   flush(std::move(*pending_));
   pending_.reset();
   pendingTop_.clear();
@@ -276,6 +350,8 @@ void GlbDracoWriter::finish() {
 std::vector<std::pair<std::string, double>> GlbDracoWriter::details() const {
   auto d = dracoDetails(static_cast<double>(primitives_.size()), encodeSeconds_, worstError_, settings_);
   d.emplace_back("seam_vertices", static_cast<double>(seamVertices_));
+  d.emplace_back("seam_keys", static_cast<double>(keyedVertices_));
+  d.emplace_back("seam_unwelded", static_cast<double>(unweldedVertices_));
   return d;
 }
 

@@ -4,11 +4,16 @@
 // compressed chunks (KHR_draco_mesh_compression, listed in extensionsRequired). A chunk closes at
 // the first slab boundary after it reaches WriterOptions::chunkTriangles. Every chunk is quantized
 // on one grid (explicit quantization with the volume's box), so a seam vertex decodes to the same
-// floats in both chunks; but distinct vertices can share a position (lattice points at the iso
-// value, vertices closer than a step), so seams are joined by identity: a vertex that two chunks
-// share carries the same key in both, in the application-specific attribute _ISOSLAB_SEAM (its
-// global id + 1, as two 16-bit halves; 0 elsewhere), and decoders join equal keys. The keys are
-// known when the next chunk's first slab has been consumed, so a closed chunk waits one slab
+// floats in both chunks, and decoders weld the seams by position. But distinct vertices can share
+// a quantized position (lattice points at the iso value, vertices closer than a step), where
+// position alone is ambiguous. There, and only there, the vertices carry the application-specific
+// attribute _ISOSLAB_SEAM (two 16-bit halves of a 32-bit value): a key on a vertex that both chunks
+// hold, the same in both (2, 4, 6, ... on the seam after chunk 0, 2, 4, ...; 3, 5, 7, ... after
+// chunk 1, 3, 5, ...), and 1 ("never weld by position") on the others; 0 elsewhere. A decoder joins
+// equal keys of the seam's parity with the previous chunk, and welds a 0 vertex to the previous chunk's 0
+// vertex at its position when each chunk has exactly one there. Chunks without any mark carry no
+// attribute. The marks are known when the next chunk's first slab has been consumed, so a closed
+// chunk waits one slab
 // before it is encoded and appended to a spool beside the output: memory stays at about two
 // chunks. The document itself (frame node, material, extras) is described in gltf.h.
 //
@@ -84,6 +89,9 @@ class GlbDracoWriter final : public MeshFileSink {
   std::vector<VertexId> pendingTop_;
   VertexId pendingTopFirst_ = 0;
   std::uint64_t seamVertices_ = 0;
+  std::uint64_t keyedVertices_ = 0;
+  std::uint64_t unweldedVertices_ = 0;
+  std::uint64_t seams_ = 0;  // seams resolved so far
   std::vector<Primitive> primitives_;
   std::deque<std::future<Encoded>> encoding_;  // chunks being encoded, oldest first
   std::uint64_t triangles_ = 0;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -16,6 +17,7 @@
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_metadata.h"
 #include "io/error.h"
+#include "io/limits.h"
 
 namespace isoslab {
 namespace {
@@ -74,6 +76,7 @@ class Input {
     return l;
   }
   std::string rest() const { return data_.substr(pos_); }
+  std::size_t remaining() const { return data_.size() - pos_; }
 
  private:
   std::string path_;
@@ -131,6 +134,26 @@ IndexedMesh readPly(const std::string& path, std::string data, MeshMetadata& met
     throw Error(fmt::format("{}: PLY format '{}' is not supported (binary_little_endian or ascii)", path, format));
   }
   const bool ascii = format == "ascii";
+  // Every element takes at least one byte per property (two in ASCII, with its separator), so the
+  // counts are checked against the data's size before anything is read or allocated.
+  {
+    std::uint64_t need = 0;
+    const std::uint64_t have = in.remaining();
+    for (const Element& e : elements) {
+      if (e.count == 0) continue;
+      if (e.properties.empty()) {
+        throw Error(fmt::format("{}: PLY element '{}' claims {} items but has no properties", path, e.name, e.count));
+      }
+      std::uint64_t least = 0;
+      for (const Property& p : e.properties) least += ascii ? 2 : (p.countType.empty() ? typeSize(p.type) : typeSize(p.countType));
+      if (ascii) --least;
+      if (e.count > (have - std::min(have, need)) / least) {
+        throw Error(fmt::format("{}: PLY element '{}' claims {} items, more than its {} data bytes hold", path, e.name,
+                                e.count, have));
+      }
+      need += e.count * least;
+    }
+  }
   IndexedMesh mesh;
   std::istringstream text(ascii ? in.rest() : std::string());
   auto scalar = [&](const std::string& type) -> double {
@@ -148,7 +171,11 @@ IndexedMesh readPly(const std::string& path, std::string data, MeshMetadata& met
       std::vector<std::uint64_t> poly;
       for (const Property& p : e.properties) {
         if (!p.countType.empty()) {
-          const auto count = static_cast<std::uint64_t>(scalar(p.countType));
+          const double claimed = scalar(p.countType);
+          if (!(claimed >= 0 && claimed <= static_cast<double>(in.remaining()))) {
+            throw Error(fmt::format("{}: a PLY list claims {} items, more than the file holds", path, claimed));
+          }
+          const auto count = static_cast<std::uint64_t>(claimed);
           std::vector<std::uint64_t> items;
           for (std::uint64_t k = 0; k < count; ++k) items.push_back(static_cast<std::uint64_t>(scalar(p.type)));
           if (e.name == "face" && (p.name == "vertex_indices" || p.name == "vertex_index")) poly = std::move(items);
@@ -171,6 +198,10 @@ IndexedMesh readPly(const std::string& path, std::string data, MeshMetadata& met
         addPolygon(mesh, poly, path);
       }
     }
+  }
+  if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) {
+    throw Error(fmt::format("{}: the PLY file has {} normals for {} vertices", path, mesh.normals.size(),
+                            mesh.positions.size()));
   }
   return mesh;
 }
@@ -241,6 +272,17 @@ IndexedMesh readObj(const std::string& path, const std::string& data, MeshMetada
   return mesh;
 }
 
+// nlohmann's message without its "[json.exception.type_error.302] " prefix, on one line.
+std::string jsonReason(const nlohmann::json::exception& e) {
+  std::string reason = e.what();
+  const std::size_t bracket = reason.find("] ");
+  if (reason.rfind("[json.exception.", 0) == 0 && bracket != std::string::npos) reason = reason.substr(bracket + 2);
+  for (char& c : reason) {
+    if (static_cast<unsigned char>(c) < 0x20) c = ' ';
+  }
+  return reason;
+}
+
 // Overflow-safe bounds: [offset, offset + length) within [0, size).
 bool within(std::uint64_t offset, std::uint64_t length, std::uint64_t size) {
   return offset <= size && length <= size - offset;
@@ -261,7 +303,7 @@ class GlbReader {
     try {
       gltf_ = nlohmann::json::parse(data_.begin() + 20, data_.begin() + 20 + static_cast<std::ptrdiff_t>(jsonLength));
     } catch (const nlohmann::json::exception& e) {
-      throw Error(fmt::format("{}: the glTF JSON is invalid: {}", path_, e.what()));
+      throw Error(fmt::format("{}: the glTF JSON is invalid: {}", path_, jsonReason(e)));
     }
     const std::uint64_t binHeader = 20 + jsonLength;
     if (within(binHeader, 8, data_.size())) {
@@ -277,7 +319,8 @@ class GlbReader {
         for (const auto& p : m.at("primitives")) readPrimitive(p);
       }
     } catch (const nlohmann::json::exception& e) {
-      throw Error(fmt::format("{}: the glTF JSON lacks a primitive's fields: {}", path_, e.what()));
+      throw Error(fmt::format("{}: the glTF JSON lacks a field or has one of the wrong type ({})", path_,
+                              jsonReason(e)));
     }
     return std::move(mesh_);
   }
@@ -380,7 +423,13 @@ class GlbReader {
     }
     if (attributes.contains(kSeamAttribute)) {
       const std::vector<double> k = accessor(attributes.at(kSeamAttribute).get<std::uint64_t>(), 2);
+      if (k.size() != pos.size() / 3 * 2) {
+        throw Error(fmt::format("{}: a primitive has {} seam keys for {} vertices", path_, k.size() / 2, pos.size() / 3));
+      }
       for (std::size_t v = 0; v + 1 < k.size(); v += 2) {
+        if (!(k[v] >= 0 && k[v] <= 65535 && k[v + 1] >= 0 && k[v + 1] <= 65535)) {
+          throw Error(fmt::format("{}: a primitive has a seam key out of range", path_));
+        }
         part.seamKeys.push_back(static_cast<std::uint32_t>(k[v]) | (static_cast<std::uint32_t>(k[v + 1]) << 16));
       }
     }
@@ -389,7 +438,7 @@ class GlbReader {
     for (std::size_t t = 0; t + 2 < idx.size(); t += 3) {
       Triangle tri{};
       for (std::size_t c = 0; c < 3; ++c) {
-        if (idx[t + c] >= static_cast<double>(part.positions.size())) {
+        if (!(idx[t + c] >= 0 && idx[t + c] < static_cast<double>(part.positions.size()))) {
           throw Error(fmt::format("{}: an index references vertex {} of {}", path_, idx[t + c], part.positions.size()));
         }
         tri[c] = static_cast<VertexId>(idx[t + c]);
@@ -412,24 +461,70 @@ class GlbReader {
     } else {
       part = plainPrimitive(p);
     }
-    // Join vertices by identity: a key that an earlier primitive holds is that vertex.
-    std::vector<VertexId> ids(part.positions.size());
+    if ((!part.seamKeys.empty() && part.seamKeys.size() != part.positions.size()) ||
+        (!part.normals.empty() && part.normals.size() != part.positions.size())) {
+      throw Error(fmt::format("{}: a primitive's attributes differ in length from its {} positions", path_,
+                              part.positions.size()));
+    }
+    // Join the seam with the previous primitive (see draco_writers.h): equal keys (>= 2) are one
+    // vertex; an unmarked vertex (0) is the previous primitive's unmarked vertex at its position
+    // when each primitive has exactly one there; 1 is never joined.
     const bool keyed = !part.seamKeys.empty();
+    auto mark = [&](std::size_t v) { return keyed ? part.seamKeys[v] : 0u; };
+    std::unordered_map<PositionKey, int, PositionHash> unmarkedHere;
     for (std::size_t v = 0; v < part.positions.size(); ++v) {
-      const std::uint32_t key = keyed ? part.seamKeys[v] : 0;
-      if (key != 0) {
-        const auto found = keys_.find(key);
+      if (mark(v) == 0) ++unmarkedHere[positionKey(part.positions[v])];
+    }
+    std::unordered_map<PositionKey, std::pair<VertexId, int>, PositionHash> unmarkedNext;
+    std::unordered_map<std::uint32_t, VertexId> keysNext;
+    std::vector<VertexId> ids(part.positions.size());
+    for (std::size_t v = 0; v < part.positions.size(); ++v) {
+      const std::uint32_t m = mark(v);
+      const PositionKey at = positionKey(part.positions[v]);
+      bool joined = false;
+      if (m >= 2 && ((m - 2) & 1) == ((primitives_ - 1) & 1)) {
+        const auto found = keys_.find(m);
         if (found != keys_.end()) {
           ids[v] = found->second;
-          continue;
+          joined = true;
+        }
+      } else if (m == 0 && unmarkedHere[at] == 1) {
+        const auto found = unmarkedPrevious_.find(at);
+        if (found != unmarkedPrevious_.end() && found->second.second == 1) {
+          ids[v] = found->second.first;
+          joined = true;
         }
       }
-      ids[v] = static_cast<VertexId>(mesh_.positions.size());
-      mesh_.positions.push_back(part.positions[v]);
-      if (!part.normals.empty()) mesh_.normals.push_back(part.normals[v]);
-      if (key != 0) keys_.emplace(key, ids[v]);
+      if (!joined) {
+        ids[v] = static_cast<VertexId>(mesh_.positions.size());
+        mesh_.positions.push_back(part.positions[v]);
+        if (!part.normals.empty()) mesh_.normals.push_back(part.normals[v]);
+      }
+      if (m >= 2 && ((m - 2) & 1) == (primitives_ & 1)) keysNext.emplace(m, ids[v]);
+      if (m == 0) {
+        auto& slot = unmarkedNext.try_emplace(at, ids[v], 0).first->second;
+        ++slot.second;
+      }
     }
+    unmarkedPrevious_ = std::move(unmarkedNext);
+    keys_ = std::move(keysNext);
+    ++primitives_;
     for (const Triangle& t : part.triangles) mesh_.triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
+  }
+
+  struct PositionKey {
+    std::uint32_t x, y, z;
+    bool operator==(const PositionKey&) const = default;
+  };
+  struct PositionHash {
+    std::size_t operator()(const PositionKey& k) const noexcept {
+      return (std::size_t{k.x} * 73856093u) ^ (std::size_t{k.y} * 19349663u) ^ (std::size_t{k.z} * 83492791u);
+    }
+  };
+  static PositionKey positionKey(const Vec3f& p) noexcept {
+    PositionKey k{};
+    std::memcpy(&k, &p, sizeof k);
+    return k;
   }
 
   const std::string& path_;
@@ -438,7 +533,11 @@ class GlbReader {
   std::uint64_t binStart_ = 0;
   std::uint64_t binLength_ = 0;
   IndexedMesh mesh_;
+  // The previous primitive's keys for the seam with this one, and how many primitives came before.
   std::unordered_map<std::uint32_t, VertexId> keys_;
+  std::uint64_t primitives_ = 0;
+  // The previous primitive's unmarked vertices: position -> (id, how many there).
+  std::unordered_map<PositionKey, std::pair<VertexId, int>, PositionHash> unmarkedPrevious_;
 };
 
 }  // namespace
@@ -447,8 +546,18 @@ IndexedMesh readMesh(const std::string& path, MeshMetadata* metadata) {
   MeshMetadata scratch;
   MeshMetadata& meta = metadata != nullptr ? *metadata : scratch;
   meta = MeshMetadata{};
+  std::error_code statError;
+  const auto status = std::filesystem::status(path, statError);
+  if (!statError && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) {
+    throw Error(fmt::format("{}: not a regular file (FIFOs, devices and folders are not read)", path));
+  }
   std::ifstream f(path, std::ios::binary);
   if (!f) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(errno)));
+  const std::uintmax_t size = std::filesystem::file_size(path, statError);
+  if (!statError && size > static_cast<std::uintmax_t>(limits::kMaxMeshFileBytes)) {
+    throw Error(fmt::format("{}: {} bytes exceed the limit of {} bytes for a mesh file", path, size,
+                            limits::kMaxMeshFileBytes));
+  }
   std::string data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   if (data.compare(0, 4, "ply\n") == 0 || data.compare(0, 5, "ply\r\n") == 0) return readPly(path, std::move(data), meta);
   if (data.compare(0, 5, "solid") == 0) throw Error(fmt::format("{}: ASCII STL is not supported", path));

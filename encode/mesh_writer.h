@@ -35,6 +35,9 @@ struct WriterOptions {
   /// .glb: a root node maps the output space to glTF's frame (Y up, metres, front +Z); false
   /// keeps the raw output frame (positions as written, no node transform).
   bool gltfFrame = true;
+  /// .glb with Draco: seam keys (_ISOSLAB_SEAM) on the vertices that chunks share. Without them a
+  /// decoder can only weld by position, which is ambiguous; false is for measuring their cost.
+  bool seamKeys = true;
 };
 
 /// .ply, .stl, .obj, .glb (chunked Draco in glTF 2.0) or .drc (one Draco mesh), by extension

@@ -29,6 +29,7 @@
 #include <set>
 
 #include "io/error.h"
+#include "io/limits.h"
 #include "io/file_list.h"
 
 namespace fs = std::filesystem;
@@ -252,6 +253,24 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
     if (double tilt = 0; getDoubles(ds, DCM_GantryDetectorTilt, &tilt, 1)) s.gantryTilt = tilt;
     Sint32 frames = 1;
     if (ds->findAndGetSint32(DCM_NumberOfFrames, frames).bad() || frames < 1) frames = 1;
+    {
+      // Each frame takes its pixels (or, compressed, at least an 8-byte fragment header) in the file.
+      std::error_code sizeError;
+      const auto fileBytes = static_cast<std::int64_t>(fs::file_size(path, sizeError));
+      const std::int64_t frameBytes =
+          xfer.isEncapsulated()
+              ? 8
+              : std::max<std::int64_t>(1, std::int64_t{s.rows} * s.columns * s.samplesPerPixel * ((s.bitsAllocated + 7) / 8));
+      if (frames > limits::kMaxFrames || (!sizeError && frames > 1 && frames > fileBytes / frameBytes)) {
+        const std::string msg =
+            frames > limits::kMaxFrames
+                ? fmt::format("{}: NumberOfFrames {} exceeds the limit of {} frames", path, frames, limits::kMaxFrames)
+                : fmt::format("{}: NumberOfFrames {} is more than the file's {} bytes hold", path, frames, fileBytes);
+        if (!options.skipBad) throw Error(msg);
+        scan.warnings.push_back(msg + " (skipped)");
+        continue;
+      }
+    }
     DcmItem* shared = subItem(ds, DCM_SharedFunctionalGroupsSequence);
     s.multiFrame = frames > 1 || shared != nullptr;
     Sint32 instance = 0;

@@ -25,6 +25,15 @@ std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, 
                                         std::vector<std::string>* notes) {
   if (inputs.empty()) throw Error("no input given");
   const std::string& input = inputs.front();
+  // A FIFO, a device or a socket would be read without end (/dev/zero) or block forever.
+  for (const std::string& in : inputs) {
+    std::error_code statError;
+    const auto status = std::filesystem::status(in, statError);
+    if (!statError && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status) &&
+        !std::filesystem::is_directory(status)) {
+      throw Error(fmt::format("{}: not a regular file or a folder (FIFOs and devices are not read)", in));
+    }
+  }
   if (inputs.size() == 1 && PhantomSource::isPhantom(input)) return PhantomSource::open(input);
   if (options.raw) {
     if (inputs.size() > 1) throw Error(fmt::format("{}: raw input takes one file, pattern or folder", inputs[1]));

@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "io/error.h"
+#include "io/limits.h"
 #include "io/file_list.h"
 #include "io/volume_file.h"
 
@@ -73,9 +74,16 @@ std::vector<std::string> patternFiles(const std::string& header, const std::stri
   long first = 0, last = 0, step = 1;
   s >> pattern >> first >> last >> step;
   if (!isSlicePattern(pattern) || step == 0) throw Error(fmt::format("{}: bad data file pattern '{}'", header, spec));
+  // Count the names before making any (the bounds are 64-bit, the difference may not be).
+  const long double names = (static_cast<long double>(last) - static_cast<long double>(first)) / step;
+  if (names >= static_cast<long double>(limits::kMaxDataFiles)) {
+    throw Error(fmt::format("{}: the data file pattern '{}' names more than the limit of {} files", header, spec,
+                            limits::kMaxDataFiles));
+  }
   std::vector<std::string> files;
-  for (long i = first; step > 0 ? i <= last : i >= last; i += step)
-    files.push_back(besides(header, formatPattern(pattern, i)));
+  if (names < 0) return files;
+  const long count = static_cast<long>(names) + 1;
+  for (long n = 0; n < count; ++n) files.push_back(besides(header, formatPattern(pattern, first + n * step)));
   return files;
 }
 
@@ -91,13 +99,19 @@ void setGeometry(VolumeInfo& info, const std::array<Vec3, 3>& axes, const Vec3& 
   info.origin = origin;
 }
 
-void pickComponent(VolumeFileLayout& layout, int components, int channel, const std::string& path) {
-  layout.components = components;
-  if (components > 1) {
+void pickComponent(VolumeFileLayout& layout, double components, int channel, const std::string& path) {
+  if (!(components >= 1 && components <= static_cast<double>(limits::kMaxComponents)) ||
+      components != std::floor(components)) {
+    throw Error(fmt::format("{}: {} components per voxel; a volume needs 1 to {} (the limit)", path, components,
+                            limits::kMaxComponents));
+  }
+  layout.components = static_cast<int>(components);
+  const int count = layout.components;
+  if (count > 1) {
     if (channel < 0)
-      throw Error(fmt::format("{}: {} components per voxel; choose one with --channel 0..{}", path, components,
-                              components - 1));
-    if (channel >= components) throw Error(fmt::format("--channel: {} has {} components per voxel", path, components));
+      throw Error(fmt::format("{}: {} components per voxel; choose one with --channel 0..{}", path, count,
+                              count - 1));
+    if (channel >= count) throw Error(fmt::format("--channel: {} has {} components per voxel", path, count));
     layout.component = channel;
   }
 }
@@ -186,12 +200,12 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
   }
   // A 4-D NRRD is either components first (kinds "vector", "RGB-color", ...) or a series last.
   std::size_t first = 0;
-  int components = 1;
+  double components = 1;
   if (dimension == 4) {
     const std::string kinds = lower(fields.count("kinds") ? fields["kinds"] : "");
     const bool spaceFirst = kinds.rfind("domain", 0) == 0 || kinds.rfind("space", 0) == 0;
     if (!spaceFirst) {
-      components = static_cast<int>(sizes[0]);
+      components = sizes[0];
       first = 1;
     } else if (notes != nullptr) {
       notes->push_back(fmt::format("{}: 4-D data; reading the first of {} volumes", path, sizes[3]));
@@ -268,7 +282,7 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
         throw Error(fmt::format("{}: 'byte skip: -1' needs one raw data file", path));
       }
       const auto bytes =
-          info.sliceVoxels() * info.dims[2] * static_cast<std::int64_t>(voxelSize(layout.type)) * components;
+          info.sliceVoxels() * info.dims[2] * static_cast<std::int64_t>(voxelSize(layout.type)) * layout.components;
       layout.fileOffset = static_cast<std::int64_t>(fs::file_size(layout.files[0])) - bytes;
     } else {
       layout.skipBytes = skip;
@@ -344,8 +358,11 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
     throw Error(fmt::format("{}: DimSize '{}' is not a 3-D volume", path, need("DimSize")));
   }
   for (std::size_t a = 0; a < 3; ++a) info.dims[a] = static_cast<std::int64_t>(dims[a]);
-  const int components =
-      fields.count("ElementNumberOfChannels") ? std::atoi(fields["ElementNumberOfChannels"].c_str()) : 1;
+  double components = 1;
+  if (fields.count("ElementNumberOfChannels")) {
+    const auto n = numbersIn(path, "ElementNumberOfChannels", fields["ElementNumberOfChannels"]);
+    components = n.size() == 1 ? n[0] : 0;
+  }
   pickComponent(layout, components, channel, path);
   const std::string msb = fields.count("ElementByteOrderMSB")      ? fields["ElementByteOrderMSB"]
                           : fields.count("BinaryDataByteOrderMSB") ? fields["BinaryDataByteOrderMSB"]
@@ -399,7 +416,7 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
       if (layout.compression != Compression::kNone || layout.perSlice)
         throw Error(fmt::format("{}: HeaderSize -1 needs one raw data file", path));
       const auto bytes =
-          info.sliceVoxels() * info.dims[2] * static_cast<std::int64_t>(voxelSize(layout.type)) * components;
+          info.sliceVoxels() * info.dims[2] * static_cast<std::int64_t>(voxelSize(layout.type)) * layout.components;
       layout.fileOffset = static_cast<std::int64_t>(fs::file_size(layout.files[0])) - bytes;
     } else if (h > 0) {
       layout.fileOffset += h;

@@ -8,6 +8,7 @@ packages=(
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev
   libdcmtk-dev libopenjp2-7-dev libdraco-dev libeigen3-dev draco
   python3-matplotlib libopenimageio-dev
+  python3-vtk9
 )
 # Node.js runs the real glTF clients in the tests; use the machine's own when it has one.
 command -v node >/dev/null 2>&1 || packages+=(nodejs)

@@ -197,5 +197,65 @@ TEST(MeshMetadata, SkullFromDicomMeasuresAsItsReport) {
   }
 }
 
+// The Khronos validator and three.js (tests/encode/js/gltf_check.mjs) on every kind of .glb:
+// Draco chunks with seam keys and normals, plain accessors, and the raw frame. three.js applies
+// the root node, so the loaded box must be the report's bounds in glTF's frame, in metres.
+TEST(GltfClients, ValidateAndLoadInGltfsFrame) {
+  const std::string npm = ISOSLAB_NPM_DIR;
+  if (!fs::exists(npm + "/node_modules/three") || !fs::exists(npm + "/node_modules/gltf-validator") ||
+      std::system("command -v node >/dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "node and the npm packages in " << npm << " are absent (scripts/test.sh installs them)";
+  }
+  const std::string dir = testing::tempDir();
+  struct Case {
+    std::string options;
+    bool gltfFrame;
+    const char* space;
+  };
+  for (const Case& c : {Case{"--chunk-triangles 4000", true, "lps"}, Case{"--draco off", true, "lps"},
+                        Case{"--chunk-triangles 4000", true, "ras"},
+                        Case{"--draco off", true, "ras"},
+                        Case{"--chunk-triangles 4000 --gltf-frame raw", false, "lps"},
+                        Case{"--draco off --gltf-frame raw", false, "lps"}}) {
+    const auto x = runCli("extract 'phantom:head?n=48,48,40' --iso -400 --normals --space " + std::string(c.space) + " " +
+                          c.options + " -q -o " + dir + "/h.glb --report " + dir + "/r.json");
+    ASSERT_EQ(x.exitCode, 0) << c.options << ": " << x.err;
+    const auto report = json(dir + "/r.json");
+    const std::string cmd = "node " + npm + "/gltf_check.mjs " + dir + "/h.glb > " + dir + "/client.json 2>&1";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(dir + "/client.json");
+    const auto seen = json(dir + "/client.json");
+    EXPECT_EQ(seen["errors"], 0) << c.options << ": " << seen["messages"];
+    EXPECT_EQ(seen["warnings"], 0) << c.options << ": " << seen["messages"];
+    EXPECT_EQ(seen["triangles"], report["triangles"]) << c.options;
+    const auto& b = report["bounds"];
+    double lo[3], hi[3];
+    double scale = 1;
+    if (!c.gltfFrame) {
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = b[a].get<double>();
+        hi[a] = b[a + 3].get<double>();
+      }
+    } else if (std::string(c.space) == "lps") {  // (x, y, z) -> (x, z, -y) mm -> m
+      scale = 0.001;
+      lo[0] = b[0].get<double>(), lo[1] = b[2].get<double>(), lo[2] = -b[4].get<double>();
+      hi[0] = b[3].get<double>(), hi[1] = b[5].get<double>(), hi[2] = -b[1].get<double>();
+    } else {  // RAS: (x, y, z) -> (-x, z, y)
+      scale = 0.001;
+      lo[0] = -b[3].get<double>(), lo[1] = b[2].get<double>(), lo[2] = b[1].get<double>();
+      hi[0] = -b[0].get<double>(), hi[1] = b[5].get<double>(), hi[2] = b[4].get<double>();
+    }
+    const double step = report["output"].contains("quantization_step")
+                            ? report["output"]["quantization_step"].get<double>()
+                            : 0.0;
+    const double tolerance = scale * (0.5 * step + 1e-4);
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(seen["min"][a].get<double>(), scale * lo[a], tolerance) << c.options << " axis " << a;
+      EXPECT_NEAR(seen["max"][a].get<double>(), scale * hi[a], tolerance) << c.options << " axis " << a;
+    }
+    EXPECT_EQ(seen["extras"]["frame"], c.gltfFrame ? "gltf" : "raw");
+    EXPECT_EQ(seen["extras"]["space"], c.space);
+  }
+}
+
 }  // namespace
 }  // namespace isoslab

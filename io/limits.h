@@ -1,0 +1,27 @@
+// The largest inputs isoslab accepts, in one place.
+//
+// Every count that a header claims (dims, components, frames, data files, mesh elements) is
+// checked against the size of the file that must hold it, or against one of these limits, before
+// anything is allocated or looped over. Messages that refuse an input name the limit.
+#pragma once
+
+#include <cstdint>
+
+namespace isoslab::limits {
+
+/// Lattice points along one axis.
+inline constexpr std::int64_t kMaxAxisPoints = 2147483647;
+/// Components (channels) per voxel in a volume file.
+inline constexpr std::int64_t kMaxComponents = 1024;
+/// Files named by a data-file list or pattern (NRRD, MetaImage), that is, slices in files.
+inline constexpr std::int64_t kMaxDataFiles = 1000000;
+/// Frames of one multi-frame DICOM image.
+inline constexpr std::int64_t kMaxFrames = 1000000;
+/// Bytes of a text header (NRRD, MetaImage) before its data.
+inline constexpr std::int64_t kMaxHeaderBytes = 16 * 1024 * 1024;
+/// Bytes of a mesh file read by `metrics` and `decode` (they read it whole).
+inline constexpr std::int64_t kMaxMeshFileBytes = std::int64_t{16} * 1024 * 1024 * 1024;
+/// Depth of nested DICOM sequences (DCMTK's reader recurses once per level).
+inline constexpr int kMaxDicomSequenceDepth = 64;
+
+}  // namespace isoslab::limits
