@@ -282,6 +282,15 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
       DcmItem* perFrame = nullptr;
       if (s.multiFrame) ds->findAndGetSequenceItem(DCM_PerFrameFunctionalGroupsSequence, perFrame, f);
       const FrameGeometry g = frameGeometry(s.multiFrame ? nullptr : ds, perFrame, shared);
+      // Non-finite geometry would sort, space and place slices nowhere (and never end a gap walk).
+      const bool finitePosition = !g.position || std::all_of(g.position->begin(), g.position->end(),
+                                                               [](double c) { return std::isfinite(c); });
+      const bool finiteOrientation = !g.orientation || std::all_of(g.orientation->begin(), g.orientation->end(),
+                                                                     [](double c) { return std::isfinite(c); });
+      if (!finitePosition || !finiteOrientation) {
+        throw Error(fmt::format("{}: {} is not finite", path,
+                                finitePosition ? "ImageOrientationPatient" : "ImagePositionPatient"));
+      }
       const std::string stack = getString(subItem(perFrame, DCM_FrameContentSequence), DCM_StackID);
       auto [entry, first] = stacks.try_emplace(stack, s);
       DicomSeries& into = entry->second;
