@@ -284,9 +284,9 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
       const FrameGeometry g = frameGeometry(s.multiFrame ? nullptr : ds, perFrame, shared);
       // Non-finite geometry would sort, space and place slices nowhere (and never end a gap walk).
       const bool finitePosition = !g.position || std::all_of(g.position->begin(), g.position->end(),
-                                                               [](double c) { return std::isfinite(c); });
+                                                               [](double x) { return std::isfinite(x); });
       const bool finiteOrientation = !g.orientation || std::all_of(g.orientation->begin(), g.orientation->end(),
-                                                                     [](double c) { return std::isfinite(c); });
+                                                                     [](double x) { return std::isfinite(x); });
       if (!finitePosition || !finiteOrientation) {
         throw Error(fmt::format("{}: {} is not finite", path,
                                 finitePosition ? "ImageOrientationPatient" : "ImagePositionPatient"));

@@ -257,5 +257,36 @@ TEST(GltfClients, ValidateAndLoadInGltfsFrame) {
   }
 }
 
+// The seam attribute itself, where it must appear: a field whose values are a third each 99, 100
+// and 101, at iso 100, in small chunks.
+TEST(GltfClients, ValidateAndLoadTheSeamAttribute) {
+  const std::string npm = ISOSLAB_NPM_DIR;
+  if (!fs::exists(npm + "/node_modules/three") || !fs::exists(npm + "/node_modules/gltf-validator") ||
+      std::system("command -v node >/dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "node and the npm packages in " << npm << " are absent (scripts/test.sh installs them)";
+  }
+  const std::string dir = testing::tempDir();
+  std::vector<std::uint8_t> v(20 * 20 * 20);
+  std::uint32_t state = 777;
+  for (auto& x : v) {
+    state = state * 1664525u + 1013904223u;
+    x = static_cast<std::uint8_t>(99 + (state >> 16) % 3);
+  }
+  std::ofstream(dir + "/f.raw", std::ios::binary).write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size()));
+  const auto x = runCli("extract " + dir + "/f.raw --raw-dims 20,20,20 --iso 100 --normals --chunk-triangles 3000 -q -o " +
+                        dir + "/s.glb --report " + dir + "/r.json");
+  ASSERT_EQ(x.exitCode, 0) << x.err;
+  const auto report = json(dir + "/r.json");
+  ASSERT_GT(report["output"]["seam_keys"].get<double>(), 0);
+  ASSERT_GT(report["output"]["seam_unwelded"].get<double>(), 0);
+  EXPECT_NE(slurp(dir + "/s.glb").find("\"_ISOSLAB_SEAM\""), std::string::npos);
+  const std::string cmd = "node " + npm + "/gltf_check.mjs " + dir + "/s.glb > " + dir + "/client.json 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(dir + "/client.json");
+  const auto seen = json(dir + "/client.json");
+  EXPECT_EQ(seen["errors"], 0) << seen["messages"];
+  EXPECT_EQ(seen["warnings"], 0) << seen["messages"];
+  EXPECT_EQ(seen["triangles"], report["triangles"]);
+}
+
 }  // namespace
 }  // namespace isoslab
