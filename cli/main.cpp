@@ -29,6 +29,7 @@
 #include "io/atomic_file.h"
 #include "io/dicom_series.h"
 #include "io/error.h"
+#include "io/interrupt.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
 #include "io/volume_formats.h"
@@ -289,9 +290,32 @@ void printWarning(const std::string& warning) {
   std::fprintf(stderr, "isoslab: warning: %s\n", warning.c_str());
 }
 
+// Whether two output paths name one file: the same spelling after normalisation, or (when the file
+// exists) the same file through links and other spellings.
+bool sameFile(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::equivalent(a, b, ec) && !ec) return true;
+  // A link to a file that does not exist yet names that file.
+  const auto resolve = [&](fs::path p) {
+    for (int hops = 0; hops < 40 && fs::is_symlink(fs::symlink_status(p, ec)); ++hops) {
+      const fs::path link = fs::read_symlink(p, ec);
+      if (ec) break;
+      p = link.is_absolute() ? link : p.parent_path() / link;
+    }
+    return fs::weakly_canonical(fs::absolute(p), ec).lexically_normal();
+  };
+  const fs::path ca = resolve(a);
+  const fs::path cb = resolve(b);
+  return ca == cb;
+}
+
 int runExtract(const ExtractArgs& args) {
   const auto method = parseMethod(args.method);
   if (!method) throw UsageError(fmt::format("--method: unknown method '{}' (use mc, mt5, mt6 or bcc12)", args.method));
+  if (!args.report.empty() && sameFile(args.report, args.output)) {
+    throw UsageError(fmt::format("--report '{}' names the same file as -o '{}'", args.report, args.output));
+  }
   std::vector<std::string> notes;
   auto source = openSource(args.inputs, sourceOptions(args.raw), &notes);
   // Readers' notes that are warnings print even with --quiet and go to the report.
@@ -328,6 +352,9 @@ int runExtract(const ExtractArgs& args) {
   writerOptions.draco = args.draco == "on";
   writerOptions.gltfFrame = args.gltfFrame == "gltf";
   writerOptions.voxelSize = args.space == "voxel" ? 1.0 : std::min({info.spacing[0], info.spacing[1], info.spacing[2]});
+  // The mesh and the report appear together or not at all: both are completed under temporary
+  // names, and renamed into place only once the report is written.
+  CommitGroup outputs;
   auto writer = makeMeshWriter(args.output, writerOptions);
   std::optional<Sphere> sphere = phantomSphere(info);
   if (!args.sphere.empty()) sphere = parseSphere(args.sphere);
@@ -402,6 +429,8 @@ int runExtract(const ExtractArgs& args) {
     r["output"] = output;
     writeText(args.report, r.dump(2) + "\n");
   }
+  throwIfInterrupted();
+  outputs.commit();
   if (!args.quiet) {
     std::fprintf(stderr, "isoslab: %s at iso %g%s: %llu triangles, %llu vertices, %s, %.2f s -> %s\n",
                  header.method.c_str(), iso, args.iso ? "" : " (the input's suggestion)",
@@ -608,13 +637,36 @@ int runPhantom(const std::string& spec, const std::string& output, bool compress
 }  // namespace
 }  // namespace isoslab
 
+namespace {
+
+// Asks the run to stop at the next slice boundary; a second signal ends the process at once.
+extern "C" void onStopSignal(int signal) {
+  int expected = 0;
+  if (!isoslab::gInterruptSignal.compare_exchange_strong(expected, signal)) {
+    ::signal(signal, SIG_DFL);
+    ::raise(signal);
+  }
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   using namespace isoslab;
   // A file-size limit then fails the write with EFBIG, reported like any write error.
   ::signal(SIGXFSZ, SIG_IGN);
+  for (const int stop : {SIGINT, SIGTERM, SIGHUP}) {
+    struct sigaction action {};
+    action.sa_handler = onStopSignal;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESTART;
+    ::sigaction(stop, &action, nullptr);
+  }
   CLI::App app{"isoslab: streaming iso-surface extraction from volumetric scanner data", "isoslab"};
   app.require_subcommand(1);
   app.set_version_flag("--version", kVersion);
+  app.footer(
+      "Exit codes: 0 success; 1 input or output error; 2 usage error; 129, 130, 143 interrupted by SIGHUP, "
+      "SIGINT, SIGTERM (no output or temporary file is left).");
 
   ExtractArgs ex;
   auto* extract = app.add_subcommand("extract", "Extract an iso-surface mesh from a volume");
@@ -785,6 +837,10 @@ int main(int argc, char** argv) {
   } catch (const UsageError& e) {
     std::fprintf(stderr, "isoslab: error: %s\n", e.what());
     return 2;
+  } catch (const Interrupted& e) {
+    // Unwinding has joined the threads and removed every temporary file.
+    std::fprintf(stderr, "%sisoslab: interrupted by SIG%s\n", ex.quiet ? "" : "\n", sigabbrev_np(e.signal()));
+    return 128 + e.signal();
   } catch (const Error& e) {
     std::fprintf(stderr, "isoslab: error: %s\n", e.what());
     return 1;

@@ -1,9 +1,11 @@
 #include "io/atomic_file.h"
 
 #include <fmt/format.h>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cassert>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -38,10 +40,42 @@ std::FILE* makeTemp(const std::string& folder, const std::string& stem, std::str
   return f;
 }
 
+// The file that a chain of symbolic links ends at (which need not exist yet), or `path` itself.
+std::string followLinks(const std::string& path) {
+  fs::path p = path;
+  std::error_code ec;
+  for (int hops = 0; fs::is_symlink(fs::symlink_status(p, ec)); ++hops) {
+    if (hops == 40) throw Error(fmt::format("{}: cannot create the output: too many levels of symbolic links", path));
+    const fs::path link = fs::read_symlink(p, ec);
+    if (ec) throw Error(fmt::format("{}: cannot read the symbolic link: {}", path, ec.message()));
+    p = link.is_absolute() ? link : p.parent_path() / link;
+  }
+  return p.string();
+}
+
+std::mutex gGroupMutex;
+CommitGroup* gActiveGroup = nullptr;
+
 }  // namespace
 
-AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
-  const std::string folder = folderOf(path_);
+AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), target_(followLinks(path_)) {
+  // Something that is not a regular file cannot be replaced by a rename without destroying it
+  // (as root, `--report /dev/null` would replace the device node): write to it in place.
+  struct stat st {};
+  if (::stat(target_.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) {
+    const int fd = ::open(target_.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+    if (fd < 0) throw Error(fmt::format("{}: cannot open the output: {}", path_, std::strerror(errno)));
+    file_ = ::fdopen(fd, "wb");
+    if (file_ == nullptr) {
+      const int err = errno;
+      ::close(fd);
+      throw Error(fmt::format("{}: cannot open the output: {}", path_, std::strerror(err)));
+    }
+    direct_ = true;
+    std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
+    return;
+  }
+  const std::string folder = folderOf(target_);
   std::error_code ec;
   if (!fs::is_directory(folder, ec)) {
     throw Error(fmt::format("{}: cannot create the output: the folder '{}' does not exist", path_, folder));
@@ -49,7 +83,7 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   if (fs::is_directory(path_, ec)) {
     throw Error(fmt::format("{}: cannot create the output: it is a folder", path_));
   }
-  file_ = makeTemp(folder, fs::path(path_).filename().string(), tempPath_);
+  file_ = makeTemp(folder, fs::path(target_).filename().string(), tempPath_);
   if (file_ == nullptr) {
     throw Error(fmt::format("{}: cannot create the output: {}", path_, std::strerror(errno)));
   }
@@ -62,7 +96,9 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
 
 AtomicFile::AtomicFile(AtomicFile&& other) noexcept
     : path_(std::move(other.path_)),
+      target_(std::move(other.target_)),
       tempPath_(std::move(other.tempPath_)),
+      direct_(other.direct_),
       file_(std::exchange(other.file_, nullptr)),
       size_(other.size_),
       position_(other.position_) {}
@@ -70,7 +106,7 @@ AtomicFile::AtomicFile(AtomicFile&& other) noexcept
 AtomicFile::~AtomicFile() {
   if (file_ != nullptr) {
     std::fclose(file_);
-    ::unlink(tempPath_.c_str());
+    if (!direct_) ::unlink(tempPath_.c_str());
   }
 }
 
@@ -79,7 +115,7 @@ void AtomicFile::fail(const char* what) {
   if (file_ != nullptr) {
     std::fclose(file_);
     file_ = nullptr;
-    ::unlink(tempPath_.c_str());
+    if (!direct_) ::unlink(tempPath_.c_str());
   }
   throw Error(fmt::format("{}: cannot {}: {}", path_, what, std::strerror(err != 0 ? err : EIO)));
 }
@@ -101,6 +137,12 @@ void AtomicFile::seek(std::int64_t offset) {
 void AtomicFile::commit() {
   if (file_ == nullptr) throw Error(fmt::format("{}: commit after close", path_));
   if (std::fflush(file_) != 0) fail("write");
+  if (direct_) {
+    if (std::fclose(std::exchange(file_, nullptr)) != 0) {
+      throw Error(fmt::format("{}: cannot write: {}", path_, std::strerror(errno)));
+    }
+    return;
+  }
   if (::fsync(::fileno(file_)) != 0 && errno != EINVAL) fail("write");
   std::FILE* f = std::exchange(file_, nullptr);
   if (std::fclose(f) != 0) {
@@ -108,10 +150,50 @@ void AtomicFile::commit() {
     ::unlink(tempPath_.c_str());
     throw Error(fmt::format("{}: cannot write: {}", path_, std::strerror(err)));
   }
-  if (std::rename(tempPath_.c_str(), path_.c_str()) != 0) {
+  if (CommitGroup::stage({path_, target_, tempPath_})) return;
+  if (std::rename(tempPath_.c_str(), target_.c_str()) != 0) {
     const int err = errno;
     ::unlink(tempPath_.c_str());
     throw Error(fmt::format("{}: cannot rename the finished output into place: {}", path_, std::strerror(err)));
+  }
+}
+
+CommitGroup::CommitGroup() {
+  const std::lock_guard lock(gGroupMutex);
+  assert(gActiveGroup == nullptr);
+  gActiveGroup = this;
+}
+
+CommitGroup::~CommitGroup() {
+  {
+    const std::lock_guard lock(gGroupMutex);
+    if (gActiveGroup == this) gActiveGroup = nullptr;
+  }
+  for (const Staged& s : staged_) ::unlink(s.tempPath.c_str());
+}
+
+bool CommitGroup::stage(Staged staged) {
+  const std::lock_guard lock(gGroupMutex);
+  if (gActiveGroup == nullptr) return false;
+  const std::lock_guard groupLock(gActiveGroup->mutex_);
+  gActiveGroup->staged_.push_back(std::move(staged));
+  return true;
+}
+
+void CommitGroup::commit() {
+  {
+    const std::lock_guard lock(gGroupMutex);
+    if (gActiveGroup == this) gActiveGroup = nullptr;
+  }
+  const std::lock_guard lock(mutex_);
+  std::vector<Staged> staged = std::exchange(staged_, {});
+  for (std::size_t n = 0; n < staged.size(); ++n) {
+    if (std::rename(staged[n].tempPath.c_str(), staged[n].target.c_str()) != 0) {
+      const int err = errno;
+      for (std::size_t m = n; m < staged.size(); ++m) ::unlink(staged[m].tempPath.c_str());
+      throw Error(fmt::format("{}: cannot rename the finished output into place: {}", staged[n].path,
+                              std::strerror(err)));
+    }
   }
 }
 

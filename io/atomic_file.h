@@ -4,14 +4,26 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <mutex>
 #include <string>
+#include <vector>
 
 namespace isoslab {
+
+class CommitGroup;
 
 /// A file written under a temporary name in the destination's folder and renamed to the
 /// destination by commit(). If it is destroyed without commit() (an error, an exception), the
 /// temporary file is removed and the destination is left as it was. Move-only; every failure
 /// throws isoslab::Error naming the destination.
+///
+/// The destination is never replaced by anything but a regular file:
+/// - a symbolic link is followed, and its final target is replaced (the temporary file lives in the
+///   target's folder), so the link stays;
+/// - an existing non-regular file (a character device such as /dev/null or /dev/stdout, a FIFO, a
+///   socket) is opened and written directly, since there is nothing to rename: such an output is
+///   not atomic, and seek() on it fails unless the file is seekable;
+/// - a folder is an error.
 class AtomicFile {
  public:
   explicit AtomicFile(std::string path);
@@ -27,8 +39,10 @@ class AtomicFile {
   /// Bytes written so far (the current end of file).
   std::int64_t size() const noexcept { return size_; }
   /// Flushes, closes and renames onto the destination. Throws on any failure, removing the
-  /// temporary file.
+  /// temporary file. While a CommitGroup is active, the rename is left to the group.
   void commit();
+  /// True when the destination is written directly (a device or FIFO), not through a rename.
+  bool direct() const noexcept { return direct_; }
 
   const std::string& path() const noexcept { return path_; }
 
@@ -36,10 +50,43 @@ class AtomicFile {
   [[noreturn]] void fail(const char* what);
 
   std::string path_;
+  std::string target_;  // path_ with symbolic links resolved: what is replaced
   std::string tempPath_;
+  bool direct_ = false;
   std::FILE* file_ = nullptr;
   std::int64_t size_ = 0;
   std::int64_t position_ = 0;
+};
+
+/// Outputs that appear together or not at all. While a group is active (it is process-wide; one at
+/// a time), AtomicFile::commit() completes each file under its temporary name and hands the rename
+/// to the group. commit() then renames them all, in the order they were staged; the destructor
+/// removes every temporary not renamed (an error or an interruption before the group's commit).
+/// The renames are not one atomic step, but each is a rename within one folder, which fails only
+/// when the folder itself goes away. Thread-safe: writers may commit from their own threads.
+class CommitGroup {
+ public:
+  CommitGroup();
+  CommitGroup(const CommitGroup&) = delete;
+  CommitGroup& operator=(const CommitGroup&) = delete;
+  ~CommitGroup();
+
+  /// Renames every staged file into place; throws isoslab::Error naming the first that fails (the
+  /// rest are then removed).
+  void commit();
+
+ private:
+  friend class AtomicFile;
+  struct Staged {
+    std::string path;      // as the user named it, for messages
+    std::string target;    // what the rename replaces
+    std::string tempPath;  // the completed temporary file
+  };
+  /// Takes over a completed temporary file; false when no group is active.
+  static bool stage(Staged staged);
+
+  std::mutex mutex_;
+  std::vector<Staged> staged_;
 };
 
 /// A scratch file in a chosen folder, unlinked as soon as it is created so that it disappears

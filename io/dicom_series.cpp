@@ -9,6 +9,8 @@
 #include <dcmtk/dcmdata/dcpixseq.h>
 #include <dcmtk/dcmdata/dcpxitem.h>
 #include <dcmtk/dcmdata/dcrledrg.h>
+#include <dcmtk/dcmdata/dctag.h>
+#include <dcmtk/dcmdata/dcuid.h>
 #include <dcmtk/dcmdata/dcxfer.h>
 #include <dcmtk/dcmjpeg/djdecode.h>
 #include <dcmtk/dcmjpls/djdecode.h>
@@ -134,8 +136,120 @@ struct FileHeader {
   DicomSeries series;  // the series fields, with this file's slices
 };
 
+// Whether a DICOM file nests sequences deeper than `limit`. DCMTK's reader recurses once per
+// level, so a crafted file of thousands of nested sequences would overflow the stack; this walk
+// keeps its own stack. It reads tags and lengths only and seeks over values. Deflated datasets are
+// not walked (DCMTK inflates them itself). Truncated or odd files stop the walk; DCMTK then reports
+// them.
+bool nestsDeeperThan(const std::string& path, int limit) {
+  std::ifstream f(path, std::ios::binary);
+  std::error_code ec;
+  const auto size = static_cast<std::uint64_t>(fs::file_size(path, ec));
+  if (!f || ec || size < 132) return false;
+  constexpr std::uint32_t kUndefined = 0xFFFFFFFFu;
+  std::uint64_t pos = 132;
+  bool bigEndian = false, bigEndianDataset = false, explicitVr = true;
+  auto read = [&](char* into, std::size_t n) {
+    if (pos + n > size) return false;
+    f.seekg(static_cast<std::streamoff>(pos));
+    if (!f.read(into, static_cast<std::streamsize>(n))) return false;
+    pos += n;
+    return true;
+  };
+  auto u16 = [&](const unsigned char* b) {
+    return static_cast<std::uint16_t>(bigEndian ? (b[0] << 8) | b[1] : b[0] | (b[1] << 8));
+  };
+  auto u32 = [&](const unsigned char* b) {
+    return bigEndian ? (std::uint32_t{b[0]} << 24) | (std::uint32_t{b[1]} << 16) | (std::uint32_t{b[2]} << 8) | b[3]
+                     : b[0] | (std::uint32_t{b[1]} << 8) | (std::uint32_t{b[2]} << 16) | (std::uint32_t{b[3]} << 24);
+  };
+  // Containers open at `pos`: their end (none when of undefined length), and whether a sequence
+  // (as opposed to an item, or encapsulated pixel data whose items are opaque fragments).
+  struct Open {
+    std::uint64_t end;
+    enum Kind { kSequence, kItem, kFragments } kind;
+  };
+  std::vector<Open> open;
+  int depth = 0;
+  bool meta = true;
+  for (;;) {
+    while (!open.empty() && open.back().end <= pos) {
+      if (open.back().kind == Open::kSequence) --depth;
+      open.pop_back();
+    }
+    const std::uint64_t start = pos;
+    unsigned char b[12];
+    if (!read(reinterpret_cast<char*>(b), 4)) return false;
+    std::uint16_t group = u16(b);
+    if (meta && group != 0x0002) {
+      // The dataset starts: the meta group was explicit little endian; the rest follows the syntax.
+      meta = false;
+      bigEndian = bigEndianDataset;
+      pos = start;
+      if (!read(reinterpret_cast<char*>(b), 4)) return false;
+      group = u16(b);
+    }
+    const std::uint16_t element = u16(b + 2);
+    if (group == 0xFFFE) {
+      if (!read(reinterpret_cast<char*>(b + 4), 4)) return false;
+      const std::uint32_t length = u32(b + 4);
+      if (element == 0xE000) {
+        if (!open.empty() && open.back().kind == Open::kFragments) {
+          pos += length == kUndefined ? 0 : length;
+        } else {
+          open.push_back({length == kUndefined ? UINT64_MAX : pos + length, Open::kItem});
+        }
+      } else if (!open.empty() && (element == 0xE00D || element == 0xE0DD)) {
+        if (open.back().kind == Open::kSequence) --depth;
+        open.pop_back();
+      }
+      continue;
+    }
+    std::uint32_t length = 0;
+    bool sequence = false;
+    if (explicitVr || meta) {
+      if (!read(reinterpret_cast<char*>(b + 4), 4)) return false;
+      const std::string vr(reinterpret_cast<const char*>(b + 4), 2);
+      static const std::set<std::string> kLong = {"OB", "OD", "OF", "OL", "OV", "OW", "SQ",
+                                                  "SV", "UC", "UN", "UR", "UT", "UV"};
+      if (kLong.count(vr)) {
+        if (!read(reinterpret_cast<char*>(b + 8), 4)) return false;
+        length = u32(b + 8);
+      } else {
+        length = u16(b + 6);
+      }
+      sequence = vr == "SQ" || (vr == "UN" && length == kUndefined);
+    } else {
+      if (!read(reinterpret_cast<char*>(b + 4), 4)) return false;
+      length = u32(b + 4);
+      sequence = length == kUndefined || DcmTag(group, element).getEVR() == EVR_SQ;
+    }
+    if (meta && group == 0x0002 && element == 0x0010 && length < 128) {
+      std::string uid(length, '\0');
+      if (!read(uid.data(), length)) return false;
+      while (!uid.empty() && (uid.back() == '\0' || uid.back() == ' ')) uid.pop_back();
+      if (uid == UID_DeflatedExplicitVRLittleEndianTransferSyntax) return false;
+      explicitVr = uid != UID_LittleEndianImplicitTransferSyntax;
+      bigEndianDataset = uid == UID_BigEndianExplicitTransferSyntax;  // from the dataset on
+      continue;
+    }
+    if (group == 0x7FE0 && element == 0x0010 && length == kUndefined) {
+      open.push_back({UINT64_MAX, Open::kFragments});
+    } else if (sequence) {
+      open.push_back({length == kUndefined ? UINT64_MAX : pos + length, Open::kSequence});
+      if (++depth > limit) return true;
+    } else if (length != kUndefined) {
+      pos += length;
+    }
+  }
+}
+
 std::vector<std::string> dicomdirFiles(const std::string& path) {
   initDcmtk();
+  if (nestsDeeperThan(path, limits::kMaxDicomSequenceDepth)) {
+    throw Error(fmt::format("{}: sequences nest deeper than the limit of {} levels", path,
+                            limits::kMaxDicomSequenceDepth));
+  }
   DcmFileFormat ff;
   const OFCondition c = ff.loadFile(path.c_str());
   if (c.bad()) throw Error(fmt::format("{}: not a readable DICOMDIR: {}", path, c.text()));
@@ -219,6 +333,13 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
   for (const std::string& path : files) {
     if (fs::path(path).filename() == "DICOMDIR" || !looksLikeDicom(path)) {
       ++scan.skipped;
+      continue;
+    }
+    if (nestsDeeperThan(path, limits::kMaxDicomSequenceDepth)) {
+      const std::string msg = fmt::format("{}: sequences nest deeper than the limit of {} levels", path,
+                                          limits::kMaxDicomSequenceDepth);
+      if (!options.skipBad) throw Error(msg);
+      scan.warnings.push_back(msg + " (skipped)");
       continue;
     }
     DcmFileFormat ff;

@@ -11,6 +11,8 @@ namespace isoslab::limits {
 
 /// Lattice points along one axis.
 inline constexpr std::int64_t kMaxAxisPoints = 2147483647;
+/// Lattice points in one slice (x times y): slices are held in memory, a few at a time, as floats.
+inline constexpr std::int64_t kMaxSliceVoxels = std::int64_t{1} << 30;
 /// Components (channels) per voxel in a volume file.
 inline constexpr std::int64_t kMaxComponents = 1024;
 /// Files named by a data-file list or pattern (NRRD, MetaImage), that is, slices in files.

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "io/error.h"
+#include "io/limits.h"
 
 namespace isoslab {
 
@@ -24,6 +25,10 @@ void validateDims(const std::array<std::int64_t, 3>& dims, const std::string& wh
   if (dims[0] > kMax / dims[1] || dims[0] * dims[1] > kMax / dims[2]) {
     throw Error(
         fmt::format("{}: dims {}x{}x{} are invalid: the voxel count overflows", what, dims[0], dims[1], dims[2]));
+  }
+  if (dims[0] * dims[1] > limits::kMaxSliceVoxels) {
+    throw Error(fmt::format("{}: dims {}x{}x{} are invalid: a slice of {} points exceeds the limit of {}", what,
+                            dims[0], dims[1], dims[2], dims[0] * dims[1], limits::kMaxSliceVoxels));
   }
 }
 

@@ -194,7 +194,11 @@ class VolumeFileSource final : public SliceSource {
     for (std::size_t f = 0; f < (layout.perSlice ? static_cast<std::size_t>(info_.dims[2]) : 1); ++f) {
       const std::string& path = layout.files[f];
       std::error_code ec;
-      if (!fs::is_regular_file(path, ec)) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(ENOENT)));
+      if (!fs::is_regular_file(path, ec)) {
+        throw Error(fs::exists(path, ec)
+                        ? fmt::format("{}: not a regular file (FIFOs, devices and folders are not read)", path)
+                        : fmt::format("{}: cannot open: {}", path, std::strerror(ENOENT)));
+      }
       if (layout.compression == Compression::kDeflate ||
           (layout.compression == Compression::kAutoGzip && startsWithGzip(path, layout.fileOffset))) {
         continue;  // checked as the stream is inflated

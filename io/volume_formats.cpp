@@ -152,16 +152,45 @@ std::optional<VoxelType> nrrdType(const std::string& t) {
   return it->second;
 }
 
+// std::getline within the header limit: a header (LIST names aside) longer than
+// limits::kMaxHeaderBytes, or more listed names than limits::kMaxDataFiles, is an error rather
+// than an allocation. `used` counts the header's bytes so far.
+bool headerLine(std::istream& in, std::string& line, const std::string& path, bool listing, std::int64_t& used,
+                std::size_t listed) {
+  if (listing && listed >= static_cast<std::size_t>(limits::kMaxDataFiles)) {
+    throw Error(fmt::format("{}: the data file list names more than the limit of {} files", path,
+                            limits::kMaxDataFiles));
+  }
+  line.clear();
+  std::streambuf* bytes = in.rdbuf();
+  for (;;) {
+    const int c = bytes->sbumpc();
+    if (c == std::char_traits<char>::eof()) {
+      in.setstate(line.empty() ? std::ios::eofbit | std::ios::failbit : std::ios::eofbit);
+      return !line.empty();
+    }
+    if (!listing && ++used > limits::kMaxHeaderBytes) {
+      throw Error(fmt::format("{}: the header exceeds the limit of {} bytes", path, limits::kMaxHeaderBytes));
+    }
+    if (c == '\n') return true;
+    if (static_cast<std::int64_t>(line.size()) >= limits::kMaxHeaderBytes) {
+      throw Error(fmt::format("{}: a header line exceeds the limit of {} bytes", path, limits::kMaxHeaderBytes));
+    }
+    line.push_back(static_cast<char>(c));
+  }
+}
+
 std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std::vector<std::string>* notes) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(errno)));
   std::string line;
-  if (!std::getline(in, line) || line.rfind("NRRD000", 0) != 0)
+  std::int64_t used = 0;
+  if (!headerLine(in, line, path, false, used, 0) || line.rfind("NRRD000", 0) != 0)
     throw Error(fmt::format("{}: not a NRRD file (no NRRD000x magic)", path));
   std::map<std::string, std::string> fields;
   std::vector<std::string> listed;
   bool list = false;
-  while (std::getline(in, line)) {
+  while (headerLine(in, line, path, list, used, listed.size())) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (list) {
       if (!trim(line).empty()) listed.push_back(besides(path, trim(line)));
@@ -312,7 +341,8 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
   std::string line;
   std::int64_t dataStart = -1;
   bool list = false;
-  while (std::getline(in, line)) {
+  std::int64_t used = 0;
+  while (headerLine(in, line, path, list, used, listed.size())) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (list) {
       if (!trim(line).empty()) listed.push_back(besides(path, trim(line)));

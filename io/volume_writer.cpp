@@ -10,6 +10,7 @@
 
 #include "io/atomic_file.h"
 #include "io/error.h"
+#include "io/interrupt.h"
 
 namespace isoslab {
 namespace {
@@ -145,6 +146,7 @@ std::int64_t writeVolume(SliceSource& source, const std::string& path, const Vol
   std::vector<float> slice(static_cast<std::size_t>(info.sliceVoxels()));
   std::vector<std::byte> bytes(slice.size() * size);
   while (source.readSlice(slice)) {
+    throwIfInterrupted();
     convertFromFloat(slice, options.type, bytes);
     if (order != hostByteOrder()) swapBytes(bytes, size);
     sink.write(bytes.data(), bytes.size());

@@ -15,6 +15,7 @@
 
 #include "extract/slab_stitcher.h"
 #include "io/error.h"
+#include "io/interrupt.h"
 #include "stream/bounded_queue.h"
 #include "stream/progress.h"
 #include "stream/slab_ring.h"
@@ -69,6 +70,7 @@ class SliceFeed {
           const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
           const bool lends = source_.lendsSlices();
           for (;;) {
+            throwIfInterrupted();
             auto reused = free_.tryPop();
             SliceBuffer slice = reused ? std::move(*reused) : SliceBuffer{};
             slice.lent = nullptr;
@@ -100,6 +102,7 @@ class SliceFeed {
 
   /// Reads the next slice into the ring as slice k; false at the end of the data.
   bool next(SlabRing& ring, std::int64_t k) {
+    throwIfInterrupted();  // a slice boundary: unwinding joins the threads and removes temporaries
     if (!threaded_) {
       const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
       if (!source_.lendsSlices()) {
