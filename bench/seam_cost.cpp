@@ -62,10 +62,12 @@ int main(int argc, char** argv) {
       }
     }
     std::filesystem::remove(out);
-    std::printf("{\"input\": \"%s\", \"chunks\": %llu, \"bytes_without_keys\": %lld, \"bytes_with_keys\": %lld, "
-                "\"cost_percent\": %.4f}\n",
-                argv[1], static_cast<unsigned long long>(chunks), static_cast<long long>(bytes[0]),
-                static_cast<long long>(bytes[1]), 100.0 * static_cast<double>(bytes[1] - bytes[0]) / static_cast<double>(bytes[0]));
+    std::printf(
+        "{\"input\": \"%s\", \"chunks\": %llu, \"bytes_without_keys\": %lld, \"bytes_with_keys\": %lld, "
+        "\"cost_percent\": %.4f}\n",
+        argv[1], static_cast<unsigned long long>(chunks), static_cast<long long>(bytes[0]),
+        static_cast<long long>(bytes[1]),
+        100.0 * static_cast<double>(bytes[1] - bytes[0]) / static_cast<double>(bytes[0]));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "isoslab_seam_cost: %s\n", e.what());
     return 1;

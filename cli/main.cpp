@@ -604,9 +604,9 @@ int runDecode(const std::string& input, const std::string& output) {
     header.volumeBounds = b;
   }
   WriterOptions writerOptions;
-  writerOptions.voxelSize = 1e-3 * std::max({header.volumeBounds[3] - header.volumeBounds[0],
-                                              header.volumeBounds[4] - header.volumeBounds[1],
-                                              header.volumeBounds[5] - header.volumeBounds[2], 1e-30});
+  writerOptions.voxelSize =
+      1e-3 * std::max({header.volumeBounds[3] - header.volumeBounds[0], header.volumeBounds[4] - header.volumeBounds[1],
+                       header.volumeBounds[5] - header.volumeBounds[2], 1e-30});
   auto writer = makeMeshWriter(output, writerOptions);
   feedMesh(mesh, header, *writer);
   std::fprintf(stderr, "isoslab: %zu triangles, %zu vertices -> %s\n", mesh.triangles.size(), mesh.positions.size(),

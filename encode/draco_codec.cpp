@@ -65,7 +65,8 @@ std::vector<char> dracoEncode(IndexedMesh mesh, const DracoSettings& settings, c
     attributeIds.seam = seamId;
     for (std::uint32_t v = 0; v < n; ++v) {
       const std::uint32_t key = mesh.seamKeys[v];
-      const std::uint16_t halves[2] = {static_cast<std::uint16_t>(key & 0xFFFFu), static_cast<std::uint16_t>(key >> 16)};
+      const std::uint16_t halves[2] = {static_cast<std::uint16_t>(key & 0xFFFFu),
+                                       static_cast<std::uint16_t>(key >> 16)};
       m.attribute(seamId)->SetAttributeValue(draco::AttributeValueIndex(v), halves);
     }
   }

@@ -35,10 +35,8 @@ std::array<double, 16> gltfFrameMatrix(const std::string& space) {
 nlohmann::ordered_json gltfDocument(const MeshHeader& header, const WriterOptions& options, bool hasMesh,
                                     const nlohmann::ordered_json& extras) {
   nlohmann::ordered_json gltf;
-  nlohmann::ordered_json ex = {{"method", header.method},
-                               {"iso", header.iso},
-                               {"space", header.space},
-                               {"units", unitsOf(header.space)}};
+  nlohmann::ordered_json ex = {
+      {"method", header.method}, {"iso", header.iso}, {"space", header.space}, {"units", unitsOf(header.space)}};
   const std::string tag = spaceTag(header.space);
   if (!tag.empty()) ex["coordinate_system"] = tag;
   ex["frame"] = options.gltfFrame ? "gltf" : "raw";
@@ -67,10 +65,11 @@ nlohmann::ordered_json gltfDocument(const MeshHeader& header, const WriterOption
     gltf["nodes"] = {meshNode};
   }
   // Without a material, viewers fall back to glTF's default: metalness 1, which renders dark.
-  gltf["materials"] = {{{"name", "isosurface"},
-                        {"pbrMetallicRoughness",
-                         {{"baseColorFactor", {0.9, 0.86, 0.8, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.6}}},
-                        {"doubleSided", true}}};
+  gltf["materials"] = {
+      {{"name", "isosurface"},
+       {"pbrMetallicRoughness",
+        {{"baseColorFactor", {0.9, 0.86, 0.8, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.6}}},
+       {"doubleSided", true}}};
   return gltf;
 }
 
@@ -82,9 +81,10 @@ std::int64_t writeGlbFile(const std::string& path, const nlohmann::ordered_json&
   for (const SpoolFile* spool : bin) binLength += spool->size();
   const std::int64_t total = 12 + 8 + static_cast<std::int64_t>(json.size()) + (binLength > 0 ? 8 + binLength : 0);
   if (total > std::int64_t{std::numeric_limits<std::uint32_t>::max()}) {
-    throw Error(fmt::format("{}: the mesh needs {} bytes, over the 4 GiB limit of a .glb; write .ply or .drc, or "
-                            "lower --quant-bits",
-                            path, total));
+    throw Error(
+        fmt::format("{}: the mesh needs {} bytes, over the 4 GiB limit of a .glb; write .ply or .drc, or "
+                    "lower --quant-bits",
+                    path, total));
   }
   AtomicFile out(path);
   auto u32 = [&out](std::int64_t v) {
@@ -170,10 +170,13 @@ void GlbPlainWriter::finish() {
           {{"bufferView", view(*normals_, 34962)}, {"componentType", 5126}, {"count", vertices_}, {"type", "VEC3"}});
     }
     const std::size_t indices = accessors.size();
-    accessors.push_back(
-        {{"bufferView", view(*indices_, 34963)}, {"componentType", 5125}, {"count", 3 * triangles_}, {"type", "SCALAR"}});
-    gltf["meshes"] = {{{"name", "isosurface"},
-                       {"primitives", {{{"attributes", attributes}, {"indices", indices}, {"mode", 4}, {"material", 0}}}}}};
+    accessors.push_back({{"bufferView", view(*indices_, 34963)},
+                         {"componentType", 5125},
+                         {"count", 3 * triangles_},
+                         {"type", "SCALAR"}});
+    gltf["meshes"] = {
+        {{"name", "isosurface"},
+         {"primitives", {{{"attributes", attributes}, {"indices", indices}, {"mode", 4}, {"material", 0}}}}}};
     gltf["accessors"] = accessors;
     gltf["bufferViews"] = views;
     gltf["buffers"] = {{{"byteLength", offset}}};

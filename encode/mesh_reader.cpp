@@ -145,7 +145,8 @@ IndexedMesh readPly(const std::string& path, std::string data, MeshMetadata& met
         throw Error(fmt::format("{}: PLY element '{}' claims {} items but has no properties", path, e.name, e.count));
       }
       std::uint64_t least = 0;
-      for (const Property& p : e.properties) least += ascii ? 2 : (p.countType.empty() ? typeSize(p.type) : typeSize(p.countType));
+      for (const Property& p : e.properties)
+        least += ascii ? 2 : (p.countType.empty() ? typeSize(p.type) : typeSize(p.countType));
       if (ascii) --least;
       if (e.count > (have - std::min(have, need)) / least) {
         throw Error(fmt::format("{}: PLY element '{}' claims {} items, more than its {} data bytes hold", path, e.name,
@@ -319,8 +320,8 @@ class GlbReader {
         for (const auto& p : m.at("primitives")) readPrimitive(p);
       }
     } catch (const nlohmann::json::exception& e) {
-      throw Error(fmt::format("{}: the glTF JSON lacks a field or has one of the wrong type ({})", path_,
-                              jsonReason(e)));
+      throw Error(
+          fmt::format("{}: the glTF JSON lacks a field or has one of the wrong type ({})", path_, jsonReason(e)));
     }
     return std::move(mesh_);
   }
@@ -411,20 +412,23 @@ class GlbReader {
     const auto& attributes = p.at("attributes");
     const std::vector<double> pos = accessor(attributes.at("POSITION").get<std::uint64_t>(), 3);
     for (std::size_t k = 0; k + 2 < pos.size(); k += 3) {
-      part.positions.push_back({static_cast<float>(pos[k]), static_cast<float>(pos[k + 1]), static_cast<float>(pos[k + 2])});
+      part.positions.push_back(
+          {static_cast<float>(pos[k]), static_cast<float>(pos[k + 1]), static_cast<float>(pos[k + 2])});
     }
     if (attributes.contains("NORMAL")) {
       const std::vector<double> n = accessor(attributes.at("NORMAL").get<std::uint64_t>(), 3);
       if (n.size() == pos.size()) {
         for (std::size_t k = 0; k + 2 < n.size(); k += 3) {
-          part.normals.push_back({static_cast<float>(n[k]), static_cast<float>(n[k + 1]), static_cast<float>(n[k + 2])});
+          part.normals.push_back(
+              {static_cast<float>(n[k]), static_cast<float>(n[k + 1]), static_cast<float>(n[k + 2])});
         }
       }
     }
     if (attributes.contains(kSeamAttribute)) {
       const std::vector<double> k = accessor(attributes.at(kSeamAttribute).get<std::uint64_t>(), 2);
       if (k.size() != pos.size() / 3 * 2) {
-        throw Error(fmt::format("{}: a primitive has {} seam keys for {} vertices", path_, k.size() / 2, pos.size() / 3));
+        throw Error(
+            fmt::format("{}: a primitive has {} seam keys for {} vertices", path_, k.size() / 2, pos.size() / 3));
       }
       for (std::size_t v = 0; v + 1 < k.size(); v += 2) {
         if (!(k[v] >= 0 && k[v] <= 65535 && k[v + 1] >= 0 && k[v + 1] <= 65535)) {
@@ -559,7 +563,8 @@ IndexedMesh readMesh(const std::string& path, MeshMetadata* metadata) {
                             limits::kMaxMeshFileBytes));
   }
   std::string data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  if (data.compare(0, 4, "ply\n") == 0 || data.compare(0, 5, "ply\r\n") == 0) return readPly(path, std::move(data), meta);
+  if (data.compare(0, 4, "ply\n") == 0 || data.compare(0, 5, "ply\r\n") == 0)
+    return readPly(path, std::move(data), meta);
   if (data.compare(0, 5, "solid") == 0) throw Error(fmt::format("{}: ASCII STL is not supported", path));
   const std::size_t dot = path.rfind('.');
   std::string ext = dot == std::string::npos ? "" : path.substr(dot);
@@ -571,8 +576,7 @@ IndexedMesh readMesh(const std::string& path, MeshMetadata* metadata) {
   throw Error(fmt::format("{}: unknown mesh format (PLY, binary STL, .glb or .drc expected)", path));
 }
 
-std::vector<std::uint8_t> volumeFaceFlags(const std::vector<Vec3f>& positions, const VolumeFaces& faces,
-                                          double extra) {
+std::vector<std::uint8_t> volumeFaceFlags(const std::vector<Vec3f>& positions, const VolumeFaces& faces, double extra) {
   // The tolerance of float positions a few roundings away from a plane: relative to the volume's
   // distance from the origin and its size.
   double scale = 0;

@@ -1,7 +1,7 @@
 #include "io/atomic_file.h"
 
-#include <fmt/format.h>
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -191,8 +191,8 @@ void CommitGroup::commit() {
     if (std::rename(staged[n].tempPath.c_str(), staged[n].target.c_str()) != 0) {
       const int err = errno;
       for (std::size_t m = n; m < staged.size(); ++m) ::unlink(staged[m].tempPath.c_str());
-      throw Error(fmt::format("{}: cannot rename the finished output into place: {}", staged[n].path,
-                              std::strerror(err)));
+      throw Error(
+          fmt::format("{}: cannot rename the finished output into place: {}", staged[n].path, std::strerror(err)));
     }
   }
 }

@@ -31,8 +31,8 @@
 #include <set>
 
 #include "io/error.h"
-#include "io/limits.h"
 #include "io/file_list.h"
+#include "io/limits.h"
 
 namespace fs = std::filesystem;
 
@@ -247,8 +247,8 @@ bool nestsDeeperThan(const std::string& path, int limit) {
 std::vector<std::string> dicomdirFiles(const std::string& path) {
   initDcmtk();
   if (nestsDeeperThan(path, limits::kMaxDicomSequenceDepth)) {
-    throw Error(fmt::format("{}: sequences nest deeper than the limit of {} levels", path,
-                            limits::kMaxDicomSequenceDepth));
+    throw Error(
+        fmt::format("{}: sequences nest deeper than the limit of {} levels", path, limits::kMaxDicomSequenceDepth));
   }
   DcmFileFormat ff;
   const OFCondition c = ff.loadFile(path.c_str());
@@ -336,8 +336,8 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
       continue;
     }
     if (nestsDeeperThan(path, limits::kMaxDicomSequenceDepth)) {
-      const std::string msg = fmt::format("{}: sequences nest deeper than the limit of {} levels", path,
-                                          limits::kMaxDicomSequenceDepth);
+      const std::string msg =
+          fmt::format("{}: sequences nest deeper than the limit of {} levels", path, limits::kMaxDicomSequenceDepth);
       if (!options.skipBad) throw Error(msg);
       scan.warnings.push_back(msg + " (skipped)");
       continue;
@@ -379,9 +379,9 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
       std::error_code sizeError;
       const auto fileBytes = static_cast<std::int64_t>(fs::file_size(path, sizeError));
       const std::int64_t frameBytes =
-          xfer.isEncapsulated()
-              ? 8
-              : std::max<std::int64_t>(1, std::int64_t{s.rows} * s.columns * s.samplesPerPixel * ((s.bitsAllocated + 7) / 8));
+          xfer.isEncapsulated() ? 8
+                                : std::max<std::int64_t>(1, std::int64_t{s.rows} * s.columns * s.samplesPerPixel *
+                                                                ((s.bitsAllocated + 7) / 8));
       if (frames > limits::kMaxFrames || (!sizeError && frames > 1 && frames > fileBytes / frameBytes)) {
         const std::string msg =
             frames > limits::kMaxFrames
@@ -404,10 +404,10 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
       if (s.multiFrame) ds->findAndGetSequenceItem(DCM_PerFrameFunctionalGroupsSequence, perFrame, f);
       const FrameGeometry g = frameGeometry(s.multiFrame ? nullptr : ds, perFrame, shared);
       // Non-finite geometry would sort, space and place slices nowhere (and never end a gap walk).
-      const bool finitePosition = !g.position || std::all_of(g.position->begin(), g.position->end(),
-                                                               [](double x) { return std::isfinite(x); });
+      const bool finitePosition =
+          !g.position || std::all_of(g.position->begin(), g.position->end(), [](double x) { return std::isfinite(x); });
       const bool finiteOrientation = !g.orientation || std::all_of(g.orientation->begin(), g.orientation->end(),
-                                                                     [](double x) { return std::isfinite(x); });
+                                                                   [](double x) { return std::isfinite(x); });
       if (!finitePosition || !finiteOrientation) {
         throw Error(fmt::format("{}: {} is not finite", path,
                                 finitePosition ? "ImageOrientationPatient" : "ImagePositionPatient"));

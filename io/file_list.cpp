@@ -103,7 +103,8 @@ std::vector<std::string> expandPattern(const std::string& pattern) {
   for (long i = first;; ++i) {
     std::string p = formatPattern(pattern, i);
     if (!fs::is_regular_file(p, ec)) {
-      if (fs::exists(p, ec)) throw Error(fmt::format("{}: not a regular file (FIFOs, devices and folders are not read)", p));
+      if (fs::exists(p, ec))
+        throw Error(fmt::format("{}: not a regular file (FIFOs, devices and folders are not read)", p));
       break;
     }
     paths.push_back(std::move(p));

@@ -16,8 +16,8 @@
 #include <sstream>
 
 #include "io/error.h"
-#include "io/limits.h"
 #include "io/file_list.h"
+#include "io/limits.h"
 #include "io/volume_file.h"
 
 namespace fs = std::filesystem;
@@ -109,8 +109,7 @@ void pickComponent(VolumeFileLayout& layout, double components, int channel, con
   const int count = layout.components;
   if (count > 1) {
     if (channel < 0)
-      throw Error(fmt::format("{}: {} components per voxel; choose one with --channel 0..{}", path, count,
-                              count - 1));
+      throw Error(fmt::format("{}: {} components per voxel; choose one with --channel 0..{}", path, count, count - 1));
     if (channel >= count) throw Error(fmt::format("--channel: {} has {} components per voxel", path, count));
     layout.component = channel;
   }
@@ -158,8 +157,8 @@ std::optional<VoxelType> nrrdType(const std::string& t) {
 bool headerLine(std::istream& in, std::string& line, const std::string& path, bool listing, std::int64_t& used,
                 std::size_t listed) {
   if (listing && listed >= static_cast<std::size_t>(limits::kMaxDataFiles)) {
-    throw Error(fmt::format("{}: the data file list names more than the limit of {} files", path,
-                            limits::kMaxDataFiles));
+    throw Error(
+        fmt::format("{}: the data file list names more than the limit of {} files", path, limits::kMaxDataFiles));
   }
   line.clear();
   std::streambuf* bytes = in.rdbuf();

@@ -31,7 +31,9 @@ void write(const std::string& path, const std::string& bytes) {
   f << bytes;
 }
 
-std::string voxels(std::size_t n) { return std::string(n, '\x01'); }
+std::string voxels(std::size_t n) {
+  return std::string(n, '\x01');
+}
 
 // A glTF binary of `json` and a BIN chunk of `bin` (padded to 4 bytes).
 std::string glb(std::string json, std::string bin) {
@@ -169,9 +171,8 @@ const Case kCases[] = {
      "extract {in} -o {dir}/out.drc"},
     {"GlbByteOffsetNear2To64",
      [](const std::string& d) {
-       write(d + "/m.glb",
-             plainGlb("", R"([{"buffer":0,"byteOffset":18446744073709551612,"byteLength":36},)"
-                          R"({"buffer":0,"byteOffset":36,"byteLength":12}])"));
+       write(d + "/m.glb", plainGlb("", R"([{"buffer":0,"byteOffset":18446744073709551612,"byteLength":36},)"
+                                        R"({"buffer":0,"byteOffset":36,"byteLength":12}])"));
        return d + "/m.glb";
      },
      "decode {in} -o {dir}/out.ply"},
@@ -261,11 +262,10 @@ const Case kCases[] = {
      "decode {in} -o {dir}/out.ply"},
     {"GlbSeamKeysFewerThanVertices",
      [](const std::string& d) {
-       write(d + "/m.glb",
-             plainGlb(R"([{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"},)"
-                      R"({"bufferView":1,"componentType":5125,"count":3,"type":"SCALAR"},)"
-                      R"({"bufferView":1,"componentType":5123,"count":1,"type":"VEC2"}])",
-                      "", R"(,"_ISOSLAB_SEAM":2)"));
+       write(d + "/m.glb", plainGlb(R"([{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"},)"
+                                    R"({"bufferView":1,"componentType":5125,"count":3,"type":"SCALAR"},)"
+                                    R"({"bufferView":1,"componentType":5123,"count":1,"type":"VEC2"}])",
+                                    "", R"(,"_ISOSLAB_SEAM":2)"));
        return d + "/m.glb";
      },
      "decode {in} -o {dir}/out.ply"},
@@ -340,17 +340,13 @@ const Case kCases[] = {
      },
      "decode {in} -o {dir}/out.obj"},
     // --- Hangs and runaway memory ----------------------------------------------------------------
-    {"DicomPositionNaN",
-     [](const std::string& d) { return dicomSeries(d, "0\\0\\nan", "1\\0\\0\\0\\1\\0"); },
+    {"DicomPositionNaN", [](const std::string& d) { return dicomSeries(d, "0\\0\\nan", "1\\0\\0\\0\\1\\0"); },
      "extract {dir}/series -q -o {dir}/out.ply"},
-    {"DicomPositionInfinite",
-     [](const std::string& d) { return dicomSeries(d, "0\\0\\1e999", "1\\0\\0\\0\\1\\0"); },
+    {"DicomPositionInfinite", [](const std::string& d) { return dicomSeries(d, "0\\0\\1e999", "1\\0\\0\\0\\1\\0"); },
      "extract {dir}/series -q -o {dir}/out.ply"},
-    {"DicomOrientationNaN",
-     [](const std::string& d) { return dicomSeries(d, "0\\0\\1", "1\\0\\0\\0\\nan\\0"); },
+    {"DicomOrientationNaN", [](const std::string& d) { return dicomSeries(d, "0\\0\\1", "1\\0\\0\\0\\nan\\0"); },
      "extract {dir}/series -q -o {dir}/out.stl"},
-    {"DicomOrientationInfinite",
-     [](const std::string& d) { return dicomSeries(d, "0\\0\\1", "1e999\\0\\0\\0\\1\\0"); },
+    {"DicomOrientationInfinite", [](const std::string& d) { return dicomSeries(d, "0\\0\\1", "1e999\\0\\0\\0\\1\\0"); },
      "info {dir}/series"},
     {"DicomHugeNumberOfFrames",
      [](const std::string& d) {
@@ -462,8 +458,7 @@ const Case kCases[] = {
      "extract {in} -o {dir}/out.ply"},
     {"DevZeroAsRawInput", [](const std::string&) { return std::string("/dev/zero"); },
      "extract {in} --raw-dims 4,4,4 -o {dir}/out.ply"},
-    {"DevZeroAsMeshInput", [](const std::string&) { return std::string("/dev/zero"); },
-     "decode {in} -o {dir}/out.ply"},
+    {"DevZeroAsMeshInput", [](const std::string&) { return std::string("/dev/zero"); }, "decode {in} -o {dir}/out.ply"},
     {"DevZeroAsNrrdDataFile",
      [](const std::string& d) {
        write(d + "/v.nhdr", kNrrd + "dimension: 3\nsizes: 4 4 4\ndata file: /dev/zero\n\n");
@@ -472,17 +467,19 @@ const Case kCases[] = {
      "extract {dir}/v.nhdr -o {dir}/out.ply"},
     {"MetaImageHugeDims",
      [](const std::string& d) {
-       write(d + "/v.mha", "ObjectType = Image\nNDims = 3\nDimSize = 4000000000 4000000000 4000000000\n"
-                           "ElementType = MET_UCHAR\nElementDataFile = LOCAL\n" +
-                               voxels(64));
+       write(d + "/v.mha",
+             "ObjectType = Image\nNDims = 3\nDimSize = 4000000000 4000000000 4000000000\n"
+             "ElementType = MET_UCHAR\nElementDataFile = LOCAL\n" +
+                 voxels(64));
        return d + "/v.mha";
      },
      "extract {in} -o {dir}/out.ply"},
     {"MetaImageSliceOverLimit",
      [](const std::string& d) {
-       write(d + "/v.mha", "ObjectType = Image\nNDims = 3\nDimSize = 100000 100000 2\n"
-                           "ElementType = MET_UCHAR\nElementDataFile = LOCAL\n" +
-                               voxels(64));
+       write(d + "/v.mha",
+             "ObjectType = Image\nNDims = 3\nDimSize = 100000 100000 2\n"
+             "ElementType = MET_UCHAR\nElementDataFile = LOCAL\n" +
+                 voxels(64));
        return d + "/v.mha";
      },
      "extract {in} -o {dir}/out.ply"},
@@ -490,8 +487,9 @@ const Case kCases[] = {
      "extract '{in}' -o {dir}/out.ply"},
     {"PlyAsciiVertexCountBeyondFile",
      [](const std::string& d) {
-       write(d + "/m.ply", plyHeader("ascii", "element vertex 99999999999\nproperty float x\nproperty float y\n"
-                                              "property float z\n") +
+       write(d + "/m.ply", plyHeader("ascii",
+                                     "element vertex 99999999999\nproperty float x\nproperty float y\n"
+                                     "property float z\n") +
                                "0 0 0\n");
        return d + "/m.ply";
      },

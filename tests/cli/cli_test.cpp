@@ -357,8 +357,7 @@ TEST(Cli, InfoShowsTheTiltFirstPositionExtentAndThicknessOfDicomSeries) {
   const std::vector<Case> cases = {
       {"ct-ge-tilt",
        {"1 DICOM series; 1 file skipped (not DICOM images)\n",
-        "  slice spacing  min 1.08109, median 4.00193, max 6.99863\n",
-        "  thickness      4 .. 7 mm (SliceThickness)\n",
+        "  slice spacing  min 1.08109, median 4.00193, max 6.99863\n", "  thickness      4 .. 7 mm (SliceThickness)\n",
         "  gantry tilt    18.5 degrees (GantryDetectorTilt); 18.50 degrees between the slice normal and the slice "
         "steps\n",
         "  first slice    -125 -123.54 5.83606 (ImagePositionPatient of {0}/01.dcm)\n",
@@ -367,8 +366,7 @@ TEST(Cli, InfoShowsTheTiltFirstPositionExtentAndThicknessOfDicomSeries) {
         "  note           uneven slice spacing: 13 gaps of 7 mm from {0}/15.dcm to {0}/28.dcm (median spacing 4 mm) "
         "equal the slice thickness (7 mm): no slice is missing\n"}},
       {"ct-philips-head",
-       {"1 DICOM series; 2 files skipped (not DICOM images)\n",
-        "  thickness      1 mm (SliceThickness)\n",
+       {"1 DICOM series; 2 files skipped (not DICOM images)\n", "  thickness      1 mm (SliceThickness)\n",
         "  gantry tilt    0 degrees (GantryDetectorTilt); 0.00 degrees between the slice normal and the slice steps\n",
         "  first slice    -115.5 -1.85 694.21 (ImagePositionPatient of {0}/I10)\n",
         "  extent         x -115.5 .. 115.049, y -1.85 .. 228.699, z 694.21 .. 833.21 (LPS mm, corner pixel "

@@ -47,7 +47,9 @@ int waitExit(pid_t pid) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 1000 + WTERMSIG(status);
 }
 
-int run(const std::vector<std::string>& args) { return waitExit(spawn(args)); }
+int run(const std::vector<std::string>& args) {
+  return waitExit(spawn(args));
+}
 
 std::size_t entries(const fs::path& dir) {
   return static_cast<std::size_t>(std::distance(fs::directory_iterator(dir), fs::directory_iterator()));
@@ -70,9 +72,9 @@ struct SignalCase {
 }  // namespace
 
 TEST(OutputSafety, SignalsRemoveEveryTemporaryAndExitWithTheSignalCode) {
-  const std::vector<SignalCase> cases = {
-      {"m.ply", SIGINT, 130}, {"m.stl", SIGINT, 130}, {"m.obj", SIGINT, 130}, {"m.glb", SIGINT, 130},
-      {"m.drc", SIGINT, 130}, {"m.ply", SIGTERM, 143}, {"m.obj", SIGHUP, 129}, {"v.nii", SIGINT, 130}};
+  const std::vector<SignalCase> cases = {{"m.ply", SIGINT, 130}, {"m.stl", SIGINT, 130}, {"m.obj", SIGINT, 130},
+                                         {"m.glb", SIGINT, 130}, {"m.drc", SIGINT, 130}, {"m.ply", SIGTERM, 143},
+                                         {"m.obj", SIGHUP, 129}, {"v.nii", SIGINT, 130}};
   for (const SignalCase& c : cases) {
     SCOPED_TRACE(c.output + " signal " + std::to_string(c.signal));
     const fs::path dir = freshFolder("signal");
@@ -107,8 +109,8 @@ TEST(OutputSafety, ReportEqualToTheOutputIsAUsageError) {
 TEST(OutputSafety, AReportThatCannotBeWrittenLeavesNoMesh) {
   const fs::path dir = freshFolder("report");
   const std::string mesh = (dir / "m.ply").string();
-  EXPECT_EQ(run({"extract", "phantom:sphere?n=16", "-o", mesh, "--report", (dir / "missing" / "r.json").string(), "-q"}),
-            1);
+  EXPECT_EQ(
+      run({"extract", "phantom:sphere?n=16", "-o", mesh, "--report", (dir / "missing" / "r.json").string(), "-q"}), 1);
   EXPECT_EQ(entries(dir), 0u);
   fs::remove_all(dir);
 }
@@ -144,8 +146,7 @@ TEST(OutputSafety, AFifoAndDevNullAreWrittenInPlace) {
   ASSERT_EQ(::lstat(fifo.c_str(), &st), 0);
   EXPECT_TRUE(S_ISFIFO(st.st_mode)) << "the FIFO was replaced";
   // /dev/null: a character device that must stay one (checked read-only, whoever runs the test).
-  EXPECT_EQ(run({"extract", "phantom:sphere?n=16", "-o", (dir / "n.ply").string(), "--report", "/dev/null", "-q"}),
-            0);
+  EXPECT_EQ(run({"extract", "phantom:sphere?n=16", "-o", (dir / "n.ply").string(), "--report", "/dev/null", "-q"}), 0);
   ASSERT_EQ(::stat("/dev/null", &st), 0);
   EXPECT_TRUE(S_ISCHR(st.st_mode));
   fs::remove_all(dir);

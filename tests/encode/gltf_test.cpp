@@ -56,8 +56,8 @@ void expectExactRoundTrip(const std::string& input, const std::string& options, 
 
 TEST(GlbSeams, DecodeGivesTheExtractionsTopologyOnTheNoisyHead) {
   for (const char* method : {"mc", "mt5", "mt6", "bcc12"}) {
-    expectExactRoundTrip("'phantom:head?n=48,48,40&noise=40'", std::string("--iso -400 --chunk-triangles 3000 --method ") + method,
-                         method);
+    expectExactRoundTrip("'phantom:head?n=48,48,40&noise=40'",
+                         std::string("--iso -400 --chunk-triangles 3000 --method ") + method, method);
   }
 }
 
@@ -73,10 +73,11 @@ TEST(GlbSeams, DecodeGivesTheExtractionsTopologyWhereAThirdOfTheValuesEqualTheIs
     state = state * 1664525u + 1013904223u;
     x = static_cast<std::uint8_t>(99 + (state >> 16) % 3);
   }
-  std::ofstream(dir + "/f.raw", std::ios::binary).write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size()));
+  std::ofstream(dir + "/f.raw", std::ios::binary)
+      .write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size()));
   for (const char* method : {"mc", "mt5", "mt6", "bcc12"}) {
-    expectExactRoundTrip(dir + "/f.raw",
-                         std::string("--raw-dims 28,28,28 --iso 100 --chunk-triangles 4000 --method ") + method, method);
+    expectExactRoundTrip(
+        dir + "/f.raw", std::string("--raw-dims 28,28,28 --iso 100 --chunk-triangles 4000 --method ") + method, method);
   }
 }
 
@@ -124,7 +125,8 @@ TEST(MeshMetadata, DecodeCarriesMethodIsoSpaceAndTheVolume) {
   EXPECT_EQ(meta.iso, 0.5);
   EXPECT_EQ(meta.space, "ras");
   ASSERT_TRUE(meta.volumeBounds.has_value());
-  for (int k = 0; k < 6; ++k) EXPECT_EQ((*meta.volumeBounds)[static_cast<std::size_t>(k)], report["volume_bounds"][k].get<double>());
+  for (int k = 0; k < 6; ++k)
+    EXPECT_EQ((*meta.volumeBounds)[static_cast<std::size_t>(k)], report["volume_bounds"][k].get<double>());
   ASSERT_TRUE(meta.volumeFaces.has_value());
   // RAS negates x and y of the (identity) phantom frame: the lattice's x-min face (i = 0) is the
   // plane x = 0 with the volume on its negative side, and its x-max face (i = 23) is x = -23.
@@ -141,7 +143,8 @@ TEST(MeshMetadata, EveryFormatTagsItsCoordinateSpaceAsSlicerReadsIt) {
     const std::string tag = std::string("SPACE=") + (std::string(space) == "lps" ? "LPS" : "RAS");
     for (const char* ext : {"ply", "obj", "stl"}) {
       const std::string out = dir + "/m_" + space + "." + ext;
-      ASSERT_EQ(runCli(std::string("extract 'phantom:sphere?n=16&r=5' --space ") + space + " -q -o " + out).exitCode, 0);
+      ASSERT_EQ(runCli(std::string("extract 'phantom:sphere?n=16&r=5' --space ") + space + " -q -o " + out).exitCode,
+                0);
       const std::string bytes = slurp(out);
       const std::string head = bytes.substr(0, std::string(ext) == "stl" ? 80 : 400);
       EXPECT_NE(head.find(tag), std::string::npos) << out << ": " << head;
@@ -188,7 +191,8 @@ TEST(MeshMetadata, SkullFromDicomMeasuresAsItsReport) {
   const std::string data = testing::sharedData("ct-philips-head");
   if (data.empty()) GTEST_SKIP() << "../shared/data/ct-philips-head is absent";
   const std::string dir = testing::tempDir();
-  ASSERT_EQ(runCli("extract " + data + " --iso 350 -q -o " + dir + "/skull.glb --report " + dir + "/r.json").exitCode, 0);
+  ASSERT_EQ(runCli("extract " + data + " --iso 350 -q -o " + dir + "/skull.glb --report " + dir + "/r.json").exitCode,
+            0);
   const auto report = json(dir + "/r.json");
   ASSERT_EQ(runCli("decode " + dir + "/skull.glb -o " + dir + "/skull.ply").exitCode, 0);
   for (const std::string mesh : {"skull.glb", "skull.ply"}) {
@@ -213,12 +217,11 @@ TEST(GltfClients, ValidateAndLoadInGltfsFrame) {
     const char* space;
   };
   for (const Case& c : {Case{"--chunk-triangles 4000", true, "lps"}, Case{"--draco off", true, "lps"},
-                        Case{"--chunk-triangles 4000", true, "ras"},
-                        Case{"--draco off", true, "ras"},
+                        Case{"--chunk-triangles 4000", true, "ras"}, Case{"--draco off", true, "ras"},
                         Case{"--chunk-triangles 4000 --gltf-frame raw", false, "lps"},
                         Case{"--draco off --gltf-frame raw", false, "lps"}}) {
-    const auto x = runCli("extract 'phantom:head?n=48,48,40' --iso -400 --normals --space " + std::string(c.space) + " " +
-                          c.options + " -q -o " + dir + "/h.glb --report " + dir + "/r.json");
+    const auto x = runCli("extract 'phantom:head?n=48,48,40' --iso -400 --normals --space " + std::string(c.space) +
+                          " " + c.options + " -q -o " + dir + "/h.glb --report " + dir + "/r.json");
     ASSERT_EQ(x.exitCode, 0) << c.options << ": " << x.err;
     const auto report = json(dir + "/r.json");
     const std::string cmd = "node " + npm + "/gltf_check.mjs " + dir + "/h.glb > " + dir + "/client.json 2>&1";
@@ -244,9 +247,8 @@ TEST(GltfClients, ValidateAndLoadInGltfsFrame) {
       lo[0] = -b[3].get<double>(), lo[1] = b[2].get<double>(), lo[2] = b[1].get<double>();
       hi[0] = -b[0].get<double>(), hi[1] = b[5].get<double>(), hi[2] = b[4].get<double>();
     }
-    const double step = report["output"].contains("quantization_step")
-                            ? report["output"]["quantization_step"].get<double>()
-                            : 0.0;
+    const double step =
+        report["output"].contains("quantization_step") ? report["output"]["quantization_step"].get<double>() : 0.0;
     const double tolerance = scale * (0.5 * step + 1e-4);
     for (int a = 0; a < 3; ++a) {
       EXPECT_NEAR(seen["min"][a].get<double>(), scale * lo[a], tolerance) << c.options << " axis " << a;
@@ -272,9 +274,11 @@ TEST(GltfClients, ValidateAndLoadTheSeamAttribute) {
     state = state * 1664525u + 1013904223u;
     x = static_cast<std::uint8_t>(99 + (state >> 16) % 3);
   }
-  std::ofstream(dir + "/f.raw", std::ios::binary).write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size()));
-  const auto x = runCli("extract " + dir + "/f.raw --raw-dims 20,20,20 --iso 100 --normals --chunk-triangles 3000 -q -o " +
-                        dir + "/s.glb --report " + dir + "/r.json");
+  std::ofstream(dir + "/f.raw", std::ios::binary)
+      .write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size()));
+  const auto x =
+      runCli("extract " + dir + "/f.raw --raw-dims 20,20,20 --iso 100 --normals --chunk-triangles 3000 -q -o " + dir +
+             "/s.glb --report " + dir + "/r.json");
   ASSERT_EQ(x.exitCode, 0) << x.err;
   const auto report = json(dir + "/r.json");
   ASSERT_GT(report["output"]["seam_keys"].get<double>(), 0);
