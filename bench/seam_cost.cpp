@@ -44,13 +44,7 @@ int main(int argc, char** argv) {
       writer.voxelSize = std::min({info.spacing[0], info.spacing[1], info.spacing[2]});
       auto sink = makeMeshWriter(out, writer);
       auto extractor = makeExtractor(options, info, frame);
-      MeshHeader header;
-      header.normals = options.normals;
-      header.method = std::string(methodName(options.method));
-      header.iso = options.iso;
-      header.space = frame.name();
-      header.volumeBounds = frame.bounds(info.dims);
-      header.volumeFaces = frame.faces(info.dims);
+      const MeshHeader header = extractionHeader(options, info, frame, *extractor);
       PipelineOptions p;
       p.progress = false;
       p.threads = 1;

@@ -367,14 +367,7 @@ int runExtract(const ExtractArgs& args) {
   options.cellVolumes = !args.report.empty() || sphere.has_value();
   auto extractor = makeExtractor(options, info, frame);
 
-  MeshHeader header;
-  header.normals = args.normals;
-  header.method = std::string(methodName(*method));
-  header.iso = iso;
-  header.space = frame.name();
-  header.cellVolumes = extractor->cellVolumes();
-  header.volumeBounds = frame.bounds(info.dims);
-  header.volumeFaces = frame.faces(info.dims);
+  const MeshHeader header = extractionHeader(options, info, frame, *extractor);
 
   MeshStatsSink stats;
   std::optional<SphereErrorSink> sphereErrors;

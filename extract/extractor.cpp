@@ -44,4 +44,17 @@ std::unique_ptr<Extractor> makeExtractor(const ExtractOptions& options, const Vo
   return makeLatticeExtractor(options, info, frame, std::move(scheme));
 }
 
+MeshHeader extractionHeader(const ExtractOptions& options, const VolumeInfo& info, const LatticeFrame& frame,
+                            const Extractor& extractor) {
+  MeshHeader header;
+  header.normals = options.normals;
+  header.method = std::string(methodName(options.method));
+  header.iso = options.iso;
+  header.space = frame.name();
+  header.cellVolumes = extractor.cellVolumes();
+  header.volumeBounds = frame.bounds(info.dims);
+  header.volumeFaces = frame.faces(info.dims);
+  return header;
+}
+
 }  // namespace isoslab

@@ -82,6 +82,10 @@ class Extractor {
   virtual std::size_t sliceSlots() const noexcept = 0;
 };
 
+/// What a sink learns of an extraction with `options` from a volume of `info` in `frame`.
+MeshHeader extractionHeader(const ExtractOptions& options, const VolumeInfo& info, const LatticeFrame& frame,
+                            const Extractor& extractor);
+
 /// The extractor for `options.method`, for a volume of `info`'s dims, emitting positions in `frame`.
 std::unique_ptr<Extractor> makeExtractor(const ExtractOptions& options, const VolumeInfo& info,
                                          const LatticeFrame& frame);

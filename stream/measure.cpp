@@ -20,14 +20,7 @@ Measurement measureExtraction(SliceSource& source, const ExtractOptions& options
     sinks.push_back(&*errors);
   }
   TeeSink tee(sinks);
-  MeshHeader header;
-  header.normals = options.normals;
-  header.method = std::string(methodName(options.method));
-  header.iso = options.iso;
-  header.space = frame.name();
-  header.volumeBounds = frame.bounds(info.dims);
-  header.volumeFaces = frame.faces(info.dims);
-  header.cellVolumes = extractor->cellVolumes();
+  const MeshHeader header = extractionHeader(options, info, frame, *extractor);
   Measurement m;
   m.run = runPipeline(source, *extractor, tee, header);
   m.stats = stats.stats();

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -130,6 +131,15 @@ int fileCount(const std::string& folder) {
   int n = 0;
   for (const auto& e : fs::directory_iterator(folder)) n += e.is_regular_file() ? 1 : 0;
   return n;
+}
+
+std::string gltfClientsMissing(const std::string& npm) {
+  if (!std::filesystem::exists(npm + "/node_modules/three") ||
+      !std::filesystem::exists(npm + "/node_modules/gltf-validator") ||
+      std::system("command -v node >/dev/null 2>&1") != 0) {
+    return "node and the npm packages in " + npm + " are absent (scripts/test.sh installs them)";
+  }
+  return "";
 }
 
 }  // namespace isoslab::testing

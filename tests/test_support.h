@@ -58,6 +58,10 @@ struct CliResult {
 /// Runs the isoslab program with `args` (passed through the shell; quote as needed).
 CliResult runCli(const std::string& args);
 
+/// Why the real glTF clients (node, and the npm packages scripts/test.sh installs in `npm`) cannot
+/// run here, or empty when they can.
+std::string gltfClientsMissing(const std::string& npm);
+
 /// A fresh, empty folder for one test.
 std::string tempDir();
 

@@ -147,10 +147,7 @@ TEST(ObjWriter, RoundTripsExactly) {
 
 TEST(GlbDraco, RealClientsLoadIt) {
   const std::string npm = ISOSLAB_NPM_DIR;
-  if (!fs::exists(npm + "/node_modules/three") || !fs::exists(npm + "/node_modules/gltf-validator") ||
-      std::system("command -v node >/dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "node and the npm packages in " << npm << " are absent (scripts/test.sh installs them)";
-  }
+  if (const std::string why = testing::gltfClientsMissing(npm); !why.empty()) GTEST_SKIP() << why;
   const std::string dir = testing::tempDir();
   const auto r = testing::runCli("extract 'phantom:head?n=64,64,56' --iso -400 --normals --chunk-triangles 5000 -o " +
                                  dir + "/h.glb --report " + dir + "/r.json -q");

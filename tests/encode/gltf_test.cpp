@@ -206,10 +206,7 @@ TEST(MeshMetadata, SkullFromDicomMeasuresAsItsReport) {
 // the root node, so the loaded box must be the report's bounds in glTF's frame, in metres.
 TEST(GltfClients, ValidateAndLoadInGltfsFrame) {
   const std::string npm = ISOSLAB_NPM_DIR;
-  if (!fs::exists(npm + "/node_modules/three") || !fs::exists(npm + "/node_modules/gltf-validator") ||
-      std::system("command -v node >/dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "node and the npm packages in " << npm << " are absent (scripts/test.sh installs them)";
-  }
+  if (const std::string why = testing::gltfClientsMissing(npm); !why.empty()) GTEST_SKIP() << why;
   const std::string dir = testing::tempDir();
   struct Case {
     std::string options;
@@ -263,10 +260,7 @@ TEST(GltfClients, ValidateAndLoadInGltfsFrame) {
 // and 101, at iso 100, in small chunks.
 TEST(GltfClients, ValidateAndLoadTheSeamAttribute) {
   const std::string npm = ISOSLAB_NPM_DIR;
-  if (!fs::exists(npm + "/node_modules/three") || !fs::exists(npm + "/node_modules/gltf-validator") ||
-      std::system("command -v node >/dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "node and the npm packages in " << npm << " are absent (scripts/test.sh installs them)";
-  }
+  if (const std::string why = testing::gltfClientsMissing(npm); !why.empty()) GTEST_SKIP() << why;
   const std::string dir = testing::tempDir();
   std::vector<std::uint8_t> v(20 * 20 * 20);
   std::uint32_t state = 777;
