@@ -514,6 +514,12 @@ const Case kCases[] = {
        return d + "/v.nrrd";
      },
      "extract {in} -o {dir}/out.ply"},
+    // --- Silently wrong output: DICOM, image stacks and messages (helper 1) ---------------------
+    // (end of helper 1 section)
+    // --- Silently wrong output: NRRD, MetaImage, NIfTI, raw, gzip, --iso and meshes (helper 2) ---
+    // (end of helper 2 section)
+    // --- Fuzz regressions ---------------------------------------------------------------------------
+    // (end of fuzz section)
     // --- Usage errors ------------------------------------------------------------------------------
     {"UsageUnknownOption",
      [](const std::string& d) {
