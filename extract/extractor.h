@@ -11,31 +11,42 @@
 
 #include "extract/frame.h"
 #include "extract/mesh_sink.h"
+#include "extract/slab_view.h"
 #include "io/slice_source.h"
-#include "stream/slab_ring.h"
 
 namespace isoslab {
 
 enum class Method : std::uint8_t { kMarchingCubes, kTetra5, kTetra6, kBcc12 };
 
-/// What a detached worker (Extractor::makeWorker) makes of one slab, before stitching.
-struct SlabPart {
-  /// Vertex ids in the triangles are local (0 .. positions.size() - 1), or kForeignVertex | k for
-  /// the vertex of slot foreign[k] on slice z, which the slab below created. firstVertex is unset.
-  MeshChunk chunk;
-  /// Welding-cache slots on slice z that the triangles reference but the slab below owns.
-  std::vector<std::int64_t> foreign;
-  /// The slab's vertices on slice z + 1: (slot, local id), for the slab above to reference.
-  std::vector<std::pair<std::int64_t, VertexId>> top;
-};
+/// A welding-cache slot on one slice plane, below Extractor::sliceSlots(): how a slab worker names
+/// a vertex on a slice that another slab creates.
+enum class CacheSlot : std::int64_t {};
 
+/// A vertex id within one SlabPart, from 0.
+enum class LocalVertex : VertexId {};
+
+/// In a SlabPart's triangles, an id with this bit set is not a LocalVertex but a reference: the
+/// vertex of slot foreign[id & ~kForeignVertex], which the slab below created.
 constexpr VertexId kForeignVertex = VertexId{1} << 31;
+
+/// What a slab worker (Extractor::makeWorker) makes of one slab, before stitching (SlabStitcher
+/// turns its ids into the global ids of the sequential extractor).
+struct SlabPart {
+  /// Triangles hold LocalVertex ids (0 .. positions.size() - 1) or kForeignVertex references.
+  /// firstVertex is unset.
+  MeshChunk chunk;
+  /// The slots on slice z that the triangles reference and the slab below owns.
+  std::vector<CacheSlot> foreign;
+  /// The slab's vertices on slice z + 1, for the slab above to reference.
+  std::vector<std::pair<CacheSlot, LocalVertex>> top;
+};
 
 /// Extracts slabs independently of each other, in any order; one per thread.
 class SlabWorker {
  public:
   virtual ~SlabWorker() = default;
-  virtual void extract(const SlabView& slab, SlabPart& out) noexcept = 0;
+  /// Allocates; throws std::bad_alloc.
+  virtual void extract(const SlabView& slab, SlabPart& out) = 0;
 };
 
 /// "mc", "mt5", "mt6", "bcc12".
@@ -62,7 +73,8 @@ class Extractor {
 
   /// Extracts slab z (called for z = 0, 1, ..., dims[2]-2 in order) and appends its new vertices
   /// and its triangles to `out`, which the caller has cleared and given its firstVertex.
-  virtual void extractSlab(const SlabView& slab, MeshChunk& out) noexcept = 0;
+  /// Allocates; throws std::bad_alloc.
+  virtual void extractSlab(const SlabView& slab, MeshChunk& out) = 0;
 
   /// Vertices emitted so far (may exceed what VertexId holds; the pipeline checks).
   virtual std::uint64_t vertexCount() const noexcept = 0;

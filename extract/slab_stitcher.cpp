@@ -9,6 +9,7 @@
 namespace isoslab {
 namespace {
 constexpr VertexId kUnset = std::numeric_limits<VertexId>::max();
+std::size_t index(CacheSlot slot) noexcept { return static_cast<std::size_t>(slot); }
 }
 
 SlabStitcher::SlabStitcher(std::size_t sliceSlots) : top_(sliceSlots, kUnset) {}
@@ -26,7 +27,7 @@ void SlabStitcher::stitch(SlabPart& part) {
   const auto first = static_cast<VertexId>(next_);
   resolved_.resize(part.foreign.size());
   for (std::size_t k = 0; k < part.foreign.size(); ++k) {
-    const VertexId id = top_[static_cast<std::size_t>(part.foreign[k])];
+    const VertexId id = top_[index(part.foreign[k])];
     if (id == kUnset) {
       throw Error(fmt::format("internal error: slab {} references a vertex that slab {} did not create", chunk.slab,
                               chunk.slab - 1));
@@ -36,10 +37,10 @@ void SlabStitcher::stitch(SlabPart& part) {
   for (Triangle& t : chunk.triangles) {
     for (VertexId& v : t) v = (v & kForeignVertex) ? resolved_[v & ~kForeignVertex] : first + v;
   }
-  for (std::int64_t slot : set_) top_[static_cast<std::size_t>(slot)] = kUnset;
+  for (CacheSlot slot : set_) top_[index(slot)] = kUnset;
   set_.clear();
   for (const auto& [slot, local] : part.top) {
-    top_[static_cast<std::size_t>(slot)] = first + local;
+    top_[index(slot)] = first + static_cast<VertexId>(local);
     set_.push_back(slot);
   }
   chunk.firstVertex = first;

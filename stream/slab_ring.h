@@ -18,17 +18,9 @@
 #include <span>
 #include <vector>
 
-namespace isoslab {
+#include "extract/slab_view.h"
 
-/// Where one row of voxels changes between inside and outside: the first and last index i >= 1
-/// whose state differs from voxel i - 1 (-1 when the row is uniform), and the states at both ends.
-/// An extractor derives one per row of a slice (Extractor::classifySlice) to skip uniform spans.
-struct RowSpan {
-  std::int64_t first = -1;
-  std::int64_t last = -1;
-  bool left = false;
-  bool right = false;
-};
+namespace isoslab {
 
 /// A slice's values (owned, or lent by the source) and, optionally, its rows' spans, as a reader
 /// thread hands them over.
@@ -105,16 +97,6 @@ class SlabRing {
   std::vector<SliceBuffer> storage_;
   std::vector<std::int64_t> resident_;
   std::int64_t newest_ = -1;
-};
-
-/// What an extractor sees of the ring for slab z.
-struct SlabView {
-  std::int64_t z = 0;
-  std::array<std::int64_t, 3> dims{};
-  /// Slices z-1, z, z+1, z+2; nullptr where outside the volume or not requested.
-  std::array<const float*, 4> slices{};
-  /// Their row spans where already classified (by the extractor's classifySlice), else nullptr.
-  std::array<const RowSpan*, 4> rows{};
 };
 
 }  // namespace isoslab

@@ -1,0 +1,359 @@
+// Marching Tetrahedra and the comparison of decompositions: V. Skala and A. Brus, "Two methods for
+// iso-surface extraction from volumetric data and their comparison".
+// BCC: C.-S. Chan and E. O. Purisima, Computers & Graphics 22(1), 1998.
+#include "extract/lattice_kernel.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "extract/row_spans.h"
+#include "extract/tet_volume.h"
+
+namespace isoslab {
+
+LatticeKernel::LatticeKernel(const ExtractOptions& options, const std::array<std::int64_t, 3>& dims,
+                             const LatticeFrame& frame, std::unique_ptr<CellScheme> scheme)
+    : options_(options), frame_(frame), scheme_(std::move(scheme)), cases_(scheme_.get(), dims[0]) {
+  nx_ = dims[0];
+  ny_ = dims[1];
+  nz_ = dims[2];
+  planeSize_ = nx_ * ny_;
+  flip_ = frame_.flipsWinding();
+  threshold_ = insideThreshold(options_.iso);
+  cellVolume_ = frame_.cellVolume();
+  needsCentres_ = scheme_ && scheme_->rule == VariantRule::kBoundary;
+  field_.nx = nx_;
+  field_.ny = ny_;
+  field_.nz = nz_;
+}
+
+std::unique_ptr<CellScheme> LatticeKernel::copyScheme() const {
+  return scheme_ ? std::make_unique<CellScheme>(*scheme_) : nullptr;
+}
+
+// The welding caches and centre planes, allocated on first use (an extractor whose workers do
+// the extracting never needs its own).
+void LatticeKernel::allocate() {
+  cache_.allocate(cases_.sliceClasses(), cases_.centreClasses(), planeSize_);
+  if (needsCentres_) {
+    const auto cells = static_cast<std::size_t>((nx_ - 1) * (ny_ - 1));
+    centres_[0].assign(cells, 0.0f);
+    centres_[1].assign(cells, 0.0f);
+  }
+}
+
+void LatticeKernel::classifySlice(const float* slice, std::vector<RowSpan>& rows) const {
+  classifyRows(slice, nx_, ny_, threshold_, rows);
+}
+
+// Row spans of slices z, z+1 (and z+2 for bcc12): from the view when the pipeline classified its
+// slices once for all workers, else classified here, reusing the previous slab's when it follows.
+std::array<const RowSpan*, 3> LatticeKernel::rowSpans(const SlabView& slab, bool standalone) {
+  const bool bcc = needsCentres_;
+  const auto& s = field_.slices;
+  if (slab.rows[1] != nullptr && slab.rows[2] != nullptr && (!bcc || s[3] == nullptr || slab.rows[3])) {
+    rowsCarried_ = false;
+    return {slab.rows[1], slab.rows[2], slab.rows[3]};
+  }
+  const bool fresh = z_ == 0 || standalone || !rowsCarried_;
+  if (fresh) classifySlice(s[1], rows_[0]);
+  if (fresh || !bcc) classifySlice(s[2], rows_[1]);
+  if (bcc && s[3] != nullptr) classifySlice(s[3], rows_[2]);
+  rowsCarried_ = true;
+  return {rows_[0].data(), rows_[1].data(), rows_[2].data()};
+}
+
+void LatticeKernel::extractSlab(const SlabView& slab, MeshChunk& out, std::vector<CacheSlot>* foreign) {
+  if (!cache_.allocated()) allocate();
+  const bool standalone = foreign != nullptr;
+  foreign_ = foreign;
+  z_ = slab.z;
+  field_.z = z_;
+  field_.slices = slab.slices;
+  out_ = &out;
+  if (needsCentres_) {
+    if (z_ == 0 || standalone) computeCentres(0, centres_[0]);
+    if (z_ + 1 <= nz_ - 2) computeCentres(1, centres_[1]);
+  }
+  double insideVolume = 0;
+  const std::array<const RowSpan*, 3> spans = rowSpans(slab, standalone);
+  for (std::int64_t j = 0; j + 1 < ny_; ++j) trimmedRow(j, spans, insideVolume);
+  out.cellVolume = cellVolumes() ? insideVolume * cellVolume_ : 0.0;
+}
+
+void LatticeKernel::rollCaches() noexcept {
+  cache_.roll();
+  if (needsCentres_) std::swap(centres_[0], centres_[1]);
+  std::swap(rows_[0], rows_[1]);
+  if (needsCentres_) std::swap(rows_[1], rows_[2]);
+}
+
+void LatticeKernel::takeTop(std::vector<std::pair<CacheSlot, LocalVertex>>& top) {
+  for (std::int64_t slot : cache_.touched(2)) {
+    top.emplace_back(CacheSlot{slot}, LocalVertex{cache_.id(2, slot)});
+  }
+  cache_.clearAll();
+}
+
+// Flying-edges-style trimming of the row of cells j: the rows of each slice are classified once,
+// and a row of cells is visited only where one of the voxel rows it depends on changes state, or
+// where their constant states differ. mc, mt5 and mt6 depend on the four voxel rows of the cells;
+// bcc12 also on the next cells along x, y and z (their centres), so on nine voxel rows and one cell
+// further left, and its cells on the volume boundary (pyramids) are always visited.
+void LatticeKernel::trimmedRow(std::int64_t j, const std::array<const RowSpan*, 3>& spans, double& insideVolume) {
+  const bool bcc = needsCentres_;
+  const std::int64_t cellsPerRow = nx_ - 1;
+  if (bcc && (j == 0 || j + 2 == ny_ || z_ == 0 || z_ + 2 == nz_)) {
+    marchRow(j, 0, cellsPerRow, insideVolume);
+    return;
+  }
+  std::array<const RowSpan*, 9> rows{};
+  std::size_t count = 0;
+  for (std::size_t k = 0; k < (bcc ? 3u : 2u); ++k) {
+    for (std::int64_t dj = 0; dj < (bcc ? 3 : 2); ++dj) rows[count++] = spans[k] + j + dj;
+  }
+  std::int64_t firstChange = nx_;
+  std::int64_t lastChange = -1;
+  bool leftSame = true;
+  bool rightSame = true;
+  for (std::size_t k = 0; k < count; ++k) {
+    if (rows[k]->first >= 0) {
+      firstChange = std::min(firstChange, rows[k]->first);
+      lastChange = std::max(lastChange, rows[k]->last);
+    }
+    leftSame = leftSame && rows[k]->left == rows[0]->left;
+    rightSame = rightSame && rows[k]->right == rows[0]->right;
+  }
+  // Cells [lo, hi) may be crossed; bcc12 keeps its boundary cells 0 and cellsPerRow - 1.
+  const std::int64_t edge = bcc ? 1 : 0;
+  std::int64_t lo = edge;
+  std::int64_t hi = cellsPerRow - edge;
+  bool skipLeft = false;
+  bool skipRight = false;
+  if (lastChange < 0) {
+    if (leftSame) skipLeft = skipRight = true, lo = hi;
+  } else {
+    if (leftSame) {
+      lo = std::max(edge, firstChange - (bcc ? 2 : 1));
+      skipLeft = true;
+    }
+    if (rightSame) {
+      hi = std::min(cellsPerRow - edge, std::max(lo, lastChange));
+      skipRight = true;
+    }
+  }
+  if (!skipLeft) lo = edge;
+  if (!skipRight) hi = std::max(lo, cellsPerRow - edge);
+  // Uniform cells skipped inside the surface still count whole (one unit cell each).
+  if (scheme_) {
+    if (skipLeft && rows[0]->left) insideVolume += static_cast<double>(lo - edge);
+    if (skipRight && rows[0]->right) insideVolume += static_cast<double>(cellsPerRow - edge - hi);
+  }
+  if (bcc) marchRow(j, 0, 1, insideVolume);
+  marchRow(j, lo, hi, insideVolume);
+  if (bcc) marchRow(j, cellsPerRow - 1, cellsPerRow, insideVolume);
+}
+
+// Cells [begin, end) of row j. The case code is built incrementally: the next cell's x=0 corners
+// are this cell's x=1 corners, so each step classifies four new voxels; values are loaded only for
+// cells the surface crosses (and always for the tetrahedral schemes, whose centres need them).
+void LatticeKernel::marchRow(std::int64_t j, std::int64_t begin, std::int64_t end, double& insideVolume) {
+  if (begin >= end) return;
+  const float* a0 = field_.slices[1] + j * nx_;
+  const float* a1 = a0 + nx_;
+  const float* b0 = field_.slices[2] + j * nx_;
+  const float* b1 = b0 + nx_;
+  const float threshold = threshold_;
+  auto in = [threshold](float v) { return v >= threshold; };
+  const bool bcc = needsCentres_;
+  // bcc12 cells off the volume's faces use the interior variant, whose four centres all exist.
+  const bool interiorRow = bcc && j > 0 && j + 2 < ny_ && z_ > 0 && z_ + 2 < nz_;
+  const float* centre0 = bcc ? centres_[0].data() + j * (nx_ - 1) : nullptr;
+  const float* centre1 = bcc ? centres_[1].data() + j * (nx_ - 1) : nullptr;
+  const auto& variants = cases_.variants();
+  unsigned cornerCase = static_cast<unsigned>(in(a0[begin])) | static_cast<unsigned>(in(a1[begin])) << 2 |
+                        static_cast<unsigned>(in(b0[begin])) << 4 | static_cast<unsigned>(in(b1[begin])) << 6;
+  for (std::int64_t i = begin; i < end; ++i) {
+    cornerCase = (cornerCase & 0x55u) | static_cast<unsigned>(in(a0[i + 1])) << 1 |
+                 static_cast<unsigned>(in(a1[i + 1])) << 3 | static_cast<unsigned>(in(b0[i + 1])) << 5 |
+                 static_cast<unsigned>(in(b1[i + 1])) << 7;
+    const unsigned thisCase = cornerCase;
+    cornerCase >>= 1;  // the x=1 corners become the next cell's x=0 corners
+    if (thisCase == 0 || thisCase == 255) {
+      // Uniform cells: nothing to emit, unless bcc12's centres may still differ.
+      if (!scheme_) continue;
+      if (!bcc) {
+        if (thisCase == 255) insideVolume += variants[0].volume;  // the whole cube
+        continue;
+      }
+      // bcc12: uniform too when its own centre and the +x, +y, +z centres agree.
+      const bool inside = thisCase == 255;
+      if (interiorRow && i > 0 && i + 2 < nx_ && in(centre0[i]) == inside && in(centre0[i + 1]) == inside &&
+          in(centre0[i + nx_ - 1]) == inside && in(centre1[i]) == inside) {
+        if (inside) insideVolume += variants[0].volume;
+        continue;
+      }
+    }
+    const std::array<const float*, 4> corners{a0 + i, a1 + i, b0 + i, b1 + i};
+    if (!scheme_) {
+      loadCorners(corners);
+      emitCase(cases_.marchingCubes(), thisCase, i, j);
+    } else {
+      insideVolume += marchTetrahedra(thisCase, i, j, corners);
+    }
+  }
+}
+
+// Cube-centre values of slab z_ + which: the mean of each cell's eight corners.
+void LatticeKernel::computeCentres(int which, std::vector<float>& dst) {
+  const float* a = field_.slices[static_cast<std::size_t>(1 + which)];
+  const float* b = field_.slices[static_cast<std::size_t>(2 + which)];
+  // Each voxel column's four values are summed once and shared by the two cells beside it.
+  columns_.resize(static_cast<std::size_t>(nx_));
+  double* column = columns_.data();
+  for (std::int64_t j = 0; j + 1 < ny_; ++j) {
+    const float* a0 = a + j * nx_;
+    const float* a1 = a0 + nx_;
+    const float* b0 = b + j * nx_;
+    const float* b1 = b0 + nx_;
+    for (std::int64_t i = 0; i < nx_; ++i) {
+      column[i] = (static_cast<double>(a0[i]) + a1[i]) + (static_cast<double>(b0[i]) + b1[i]);
+    }
+    float* out = dst.data() + j * (nx_ - 1);
+    for (std::int64_t i = 0; i + 1 < nx_; ++i) out[i] = static_cast<float>((column[i] + column[i + 1]) / 8.0);
+  }
+}
+
+// The eight corner values of a cell, from its four voxel rows (y, then z) starting at its x.
+void LatticeKernel::loadCorners(const std::array<const float*, 4>& rows) noexcept {
+  for (std::size_t r = 0; r < 4; ++r) {
+    value_[2 * r] = rows[r][0];
+    value_[2 * r + 1] = rows[r][1];
+  }
+}
+
+// Emits the cell's triangles and returns the inside volume of its tetrahedra, in voxel units.
+double LatticeKernel::marchTetrahedra(unsigned cornerCase, std::int64_t i, std::int64_t j,
+                                      const std::array<const float*, 4>& corners) {
+  std::size_t variant = 0;
+  switch (scheme_->rule) {
+    case VariantRule::kSingle:
+      break;
+    case VariantRule::kParity:
+      variant = static_cast<std::size_t>((i + j + z_) & 1);
+      break;
+    case VariantRule::kBoundary:
+      variant = static_cast<std::size_t>((i == 0 ? 1 : 0) | (i + 2 == nx_ ? 2 : 0) | (j == 0 ? 4 : 0) |
+                                         (j + 2 == ny_ ? 8 : 0) | (z_ == 0 ? 16 : 0) | (z_ + 2 == nz_ ? 32 : 0));
+      break;
+  }
+  CaseList& v = cases_.variants()[variant];
+  unsigned nodeCase = cornerCase;
+  if (needsCentres_) {
+    const std::int64_t c = j * (nx_ - 1) + i;
+    value_[8] = centres_[0][static_cast<std::size_t>(c)];
+    if (v.nodeMask & (1u << 9)) value_[9] = centres_[0][static_cast<std::size_t>(c + 1)];
+    if (v.nodeMask & (1u << 10)) value_[10] = centres_[0][static_cast<std::size_t>(c + nx_ - 1)];
+    if (v.nodeMask & (1u << 11)) value_[11] = centres_[1][static_cast<std::size_t>(c)];
+    for (unsigned n = 8; n < 12; ++n) {
+      if (v.nodeMask & (1u << n)) nodeCase |= static_cast<unsigned>(value_[n] >= threshold_) << n;
+    }
+  }
+  const unsigned used = v.nodeMask;
+  const unsigned key = nodeCase & used;
+  if (key == 0) return 0.0;
+  if (key == used) return v.volume;
+  loadCorners(corners);  // only for cells the surface crosses
+  v.ensureCase(key);
+  emitCase(v, key, i, j);
+  if (!options_.cellVolumes) return 0.0;
+  double inside = 0;
+  for (const TetRef& t : v.tets) {
+    unsigned cas = 0;
+    for (unsigned k = 0; k < 4; ++k) cas |= ((key >> t.nodes[k]) & 1u) << k;
+    if (cas == 15) {
+      inside += t.volume;
+    } else if (cas != 0) {
+      std::array<double, 4> values{};
+      for (std::size_t k = 0; k < 4; ++k) values[k] = value_[t.nodes[k]];
+      inside += tetInsideVolume(values, t.volume, cas, options_.iso);
+    }
+  }
+  return inside;
+}
+
+// Emits the triangles of case `key` of v (built beforehand) in cell (i, j).
+void LatticeKernel::emitCase(const CaseList& v, unsigned key, std::int64_t i, std::int64_t j) {
+  const CaseList::CaseSpan& span = v.cases[key];
+  std::array<VertexId, kMaxCaseEdges> ids;
+  const std::uint8_t* edges = v.caseEdges.data() + span.firstEdge;
+  for (std::size_t k = 0; k < span.edgeCount; ++k) ids[k] = vertex(v.edges[edges[k]], i, j);
+  const auto* tri = v.caseTriangles.data() + span.firstTriangle;
+  for (std::size_t n = 0; n < span.triangleCount; ++n, ++tri) emitTriangle(ids[(*tri)[0]], ids[(*tri)[1]], ids[(*tri)[2]]);
+}
+
+void LatticeKernel::emitTriangle(VertexId a, VertexId b, VertexId c) {
+  if (flip_) std::swap(b, c);
+  out_->triangles.push_back({a, b, c});
+}
+
+VertexId LatticeKernel::vertex(const EdgeRef& e, std::int64_t i, std::int64_t j) {
+  const std::int64_t slot = e.slot(i, j, nx_);
+  VertexId& id = cache_.id(e.plane, slot);
+  if (id == WeldingCache::kNone) {
+    if (e.shared && foreign_ != nullptr && z_ > 0) {
+      // The slab below created this vertex (every edge on slice z that a cell of this slab
+      // crosses is an edge of a cell below too): refer to it by slot.
+      id = kForeignVertex | static_cast<VertexId>(foreign_->size());
+      foreign_->push_back(CacheSlot{slot});
+      cache_.touch(0, slot);
+      return id;
+    }
+    id = static_cast<VertexId>(vertexCount_++);
+    cache_.touch(e.plane, slot);
+    createVertex(e, i, j);
+  }
+  return id;
+}
+
+void LatticeKernel::createVertex(const EdgeRef& e, std::int64_t i, std::int64_t j) {
+  const double va = value_[e.a];
+  const double vb = value_[e.b];
+  const double t = (options_.iso - va) / (vb - va);
+  const auto& nodes = cases_.nodes();
+  const Vec3d a = field_.position(nodes[e.a], i, j);
+  const Vec3d b = field_.position(nodes[e.b], i, j);
+  const Vec3d lattice{a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+  const Vec3d w = frame_.map(lattice[0], lattice[1], lattice[2]);
+  out_->positions.push_back({static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])});
+  std::uint8_t faces = 0;
+  auto on = [&](int axis, double value) {
+    return a[static_cast<std::size_t>(axis)] == value && b[static_cast<std::size_t>(axis)] == value;
+  };
+  if (on(0, 0.0)) faces |= kFaceXMin;
+  if (on(0, static_cast<double>(nx_ - 1))) faces |= kFaceXMax;
+  if (on(1, 0.0)) faces |= kFaceYMin;
+  if (on(1, static_cast<double>(ny_ - 1))) faces |= kFaceYMax;
+  if (on(2, 0.0)) faces |= kFaceZMin;
+  if (on(2, static_cast<double>(nz_ - 1))) faces |= kFaceZMax;
+  out_->boundary.push_back(faces);
+  if (!options_.normals) return;
+  const Vec3d ga = field_.gradient(nodes[e.a], i, j);
+  const Vec3d gb = field_.gradient(nodes[e.b], i, j);
+  Vec3d g = frame_.gradient({ga[0] + t * (gb[0] - ga[0]), ga[1] + t * (gb[1] - ga[1]), ga[2] + t * (gb[2] - ga[2])});
+  double len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  if (!(len > 0)) {
+    // The central differences cancel (a symmetric extremum at the vertex): take the one-sided
+    // difference along the vertex's own edge. It is never zero, since the edge crosses the iso
+    // value, and it points from the inside end to the outside end.
+    const Vec3d d{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    const double scale = (vb - va) / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    g = frame_.gradient({d[0] * scale, d[1] * scale, d[2] * scale});
+    len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  }
+  // The normal points down the gradient, from higher to lower values.
+  const double s = len > 0 ? -1.0 / len : 0.0;
+  out_->normals.push_back({static_cast<float>(g[0] * s), static_cast<float>(g[1] * s), static_cast<float>(g[2] * s)});
+}
+
+}  // namespace isoslab
