@@ -9,6 +9,7 @@
 #include <condition_variable>
 #include <deque>
 #include <exception>
+#include <utility>
 #include <limits>
 #include <mutex>
 #include <thread>
@@ -256,6 +257,7 @@ class WorkerPool {
     Result& r = slotOf(z);
     partReady_.wait(lock, [&] { return r.done && r.z == z; });
     r.done = false;
+    if (r.error) std::rethrow_exception(std::exchange(r.error, nullptr));  // std::bad_alloc, say
     return r.part;
   }
 
@@ -267,6 +269,7 @@ class WorkerPool {
     std::int64_t z = -1;
     bool done = false;
     SlabPart part;
+    std::exception_ptr error;  // what the worker threw instead of extracting the part
   };
 
   void run(SlabWorker& worker) {
@@ -282,10 +285,16 @@ class WorkerPool {
       // Only this worker touches the slot's part until it is marked done.
       SlabPart& part = slotOf(view.z).part;
       const auto t = Clock::now();
-      worker.extract(view, part);
+      std::exception_ptr error;
+      try {
+        worker.extract(view, part);
+      } catch (...) {
+        error = std::current_exception();
+      }
       const double took = since(t);
       {
         std::lock_guard lock(mutex_);
+        slotOf(view.z).error = error;
         slotOf(view.z).done = true;
         seconds_ += took;
       }

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <new>
 
 #include "extract/frame.h"
 #include "extract/slab_stitcher.h"
@@ -80,6 +81,52 @@ class ShortSource final : public SliceSource {
   VolumeInfo info_;
   int n_ = 0;
 };
+
+// An extractor whose kernels run out of memory on slab 2: the error reaches the caller from the
+// calling thread and from the workers alike (a noexcept kernel would call std::terminate).
+class OutOfMemoryExtractor final : public Extractor {
+ public:
+  explicit OutOfMemoryExtractor(std::unique_ptr<Extractor> inner) : inner_(std::move(inner)) {}
+  int slicesBelow() const noexcept override { return inner_->slicesBelow(); }
+  int slicesAbove() const noexcept override { return inner_->slicesAbove(); }
+  void extractSlab(const SlabView& slab, MeshChunk& out) override {
+    if (slab.z == 2) throw std::bad_alloc();
+    inner_->extractSlab(slab, out);
+  }
+  std::uint64_t vertexCount() const noexcept override { return inner_->vertexCount(); }
+  void classifySlice(const float* slice, std::vector<RowSpan>& rows) const override {
+    inner_->classifySlice(slice, rows);
+  }
+  bool cellVolumes() const noexcept override { return inner_->cellVolumes(); }
+  std::size_t sliceSlots() const noexcept override { return inner_->sliceSlots(); }
+  std::unique_ptr<SlabWorker> makeWorker() const override {
+    struct Worker final : SlabWorker {
+      std::unique_ptr<SlabWorker> inner;
+      void extract(const SlabView& slab, SlabPart& out) override {
+        if (slab.z == 2) throw std::bad_alloc();
+        inner->extract(slab, out);
+      }
+    };
+    auto w = std::make_unique<Worker>();
+    w->inner = inner_->makeWorker();
+    return w;
+  }
+
+ private:
+  std::unique_ptr<Extractor> inner_;
+};
+
+TEST(Pipeline, OutOfMemoryInAKernelReachesTheCaller) {
+  for (int threads : {1, 3}) {
+    testing::VectorSource source({6, 6, 8}, [](std::int64_t i, std::int64_t, std::int64_t) { return float(i); });
+    OutOfMemoryExtractor ex(makeExtractor(ExtractOptions{Method::kMarchingCubes, 2.5}, source.info(),
+                                          LatticeFrame::voxel()));
+    MemoryMeshSink sink;
+    PipelineOptions p;
+    p.threads = threads;
+    EXPECT_THROW(runPipeline(source, ex, sink, MeshHeader{}, p), std::bad_alloc) << threads << " threads";
+  }
+}
 
 TEST(Pipeline, ASourceThatEndsEarlyIsAnError) {
   for (int threads : {1, 3}) {
