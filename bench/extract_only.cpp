@@ -14,7 +14,7 @@
 
 #include "extract/extractor.h"
 #include "extract/frame.h"
-#include "io/error.h"
+#include "core/error.h"
 #include "io/open_source.h"
 #include "stream/pipeline.h"
 

@@ -12,7 +12,7 @@
 #include "encode/mesh_writer.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
-#include "io/error.h"
+#include "core/error.h"
 #include "io/open_source.h"
 #include "stream/pipeline.h"
 

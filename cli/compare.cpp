@@ -14,11 +14,11 @@
 #include <sstream>
 
 #include "extract/extractor.h"
-#include "io/atomic_file.h"
-#include "io/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
-#include "stream/measure.h"
+#include "metrics/measure.h"
 
 namespace fs = std::filesystem;
 

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "io/error.h"
+#include "core/error.h"
 
 namespace isoslab {
 

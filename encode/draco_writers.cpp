@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "encode/gltf.h"
-#include "io/error.h"
+#include "core/error.h"
 
 namespace isoslab {
 namespace {

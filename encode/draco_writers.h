@@ -35,7 +35,7 @@
 #include "encode/draco_codec.h"
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_writer.h"
-#include "io/atomic_file.h"
+#include "core/atomic_file.h"
 
 namespace isoslab {
 

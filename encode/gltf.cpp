@@ -8,7 +8,7 @@
 #include <limits>
 
 #include "encode/mesh_metadata.h"
-#include "io/error.h"
+#include "core/error.h"
 
 namespace isoslab {
 namespace {

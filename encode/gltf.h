@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "encode/mesh_writer.h"
-#include "io/atomic_file.h"
+#include "core/atomic_file.h"
 
 namespace isoslab {
 

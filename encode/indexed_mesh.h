@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "extract/mesh_sink.h"
+#include "core/mesh_sink.h"
 
 namespace isoslab {
 

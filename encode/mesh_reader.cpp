@@ -16,8 +16,8 @@
 #include "encode/gltf.h"
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_metadata.h"
-#include "io/error.h"
-#include "io/limits.h"
+#include "core/error.h"
+#include "core/limits.h"
 
 namespace isoslab {
 namespace {

@@ -11,7 +11,7 @@
 #include "encode/obj_writer.h"
 #include "encode/ply_writer.h"
 #include "encode/stl_writer.h"
-#include "io/error.h"
+#include "core/error.h"
 
 namespace isoslab {
 

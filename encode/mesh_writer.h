@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "extract/mesh_sink.h"
+#include "core/mesh_sink.h"
 
 namespace isoslab {
 

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "encode/mesh_writer.h"
-#include "io/atomic_file.h"
+#include "core/atomic_file.h"
 
 namespace isoslab {
 

@@ -8,7 +8,7 @@
 
 #include "encode/binary_buffer.h"
 #include "encode/mesh_metadata.h"
-#include "io/error.h"
+#include "core/error.h"
 
 namespace isoslab {
 

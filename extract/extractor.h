@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "extract/frame.h"
-#include "extract/mesh_sink.h"
+#include "core/mesh_sink.h"
 #include "extract/slab_view.h"
-#include "io/slice_source.h"
+#include "core/volume_info.h"
 
 namespace isoslab {
 

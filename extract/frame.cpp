@@ -1,11 +1,10 @@
 #include "extract/frame.h"
 
-#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 
-#include "io/error.h"
+#include "core/error.h"
 
 namespace isoslab {
 
@@ -33,7 +32,7 @@ LatticeFrame LatticeFrame::forSpace(const VolumeInfo& info, const std::string& s
     f.name_ = "ras";
     return f;
   }
-  throw Error(fmt::format("--space: unknown space '{}' (use voxel, physical, lps or ras)", space));
+  throw Error("unknown output space '" + space + "' (voxel, physical, lps or ras)");
 }
 
 LatticeFrame LatticeFrame::physical(const VolumeInfo& info) {

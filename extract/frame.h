@@ -6,12 +6,11 @@
 #include <string>
 #include <vector>
 
-#include "extract/mesh_sink.h"
-#include "io/slice_source.h"
+#include "core/mesh_sink.h"
+#include "core/vec3.h"
+#include "core/volume_info.h"
 
 namespace isoslab {
-
-using Vec3d = std::array<double, 3>;
 
 class LatticeFrame {
  public:

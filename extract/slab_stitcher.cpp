@@ -1,10 +1,10 @@
 #include "extract/slab_stitcher.h"
 
-#include <fmt/format.h>
+#include <string>
 
 #include <limits>
 
-#include "io/error.h"
+#include "core/error.h"
 
 namespace isoslab {
 namespace {
@@ -17,20 +17,20 @@ SlabStitcher::SlabStitcher(std::size_t sliceSlots) : top_(sliceSlots, kUnset) {}
 void SlabStitcher::stitch(SlabPart& part) {
   MeshChunk& chunk = part.chunk;
   if (chunk.slab != slab_) {
-    throw Error(fmt::format("internal error: slab {} stitched after slab {}", chunk.slab, slab_ - 1));
+    throw Error("internal error: slab " + std::to_string(chunk.slab) + " stitched after slab " + std::to_string(slab_ - 1));
   }
   ++slab_;
   const std::uint64_t count = chunk.positions.size();
   if (count >= kForeignVertex || next_ + count > std::numeric_limits<VertexId>::max()) {
-    throw Error(fmt::format("the mesh exceeds {} vertices", std::numeric_limits<VertexId>::max()));
+    throw Error("the mesh exceeds " + std::to_string(std::numeric_limits<VertexId>::max()) + " vertices");
   }
   const auto first = static_cast<VertexId>(next_);
   resolved_.resize(part.foreign.size());
   for (std::size_t k = 0; k < part.foreign.size(); ++k) {
     const VertexId id = top_[index(part.foreign[k])];
     if (id == kUnset) {
-      throw Error(fmt::format("internal error: slab {} references a vertex that slab {} did not create", chunk.slab,
-                              chunk.slab - 1));
+      throw Error("internal error: slab " + std::to_string(chunk.slab) + " references a vertex that slab " +
+                  std::to_string(chunk.slab - 1) + " did not create");
     }
     resolved_[k] = id;
   }

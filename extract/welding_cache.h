@@ -9,7 +9,7 @@
 #include <limits>
 #include <vector>
 
-#include "extract/mesh_sink.h"
+#include "core/mesh_sink.h"
 
 namespace isoslab {
 

@@ -30,9 +30,9 @@
 #include <numeric>
 #include <set>
 
-#include "io/error.h"
+#include "core/error.h"
 #include "io/file_list.h"
-#include "io/limits.h"
+#include "core/limits.h"
 
 namespace fs = std::filesystem;
 

@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <system_error>
 
-#include "io/error.h"
+#include "core/error.h"
 
 namespace fs = std::filesystem;
 

@@ -10,7 +10,7 @@
 #include <cstring>
 #include <filesystem>
 
-#include "io/error.h"
+#include "core/error.h"
 #include "io/file_list.h"
 
 namespace fs = std::filesystem;

@@ -4,7 +4,7 @@
 #include <atomic>
 #include <string>
 
-#include "io/error.h"
+#include "core/error.h"
 
 namespace isoslab {
 

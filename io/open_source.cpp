@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "io/error.h"
+#include "core/error.h"
 #include "io/file_list.h"
 #include "io/image_stack.h"
 #include "io/phantom.h"

@@ -8,7 +8,7 @@
 #include <set>
 #include <vector>
 
-#include "io/error.h"
+#include "core/error.h"
 
 namespace isoslab {
 namespace {

@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <system_error>
 
-#include "io/error.h"
+#include "core/error.h"
 #include "io/file_list.h"
 
 namespace fs = std::filesystem;

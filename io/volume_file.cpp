@@ -9,7 +9,7 @@
 #include <cstring>
 #include <filesystem>
 
-#include "io/error.h"
+#include "core/error.h"
 
 namespace fs = std::filesystem;
 

@@ -15,9 +15,9 @@
 #include <numbers>
 #include <sstream>
 
-#include "io/error.h"
+#include "core/error.h"
 #include "io/file_list.h"
-#include "io/limits.h"
+#include "core/limits.h"
 #include "io/volume_file.h"
 
 namespace fs = std::filesystem;

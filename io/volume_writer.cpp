@@ -8,8 +8,8 @@
 #include <cstring>
 #include <vector>
 
-#include "io/atomic_file.h"
-#include "io/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "io/interrupt.h"
 
 namespace isoslab {

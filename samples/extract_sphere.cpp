@@ -9,8 +9,8 @@
 #include "encode/ply_writer.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
-#include "extract/mesh_stats.h"
-#include "io/error.h"
+#include "metrics/mesh_stats.h"
+#include "core/error.h"
 #include "io/open_source.h"
 #include "stream/pipeline.h"
 

@@ -14,7 +14,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "io/error.h"
+#include "core/error.h"
 #include "io/open_source.h"
 
 int main(int argc, char** argv) {

@@ -21,6 +21,16 @@ run_suite() {
   (cd "$dir" && ctest --output-on-failure -j "$jobs")
 }
 
+# The module graph (docs/design.md): includes and links follow the layer rules.
+bash scripts/check_layers.sh
+# The kernels build and pass with only a compiler, CMake and GoogleTest: every other package is
+# hidden from CMake.
+hide=()
+for p in fmt nlohmann_json CLI11 ZLIB DCMTK draco PkgConfig benchmark; do hide+=("-DCMAKE_DISABLE_FIND_PACKAGE_$p=ON"); done
+cmake -S . -B build-kernels -G Ninja -DISOSLAB_WERROR=ON -DISOSLAB_KERNELS_ONLY=ON "${hide[@]}" >/dev/null
+cmake --build build-kernels -j "$jobs"
+(cd build-kernels && ctest --output-on-failure -j "$jobs")
+
 run_suite build -DCMAKE_BUILD_TYPE=Release
 if [ "${1:-}" != "--fast" ]; then
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \

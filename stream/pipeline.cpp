@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "extract/slab_stitcher.h"
-#include "io/error.h"
+#include "core/error.h"
 #include "io/interrupt.h"
 #include "stream/bounded_queue.h"
 #include "stream/progress.h"

@@ -9,7 +9,7 @@
 #include <optional>
 
 #include "extract/extractor.h"
-#include "extract/mesh_sink.h"
+#include "core/mesh_sink.h"
 #include "io/slice_source.h"
 
 namespace isoslab {

@@ -10,7 +10,7 @@
 
 #include "encode/indexed_mesh.h"
 #include "extract/extractor.h"
-#include "extract/mesh_stats.h"
+#include "metrics/mesh_stats.h"
 #include "io/slice_source.h"
 
 namespace isoslab::testing {

@@ -10,7 +10,7 @@
 #include "encode/mesh_writer.h"
 #include "encode/ply_writer.h"
 #include "encode/stl_writer.h"
-#include "io/error.h"
+#include "core/error.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;

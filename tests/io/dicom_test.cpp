@@ -28,7 +28,7 @@
 
 #include "extract/frame.h"
 #include "io/dicom_series.h"
-#include "io/error.h"
+#include "core/error.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
 #include "stream/pipeline.h"

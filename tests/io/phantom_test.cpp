@@ -3,7 +3,7 @@
 #include <cmath>
 #include <vector>
 
-#include "io/error.h"
+#include "core/error.h"
 #include "io/phantom.h"
 
 namespace isoslab {

@@ -6,7 +6,7 @@
 #include <fstream>
 #include <vector>
 
-#include "io/error.h"
+#include "core/error.h"
 #include "io/raw_reader.h"
 #include "test_support.h"
 

@@ -12,7 +12,7 @@
 #include <numbers>
 
 #include "extract/frame.h"
-#include "io/error.h"
+#include "core/error.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
 #include "io/volume_writer.h"

@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "io/file_list.h"
-#include "io/voxel_type.h"
+#include "core/voxel_type.h"
 
 namespace isoslab {
 namespace {

@@ -6,7 +6,7 @@
 
 #include "extract/frame.h"
 #include "extract/slab_stitcher.h"
-#include "io/error.h"
+#include "core/error.h"
 #include "stream/pipeline.h"
 #include "test_support.h"
 

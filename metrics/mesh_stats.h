@@ -12,7 +12,7 @@
 #include <optional>
 #include <vector>
 
-#include "extract/mesh_sink.h"
+#include "core/mesh_sink.h"
 
 namespace isoslab {
 

@@ -1,4 +1,4 @@
-#include "extract/mesh_stats.h"
+#include "metrics/mesh_stats.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include <fmt/format.h>
 
-#include "io/error.h"
+#include "core/error.h"
 
 namespace isoslab {
 

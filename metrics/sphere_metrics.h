@@ -12,8 +12,8 @@
 #include <cstdint>
 #include <optional>
 
-#include "extract/mesh_sink.h"
-#include "extract/mesh_stats.h"
+#include "core/mesh_sink.h"
+#include "metrics/mesh_stats.h"
 
 namespace isoslab {
 

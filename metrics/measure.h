@@ -5,8 +5,8 @@
 #include <optional>
 
 #include "extract/extractor.h"
-#include "extract/mesh_stats.h"
-#include "extract/sphere_metrics.h"
+#include "metrics/mesh_stats.h"
+#include "metrics/sphere_metrics.h"
 #include "io/slice_source.h"
 #include "stream/pipeline.h"
 

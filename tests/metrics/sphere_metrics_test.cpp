@@ -4,8 +4,8 @@
 #include <numbers>
 
 #include "encode/indexed_mesh.h"
-#include "extract/mesh_stats.h"
-#include "extract/sphere_metrics.h"
+#include "metrics/mesh_stats.h"
+#include "metrics/sphere_metrics.h"
 
 namespace isoslab {
 namespace {

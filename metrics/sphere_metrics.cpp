@@ -1,6 +1,6 @@
 // Precision measures from V. Skala and A. Brus, "Two methods for iso-surface extraction from
 // volumetric data and their comparison", sections C to F.
-#include "extract/sphere_metrics.h"
+#include "metrics/sphere_metrics.h"
 
 #include <cmath>
 #include <numbers>

@@ -3,8 +3,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "extract/mesh_stats.h"
-#include "extract/sphere_metrics.h"
+#include "metrics/mesh_stats.h"
+#include "metrics/sphere_metrics.h"
 
 namespace isoslab {
 

@@ -1,4 +1,4 @@
-#include "io/voxel_type.h"
+#include "core/voxel_type.h"
 
 #include <algorithm>
 #include <bit>

@@ -1,8 +1,8 @@
 #include <gtest/gtest.h>
 
 #include "encode/indexed_mesh.h"
-#include "extract/mesh_stats.h"
-#include "io/error.h"
+#include "metrics/mesh_stats.h"
+#include "core/error.h"
 
 namespace isoslab {
 namespace {

@@ -1,7 +1,6 @@
-#include "io/atomic_file.h"
+#include "core/atomic_file.h"
 
 #include <fcntl.h>
-#include <fmt/format.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -13,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "io/error.h"
+#include "core/error.h"
 
 namespace fs = std::filesystem;
 
@@ -45,9 +44,9 @@ std::string followLinks(const std::string& path) {
   fs::path p = path;
   std::error_code ec;
   for (int hops = 0; fs::is_symlink(fs::symlink_status(p, ec)); ++hops) {
-    if (hops == 40) throw Error(fmt::format("{}: cannot create the output: too many levels of symbolic links", path));
+    if (hops == 40) throw Error(std::string(path) + ": cannot create the output: too many levels of symbolic links");
     const fs::path link = fs::read_symlink(p, ec);
-    if (ec) throw Error(fmt::format("{}: cannot read the symbolic link: {}", path, ec.message()));
+    if (ec) throw Error(std::string(path) + ": cannot read the symbolic link: " + ec.message());
     p = link.is_absolute() ? link : p.parent_path() / link;
   }
   return p.string();
@@ -64,12 +63,12 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), target_(follo
   struct stat st {};
   if (::stat(target_.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) {
     const int fd = ::open(target_.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
-    if (fd < 0) throw Error(fmt::format("{}: cannot open the output: {}", path_, std::strerror(errno)));
+    if (fd < 0) throw Error(std::string(path_) + ": cannot open the output: " + std::strerror(errno));
     file_ = ::fdopen(fd, "wb");
     if (file_ == nullptr) {
       const int err = errno;
       ::close(fd);
-      throw Error(fmt::format("{}: cannot open the output: {}", path_, std::strerror(err)));
+      throw Error(std::string(path_) + ": cannot open the output: " + std::strerror(err));
     }
     direct_ = true;
     std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
@@ -78,14 +77,14 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), target_(follo
   const std::string folder = folderOf(target_);
   std::error_code ec;
   if (!fs::is_directory(folder, ec)) {
-    throw Error(fmt::format("{}: cannot create the output: the folder '{}' does not exist", path_, folder));
+    throw Error(std::string(path_) + ": cannot create the output: the folder '" + folder + "' does not exist");
   }
   if (fs::is_directory(path_, ec)) {
-    throw Error(fmt::format("{}: cannot create the output: it is a folder", path_));
+    throw Error(std::string(path_) + ": cannot create the output: it is a folder");
   }
   file_ = makeTemp(folder, fs::path(target_).filename().string(), tempPath_);
   if (file_ == nullptr) {
-    throw Error(fmt::format("{}: cannot create the output: {}", path_, std::strerror(errno)));
+    throw Error(std::string(path_) + ": cannot create the output: " + std::strerror(errno));
   }
   // mkstemp creates the file private; give the output the permissions a plain creat() would.
   const mode_t mask = ::umask(0);
@@ -117,11 +116,11 @@ void AtomicFile::fail(const char* what) {
     file_ = nullptr;
     if (!direct_) ::unlink(tempPath_.c_str());
   }
-  throw Error(fmt::format("{}: cannot {}: {}", path_, what, std::strerror(err != 0 ? err : EIO)));
+  throw Error(std::string(path_) + ": cannot " + what + ": " + std::strerror(err != 0 ? err : EIO));
 }
 
 void AtomicFile::write(const void* data, std::size_t size) {
-  if (file_ == nullptr) throw Error(fmt::format("{}: write after close", path_));
+  if (file_ == nullptr) throw Error(std::string(path_) + ": write after close");
   if (size == 0) return;
   if (std::fwrite(data, 1, size, file_) != size) fail("write");
   position_ += static_cast<std::int64_t>(size);
@@ -129,17 +128,17 @@ void AtomicFile::write(const void* data, std::size_t size) {
 }
 
 void AtomicFile::seek(std::int64_t offset) {
-  if (file_ == nullptr) throw Error(fmt::format("{}: seek after close", path_));
+  if (file_ == nullptr) throw Error(std::string(path_) + ": seek after close");
   if (std::fseek(file_, static_cast<long>(offset), SEEK_SET) != 0) fail("seek");
   position_ = offset;
 }
 
 void AtomicFile::commit() {
-  if (file_ == nullptr) throw Error(fmt::format("{}: commit after close", path_));
+  if (file_ == nullptr) throw Error(std::string(path_) + ": commit after close");
   if (std::fflush(file_) != 0) fail("write");
   if (direct_) {
     if (std::fclose(std::exchange(file_, nullptr)) != 0) {
-      throw Error(fmt::format("{}: cannot write: {}", path_, std::strerror(errno)));
+      throw Error(std::string(path_) + ": cannot write: " + std::strerror(errno));
     }
     return;
   }
@@ -148,13 +147,13 @@ void AtomicFile::commit() {
   if (std::fclose(f) != 0) {
     const int err = errno;
     ::unlink(tempPath_.c_str());
-    throw Error(fmt::format("{}: cannot write: {}", path_, std::strerror(err)));
+    throw Error(std::string(path_) + ": cannot write: " + std::strerror(err));
   }
   if (CommitGroup::stage({path_, target_, tempPath_})) return;
   if (std::rename(tempPath_.c_str(), target_.c_str()) != 0) {
     const int err = errno;
     ::unlink(tempPath_.c_str());
-    throw Error(fmt::format("{}: cannot rename the finished output into place: {}", path_, std::strerror(err)));
+    throw Error(std::string(path_) + ": cannot rename the finished output into place: " + std::strerror(err));
   }
 }
 
@@ -192,7 +191,7 @@ void CommitGroup::commit() {
       const int err = errno;
       for (std::size_t m = n; m < staged.size(); ++m) ::unlink(staged[m].tempPath.c_str());
       throw Error(
-          fmt::format("{}: cannot rename the finished output into place: {}", staged[n].path, std::strerror(err)));
+          std::string(staged[n].path) + ": cannot rename the finished output into place: " + std::strerror(err));
     }
   }
 }
@@ -201,7 +200,7 @@ SpoolFile::SpoolFile(const std::string& folder, std::string owner) : owner_(std:
   std::string tempPath;
   file_ = makeTemp(folder.empty() ? std::string(".") : folder, "isoslab-spool", tempPath);
   if (file_ == nullptr) {
-    throw Error(fmt::format("{}: cannot create a spool file in '{}': {}", owner_, folder, std::strerror(errno)));
+    throw Error(std::string(owner_) + ": cannot create a spool file in '" + folder + "': " + std::strerror(errno));
   }
   ::unlink(tempPath.c_str());
   std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
@@ -214,14 +213,14 @@ SpoolFile::~SpoolFile() {
 void SpoolFile::write(const void* data, std::size_t size) {
   if (size == 0) return;
   if (std::fwrite(data, 1, size, file_) != size) {
-    throw Error(fmt::format("{}: cannot write the spool file: {}", owner_, std::strerror(errno)));
+    throw Error(std::string(owner_) + ": cannot write the spool file: " + std::strerror(errno));
   }
   size_ += static_cast<std::int64_t>(size);
 }
 
 void SpoolFile::copyTo(AtomicFile& out) {
   if (std::fflush(file_) != 0 || std::fseek(file_, 0, SEEK_SET) != 0) {
-    throw Error(fmt::format("{}: cannot read the spool file back: {}", owner_, std::strerror(errno)));
+    throw Error(std::string(owner_) + ": cannot read the spool file back: " + std::strerror(errno));
   }
   std::vector<char> buf(1 << 20);
   std::int64_t left = size_;
@@ -229,7 +228,7 @@ void SpoolFile::copyTo(AtomicFile& out) {
     const std::size_t want =
         static_cast<std::size_t>(std::min<std::int64_t>(left, static_cast<std::int64_t>(buf.size())));
     if (std::fread(buf.data(), 1, want, file_) != want) {
-      throw Error(fmt::format("{}: cannot read the spool file back: {}", owner_, std::strerror(errno)));
+      throw Error(std::string(owner_) + ": cannot read the spool file back: " + std::strerror(errno));
     }
     out.write(buf.data(), want);
     left -= static_cast<std::int64_t>(want);

@@ -1,4 +1,4 @@
-#include "stream/measure.h"
+#include "metrics/measure.h"
 
 #include <cmath>
 

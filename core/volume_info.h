@@ -1,0 +1,57 @@
+// The geometry and type of a volume, known before any of its slices is read.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/voxel_type.h"
+
+namespace isoslab {
+
+/// A sphere known analytically, in voxel (lattice) coordinates; phantoms describe themselves with
+/// it so that precision metrics can be computed against the truth.
+struct AnalyticSphere {
+  std::array<double, 3> centre{};
+  double radius = 0;
+};
+
+/// Geometry and type of a volume, known before any slice is read.
+///
+/// Lattice point (i, j, k) lies at  origin + direction * (i*sx, j*sy, k*sz)  in the source's
+/// physical frame (millimetres for scanner data). `direction` is row-major and its columns are the
+/// unit directions of the i, j and k axes. When `sliceOrigins` is not empty it holds the physical
+/// position of lattice point (0, 0, k) for every slice k, and overrides origin + k*sz*dir_k (this is
+/// how uneven slice spacing and gantry tilt are represented).
+struct VolumeInfo {
+  std::array<std::int64_t, 3> dims{};
+  std::array<double, 3> spacing{1.0, 1.0, 1.0};
+  std::array<double, 3> origin{0.0, 0.0, 0.0};
+  std::array<double, 9> direction{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  std::vector<std::array<double, 3>> sliceOrigins;
+  VoxelType type = VoxelType::kU8;
+  /// Smallest and largest value, where the reader knows them without reading the data.
+  std::optional<std::array<double, 2>> valueRange;
+  /// An iso value the source suggests (phantoms do), used when the user gives none.
+  std::optional<double> suggestedIso;
+  /// The analytic surface at suggestedIso, where there is one.
+  std::optional<AnalyticSphere> sphere;
+  /// The physical frame the coordinates are in: "physical" (unspecified), or "lps" (DICOM patient
+  /// coordinates, millimetres).
+  std::string frame = "physical";
+  /// Which reader made this source ("raw", "phantom", "dicom", ...) and what it read.
+  std::string reader;
+  std::string source;
+  /// The imaging modality where the input names it (DICOM's Modality: "CT", "MR", ...), else empty.
+  std::string modality;
+
+  std::int64_t sliceVoxels() const noexcept { return dims[0] * dims[1]; }
+};
+
+/// Checks dims for sanity (every axis at least 2 and at most 2^31-1 points, the product
+/// representable); throws isoslab::Error mentioning `what` otherwise.
+void validateDims(const std::array<std::int64_t, 3>& dims, const std::string& what);
+
+}  // namespace isoslab
