@@ -42,15 +42,99 @@ const char* kBlock = "phantom:box?n=10&lo=2,2,2&hi=7,7,7";
 //   corner cells: corners 0 and 7 lie in all 6 tetrahedra (6 triangles), the other six in 2
 //     (2 triangles): 6 + 6 + 6 x 2                                                  =   24
 // 1584 triangles.
-// mt5 and bcc12: counted cell by cell by an independent script (cell types and their tetrahedra
-// enumerated separately from the library): 1220 and 2424.
+// mt5 and bcc12: counted below, tetrahedron by tetrahedron, from the decompositions' definitions
+// (written here again, independently of extract/cell_schemes.cpp): a tetrahedron with one or three
+// nodes inside gives one triangle, with two inside two.
+namespace block {
+
+double corner(std::int64_t i, std::int64_t j, std::int64_t k) {
+  return i >= 2 && i <= 7 && j >= 2 && j <= 7 && k >= 2 && k <= 7 ? 100.0 : 0.0;
+}
+
+int triangles(std::initializer_list<double> nodes) {
+  int inside = 0;
+  for (double v : nodes) inside += v >= 50.0 ? 1 : 0;
+  return inside == 2 ? 2 : (inside == 1 || inside == 3) ? 1 : 0;
+}
+
+// mt5: cell (i, j, k) with corner c at (i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)); even
+// i + j + k cuts off corners 1, 2, 4, 7 (each with its three axis neighbours), leaving the central
+// tetrahedron 0, 3, 5, 6; odd i + j + k cuts off 0, 3, 5, 6 around the centre 1, 2, 4, 7.
+std::uint64_t mt5() {
+  std::uint64_t total = 0;
+  for (std::int64_t k = 0; k < 9; ++k) {
+    for (std::int64_t j = 0; j < 9; ++j) {
+      for (std::int64_t i = 0; i < 9; ++i) {
+        auto v = [&](int c) { return corner(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)); };
+        const bool even = (i + j + k) % 2 == 0;
+        const std::array<int, 4> cut = even ? std::array{1, 2, 4, 7} : std::array{0, 3, 5, 6};
+        const std::array<int, 4> centre = even ? std::array{0, 3, 5, 6} : std::array{1, 2, 4, 7};
+        for (int c : cut) total += static_cast<std::uint64_t>(triangles({v(c), v(c ^ 1), v(c ^ 2), v(c ^ 4)}));
+        total += static_cast<std::uint64_t>(triangles({v(centre[0]), v(centre[1]), v(centre[2]), v(centre[3])}));
+      }
+    }
+  }
+  return total;
+}
+
+// bcc12: a cell's centre is the mean of its corners. Each cell owns its +x, +y and +z faces: the
+// four tetrahedra of its centre, the neighbour's centre and one edge of the face; a face on the
+// volume's boundary (either side) is a pyramid to the cell's centre, split along the diagonal
+// through the face's lowest corner.
+std::uint64_t bcc12() {
+  auto centre = [](std::int64_t i, std::int64_t j, std::int64_t k) {
+    double sum = 0;
+    for (int c = 0; c < 8; ++c) sum += corner(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1));
+    return sum / 8;
+  };
+  std::uint64_t total = 0;
+  for (std::int64_t k = 0; k < 9; ++k) {
+    for (std::int64_t j = 0; j < 9; ++j) {
+      for (std::int64_t i = 0; i < 9; ++i) {
+        const std::array<std::int64_t, 3> cell{i, j, k};
+        const double own = centre(i, j, k);
+        for (int axis = 0; axis < 3; ++axis) {
+          const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+          // The face's corners at offset `side` along the axis, (0,0), (1,0), (0,1), (1,1) in (u, w).
+          auto faceCorner = [&](int side, int du, int dw) {
+            std::array<std::int64_t, 3> p = cell;
+            p[static_cast<std::size_t>(axis)] += side;
+            p[static_cast<std::size_t>(u)] += du;
+            p[static_cast<std::size_t>(w)] += dw;
+            return corner(p[0], p[1], p[2]);
+          };
+          auto pyramid = [&](int side) {
+            return triangles({own, faceCorner(side, 0, 0), faceCorner(side, 1, 0), faceCorner(side, 1, 1)}) +
+                   triangles({own, faceCorner(side, 0, 0), faceCorner(side, 0, 1), faceCorner(side, 1, 1)});
+          };
+          if (cell[static_cast<std::size_t>(axis)] == 0) total += static_cast<std::uint64_t>(pyramid(0));
+          if (cell[static_cast<std::size_t>(axis)] == 8) {
+            total += static_cast<std::uint64_t>(pyramid(1));
+            continue;
+          }
+          std::array<std::int64_t, 3> next = cell;
+          ++next[static_cast<std::size_t>(axis)];
+          const double other = centre(next[0], next[1], next[2]);
+          const double a = faceCorner(1, 0, 0), b = faceCorner(1, 1, 0), c = faceCorner(1, 0, 1), d = faceCorner(1, 1, 1);
+          for (auto [p, q] : {std::pair{a, b}, std::pair{b, d}, std::pair{d, c}, std::pair{c, a}}) {
+            total += static_cast<std::uint64_t>(triangles({own, other, p, q}));
+          }
+        }
+      }
+    }
+  }
+  return total;
+}
+
+}  // namespace block
+
 TEST(ExtractBlock, ExactTriangleCounts) {
   struct Expect {
     Method method;
     std::uint64_t triangles;
   };
-  for (const Expect& e : {Expect{Method::kMarchingCubes, 428}, Expect{Method::kTetra5, 1220},
-                          Expect{Method::kTetra6, 1584}, Expect{Method::kBcc12, 2424}}) {
+  for (const Expect& e : {Expect{Method::kMarchingCubes, 428}, Expect{Method::kTetra5, block::mt5()},
+                          Expect{Method::kTetra6, 1584}, Expect{Method::kBcc12, block::bcc12()}}) {
     const Extraction x = testing::extract(kBlock, e.method, 50);
     EXPECT_EQ(x.stats.triangles, e.triangles) << name(e.method);
     EXPECT_TRUE(x.stats.closed()) << name(e.method);
@@ -63,6 +147,9 @@ TEST(ExtractBlock, ExactTriangleCounts) {
     }
   }
   EXPECT_EQ(testing::extract(kBlock, Method::kMarchingCubes, 50).stats.vertices, 216u);
+  // The brute-force counts themselves, as first found by hand-checked enumeration.
+  EXPECT_EQ(block::mt5(), 1220u);
+  EXPECT_EQ(block::bcc12(), 2424u);
 }
 
 // Inside is value >= iso compared exactly, also for iso values that no float equals: float(0.1)
@@ -346,17 +433,39 @@ TEST(ExtractFrame, PhysicalFramePlacesVerticesByOriginDirectionAndSpacing) {
 }
 
 TEST(ExtractSliceOrigins, UnevenSlicesPutVerticesInTheirSlicesPlanes) {
-  testing::VectorSource source({6, 6, 4}, [](std::int64_t i, std::int64_t j, std::int64_t) {
+  // The field varies along k too, so that vertices lie on the edges between slices as well.
+  testing::VectorSource source({6, 6, 4}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
     const double x = static_cast<double>(i) - 2.5, y = static_cast<double>(j) - 2.5;
-    return static_cast<float>(x * x + y * y);
+    return static_cast<float>(x * x + y * y + 2.0 * static_cast<double>(k));
   });
-  source.mutableInfo().sliceOrigins = {{0, 0, 0}, {0, 0.5, 4}, {0, 1, 5}, {0, 1.5, 12}};
-  const Extraction x = testing::extract(source, Method::kMarchingCubes, 3.0);
+  const std::vector<std::array<double, 3>> origins{{0, 0, 0}, {0, 0.5, 4}, {0, 1, 5}, {0, 1.5, 12}};
+  source.mutableInfo().sliceOrigins = origins;
+  const Extraction x = testing::extract(source, Method::kMarchingCubes, 9.0);
+  auto integral = [](double v) { return std::abs(v - std::round(v)) < 1e-4; };
   std::set<float> zs;
+  std::size_t between = 0;
   for (const Vec3f& p : x.mesh.positions) {
-    if (p.z == 0 || p.z == 4 || p.z == 5 || p.z == 12) zs.insert(p.z);
+    std::size_t k = 0;
+    while (k + 2 < origins.size() && p.z > origins[k + 1][2]) ++k;
+    const double t = (p.z - origins[k][2]) / (origins[k + 1][2] - origins[k][2]);
+    ASSERT_GE(t, -1e-6) << p.z;
+    ASSERT_LE(t, 1 + 1e-6) << p.z;
+    if (t < 1e-6 || t > 1 - 1e-6) {
+      // In slice k or k + 1: on an x edge (y offset from the slice's origin whole) or a y edge.
+      const auto& o = origins[t < 0.5 ? k : k + 1];
+      zs.insert(p.z);
+      EXPECT_TRUE(integral(p.x) || integral(p.y - o[1])) << p.x << "," << p.y << "," << p.z;
+    } else {
+      // On an edge from slice k to k + 1: (i, j) whole, y offset by the interpolated origin.
+      ++between;
+      const double y0 = origins[k][1] + t * (origins[k + 1][1] - origins[k][1]);
+      EXPECT_TRUE(integral(p.x) && integral(p.y - y0)) << p.x << "," << p.y << "," << p.z;
+    }
   }
   EXPECT_EQ(zs, (std::set<float>{0, 4, 5, 12}));
+  // x^2 + y^2 takes the values 0.5 (4 points), 2.5 (8), 4.5 (4), 6.5 (8), 8.5 (8), ...: the k edges
+  // cross 9 where it lies in (7, 9), (5, 7) and (3, 5), so at 8 + 8 + 4 points.
+  EXPECT_EQ(between, 20u);
 }
 
 // A single voxel of 1 among zeros, at iso 1: every vertex lies on the voxel itself, where the
