@@ -6,8 +6,6 @@
 #include <atomic>
 #include <cassert>
 #include <chrono>
-#include <condition_variable>
-#include <deque>
 #include <exception>
 #include <utility>
 #include <limits>
@@ -20,6 +18,7 @@
 #include "stream/bounded_queue.h"
 #include "stream/progress.h"
 #include "stream/slab_ring.h"
+#include "stream/worker_pool.h"
 
 namespace isoslab {
 namespace {
@@ -221,190 +220,58 @@ class ChunkDrain {
   std::atomic<bool> abandoned_{false};
 };
 
-// Extraction on several threads. Slabs queue up and go to whichever worker is free (a detached
-// extractor gives the same part for a slab whichever worker runs it); up to `depth` slabs are in
-// flight, and parts are collected in slab order.
-class WorkerPool {
+// One run of the pipeline: the ring, the feed and the drain, and the two ways of extracting.
+class PipelineRun {
  public:
-  WorkerPool(const Extractor& extractor, int workers, int depth) : results_(static_cast<std::size_t>(depth)) {
-    for (int w = 0; w < workers; ++w) extractors_.push_back(extractor.makeWorker());
-    try {
-      for (auto& ex : extractors_) threads_.emplace_back([this, e = ex.get()] { run(*e); });
-    } catch (...) {
-      stop();
-      throw;
-    }
-  }
-  ~WorkerPool() { stop(); }
-  WorkerPool(const WorkerPool&) = delete;
-  WorkerPool& operator=(const WorkerPool&) = delete;
-
-  /// Queues slab view.z, whose result slot must have been collected from.
-  void submit(const SlabView& view) {
-    {
-      std::lock_guard lock(mutex_);
-      Result& r = slotOf(view.z);
-      assert(!r.done);
-      r.z = view.z;
-      jobs_.push_back(view);
-    }
-    jobReady_.notify_one();
+  PipelineRun(SliceSource& source, Extractor& extractor, MeshSink& sink, const PipelineOptions& options)
+      : info_(source.info()),
+        extractor_(extractor),
+        below_(extractor.slicesBelow()),
+        above_(extractor.slicesAbove()),
+        workers_(std::max(1, options.threads)),
+        // Slab z needs slices z - below .. z + 1 + above. With workers, two more slabs than workers
+        // are in flight, so that a slow slab does not idle the others, and the ring holds depth - 1
+        // more slices.
+        depth_(workers_ > 1 ? workers_ + 2 : 1),
+        ring_(info_.sliceVoxels(), below_ + 1 + above_ + depth_),
+        progress_("extract", info_.dims[2] - 1, options.progress),
+        feed_(source, workers_ > 1, workers_ > 1 ? &extractor : nullptr),
+        drain_(sink, workers_ > 1) {
+    result_.ringBytes = ring_.bytes();
   }
 
-  /// Waits for slab z. The part stays valid until slab z + depth is submitted.
-  SlabPart& collect(std::int64_t z) {
-    std::unique_lock lock(mutex_);
-    Result& r = slotOf(z);
-    partReady_.wait(lock, [&] { return r.done && r.z == z; });
-    r.done = false;
-    if (r.error) std::rethrow_exception(std::exchange(r.error, nullptr));  // std::bad_alloc, say
-    return r.part;
-  }
+  PipelineResult& result() noexcept { return result_; }
+  bool threaded() const noexcept { return workers_ > 1; }
+  auto finishFeed() { return feed_.finish(); }
+  void flush() { drain_.flush(); }
+  void finishProgress() { progress_.finish(); }
 
-  /// Seconds spent extracting, summed over the workers.
-  double seconds() const noexcept { return seconds_; }
-
- private:
-  struct Result {
-    std::int64_t z = -1;
-    bool done = false;
-    SlabPart part;
-    std::exception_ptr error;  // what the worker threw instead of extracting the part
-  };
-
-  void run(SlabWorker& worker) {
-    for (;;) {
-      SlabView view;
-      {
-        std::unique_lock lock(mutex_);
-        jobReady_.wait(lock, [&] { return !jobs_.empty() || stop_; });
-        if (stop_) return;
-        view = jobs_.front();
-        jobs_.pop_front();
-      }
-      // Only this worker touches the slot's part until it is marked done.
-      SlabPart& part = slotOf(view.z).part;
-      const auto t = Clock::now();
-      std::exception_ptr error;
-      try {
-        worker.extract(view, part);
-      } catch (...) {
-        error = std::current_exception();
-      }
-      const double took = since(t);
-      {
-        std::lock_guard lock(mutex_);
-        slotOf(view.z).error = error;
-        slotOf(view.z).done = true;
-        seconds_ += took;
-      }
-      partReady_.notify_all();
-    }
-  }
-
-  Result& slotOf(std::int64_t z) { return results_[static_cast<std::size_t>(z) % results_.size()]; }
-
-  void stop() {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    jobReady_.notify_all();
-    for (auto& t : threads_) t.join();
-    threads_.clear();
-  }
-
-  std::vector<std::unique_ptr<SlabWorker>> extractors_;
-  std::vector<std::thread> threads_;
-  std::mutex mutex_;
-  std::condition_variable jobReady_, partReady_;
-  std::deque<SlabView> jobs_;
-  std::vector<Result> results_;
-  double seconds_ = 0;
-  bool stop_ = false;
-};
-
-}  // namespace
-
-PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& sink, const MeshHeader& header,
-                           const PipelineOptions& options) {
-  const auto start = Clock::now();
-  const VolumeInfo& info = source.info();
-  const std::int64_t nz = info.dims[2];
-  const int below = extractor.slicesBelow();
-  const int above = extractor.slicesAbove();
-  const int workers = std::max(1, options.threads);
-  const bool threaded = workers > 1;
-  // Slab z needs slices z - below .. z + 1 + above. With workers, two more slabs than workers are
-  // in flight, so that a slow slab does not idle the others, and the ring holds depth - 1 more
-  // slices.
-  const int depth = threaded ? workers + 2 : 1;
-  SlabRing ring(info.sliceVoxels(), below + 1 + above + depth);
-  PipelineResult result;
-  result.ringBytes = ring.bytes();
-  Progress progress("extract", nz - 1, options.progress);
-
-  auto t = Clock::now();
-  sink.begin(header);
-  result.writeSeconds += since(t);
-
-  SliceFeed feed(source, threaded, threaded ? &extractor : nullptr);
-  ChunkDrain drain(sink, threaded);
-  std::int64_t loaded = 0;
-  auto load = [&](std::int64_t z) {  // the slices slab z needs
-    const std::int64_t need = std::min(nz - 1, z + 1 + above);
-    const auto t0 = Clock::now();
-    while (loaded <= need) {
-      if (!feed.next(ring, loaded)) {
-        throw Error(fmt::format("{}: the data ended after {} of {} slices", info.source, loaded, nz));
-      }
-      ++loaded;
-    }
-    result.readSeconds += since(t0);
-  };
-  auto view = [&](std::int64_t z) {
-    SlabView v;
-    v.z = z;
-    v.dims = info.dims;
-    v.slices = {below > 0 ? ring.slice(z - 1) : nullptr, ring.slice(z), ring.slice(z + 1),
-                above > 0 ? ring.slice(z + 2) : nullptr};
-    v.rows = {nullptr, ring.rows(z), ring.rows(z + 1), above > 0 ? ring.rows(z + 2) : nullptr};
-    return v;
-  };
-  auto emit = [&](MeshChunk& chunk) {
-    result.vertices += chunk.positions.size();
-    result.triangles += chunk.triangles.size();
-    const std::int64_t slab = chunk.slab;
-    const auto t0 = Clock::now();
-    drain.push(chunk);  // may move the chunk away
-    result.writeSeconds += since(t0);
-    progress.update(slab + 1);
-  };
-  const std::int64_t slabs = nz - 1;
-  if (!threaded) {
+  void runSequential() {
     MeshChunk chunk;
     VertexId nextVertex = 0;
-    for (std::int64_t z = 0; z < slabs; ++z) {
+    for (std::int64_t z = 0; z < slabs(); ++z) {
       load(z);
       chunk.clear();
       chunk.slab = z;
       chunk.firstVertex = nextVertex;
-      t = Clock::now();
-      extractor.extractSlab(view(z), chunk);
-      result.extractSeconds += since(t);
-      if (extractor.vertexCount() > std::numeric_limits<VertexId>::max()) {
-        throw Error(fmt::format("{}: the mesh exceeds {} vertices", info.source, std::numeric_limits<VertexId>::max()));
+      const auto t = Clock::now();
+      extractor_.extractSlab(view(z), chunk);
+      result_.extractSeconds += since(t);
+      if (extractor_.vertexCount() > std::numeric_limits<VertexId>::max()) {
+        throw Error(fmt::format("{}: the mesh exceeds {} vertices", info_.source, std::numeric_limits<VertexId>::max()));
       }
       nextVertex = chunk.endVertex();
       emit(chunk);
     }
-  } else {
-    // Slabs collected..dispatched-1 are in flight; the ring keeps every slice they need.
-    WorkerPool pool(extractor, workers, depth);
-    SlabStitcher stitcher(extractor.sliceSlots());
+  }
+
+  // Slabs collected..dispatched-1 are in flight; the ring keeps every slice they need.
+  void runThreaded() {
+    WorkerPool pool(extractor_, workers_, depth_);
+    SlabStitcher stitcher(extractor_.sliceSlots());
     std::int64_t dispatched = 0;
-    for (std::int64_t collected = 0; collected < slabs; ++collected) {
-      while (dispatched < slabs && dispatched - collected < depth) {
+    for (std::int64_t collected = 0; collected < slabs(); ++collected) {
+      while (dispatched < slabs() && dispatched - collected < depth_) {
         load(dispatched);
         pool.submit(view(dispatched));
         ++dispatched;
@@ -413,19 +280,86 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
       try {
         stitcher.stitch(part);
       } catch (const Error& e) {
-        throw Error(fmt::format("{}: {}", info.source, e.what()));
+        throw Error(fmt::format("{}: {}", info_.source, e.what()));
       }
       emit(part.chunk);
-      part.chunk = drain.recycled();
+      part.chunk = drain_.recycled();
     }
-    result.extractSeconds = pool.seconds();
+    result_.extractSeconds = pool.seconds();
   }
-  result.valueRange = feed.finish();
+
+ private:
+  std::int64_t slabs() const noexcept { return info_.dims[2] - 1; }
+
+  // Reads the slices slab z needs.
+  void load(std::int64_t z) {
+    const std::int64_t nz = info_.dims[2];
+    const std::int64_t need = std::min(nz - 1, z + 1 + above_);
+    const auto t0 = Clock::now();
+    while (loaded_ <= need) {
+      if (!feed_.next(ring_, loaded_)) {
+        throw Error(fmt::format("{}: the data ended after {} of {} slices", info_.source, loaded_, nz));
+      }
+      ++loaded_;
+    }
+    result_.readSeconds += since(t0);
+  }
+
+  SlabView view(std::int64_t z) const {
+    SlabView v;
+    v.z = z;
+    v.dims = info_.dims;
+    v.slices = {below_ > 0 ? ring_.slice(z - 1) : nullptr, ring_.slice(z), ring_.slice(z + 1),
+                above_ > 0 ? ring_.slice(z + 2) : nullptr};
+    v.rows = {nullptr, ring_.rows(z), ring_.rows(z + 1), above_ > 0 ? ring_.rows(z + 2) : nullptr};
+    return v;
+  }
+
+  void emit(MeshChunk& chunk) {
+    result_.vertices += chunk.positions.size();
+    result_.triangles += chunk.triangles.size();
+    const std::int64_t slab = chunk.slab;
+    const auto t0 = Clock::now();
+    drain_.push(chunk);  // may move the chunk away
+    result_.writeSeconds += since(t0);
+    progress_.update(slab + 1);
+  }
+
+  const VolumeInfo& info_;
+  Extractor& extractor_;
+  int below_;
+  int above_;
+  int workers_;
+  int depth_;
+  SlabRing ring_;
+  PipelineResult result_;
+  Progress progress_;
+  SliceFeed feed_;
+  ChunkDrain drain_;
+  std::int64_t loaded_ = 0;
+};
+
+}  // namespace
+
+PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& sink, const MeshHeader& header,
+                           const PipelineOptions& options) {
+  const auto start = Clock::now();
+  PipelineRun run(source, extractor, sink, options);
+  PipelineResult& result = run.result();
+  auto t = Clock::now();
+  sink.begin(header);
+  result.writeSeconds += since(t);
+  if (run.threaded()) {
+    run.runThreaded();
+  } else {
+    run.runSequential();
+  }
+  result.valueRange = run.finishFeed();
   t = Clock::now();
-  drain.flush();
+  run.flush();
   sink.finish();
   result.writeSeconds += since(t);
-  progress.finish();
+  run.finishProgress();
   result.totalSeconds = since(start);
   return result;
 }
