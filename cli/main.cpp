@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -42,6 +43,8 @@ namespace isoslab {
 namespace {
 
 constexpr const char* kVersion = ISOSLAB_VERSION;
+/// --threads: more would fail to start (EAGAIN) long before it helped.
+constexpr std::int64_t kMaxThreads = 256;
 
 // A command line that cannot work whatever the input holds (a malformed list, an unknown name,
 // a missing value): one line on stderr and exit status 2.
@@ -73,6 +76,38 @@ CLI::Validator oneOf(const std::string& what, const std::vector<std::string>& na
           }
         }
         return fmt::format("unknown {} '{}' (use {})", what, value, alternatives(names));
+      },
+      "");
+}
+
+// A CLI11 check for a floating-point option: a number must be finite ("nan", "inf" and "1e400"
+// are refused, so that no option yields an empty or NaN mesh). Other text is CLI11's to refuse.
+CLI::Validator finiteNumber() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        errno = 0;
+        char* end = nullptr;
+        const double v = std::strtod(value.c_str(), &end);
+        const bool number = !value.empty() && end == value.c_str() + value.size();
+        if (number && (!std::isfinite(v) || (errno == ERANGE && std::abs(v) > 1))) {
+          return fmt::format("'{}' is not a finite number", value);
+        }
+        return {};
+      },
+      "");
+}
+
+// A CLI11 check for an integer option: the whole text, within [lo, hi].
+CLI::Validator integerIn(std::int64_t lo, std::int64_t hi, const std::string& meaning = "") {
+  return CLI::Validator(
+      [lo, hi, meaning](std::string& value) -> std::string {
+        errno = 0;
+        char* end = nullptr;
+        const long long v = std::strtoll(value.c_str(), &end, 10);
+        if (value.empty() || end != value.c_str() + value.size() || errno == ERANGE || v < lo || v > hi) {
+          return fmt::format("'{}' is not a whole number from {} to {}{}", value, lo, hi, meaning);
+        }
+        return {};
       },
       "");
 }
@@ -116,6 +151,7 @@ void addRawOptions(CLI::App* cmd, RawArgs& raw) {
       ->group("DICOM input");
   cmd->add_option("--channel", raw.channel,
                   "Colour or multi-component input (DICOM, image stacks, NRRD, MetaImage): the channel to use, from 0")
+      ->check(integerIn(-1, std::numeric_limits<int>::max(), " (-1: none)"))
       ->group("DICOM input");
   cmd->add_option("--nifti-xform", raw.niftiXform,
                   "NIfTI: the world transform, sform or qform (default: the sform when sform_code > 0, else the "
@@ -132,6 +168,7 @@ void addRawOptions(CLI::App* cmd, RawArgs& raw) {
       ->group("Raw input")
       ->capture_default_str();
   cmd->add_option("--raw-offset", raw.offset, "Raw input: header bytes to skip in each file")
+      ->check(integerIn(0, std::numeric_limits<std::int64_t>::max()))
       ->group("Raw input")
       ->capture_default_str();
   cmd->add_option("--spacing", raw.spacing, "Voxel spacing sx,sy,sz (raw input and image stacks; default 1,1,1)")
@@ -199,6 +236,8 @@ SourceOptions sourceOptions(const RawArgs& raw) {
   if (!raw.spacing.empty()) {
     const auto s = parseList(raw.spacing, "--spacing");
     if (s.size() != 3) throw UsageError(fmt::format("--spacing: '{}' needs three values", raw.spacing));
+    if (!(s[0] > 0 && s[1] > 0 && s[2] > 0))
+      throw UsageError(fmt::format("--spacing: '{}' needs three positive values", raw.spacing));
     r.spacing = {s[0], s[1], s[2]};
   }
   options.raw = r;
@@ -643,6 +682,28 @@ extern "C" void onStopSignal(int signal) {
 
 }  // namespace
 
+// Prints "isoslab: error: MESSAGE" on one line, with control characters in the message (from a
+// file name or a header value) escaped: a newline, tab or ESC must not make a second line or
+// drive the terminal.
+static void printError(const std::string& message) {
+  std::string line;
+  for (const char c : message) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u == '\n') {
+      line += "\\n";
+    } else if (u == '\t') {
+      line += "\\t";
+    } else if (u == '\r') {
+      line += "\\r";
+    } else if (u < 0x20 || u == 0x7f) {
+      line += fmt::format("\\x{:02x}", u);
+    } else {
+      line += c;
+    }
+  }
+  std::fprintf(stderr, "isoslab: error: %s\n", line.c_str());
+}
+
 int main(int argc, char** argv) {
   using namespace isoslab;
   // A file-size limit then fails the write with EFBIG, reported like any write error.
@@ -673,8 +734,10 @@ int main(int argc, char** argv) {
                    "Output coordinates: physical (the input's frame; LPS for DICOM), lps, ras or voxel")
       ->transform(oneOf("space", {"physical", "lps", "ras", "voxel"}))
       ->capture_default_str();
-  extract->add_option("--iso", ex.iso,
-                      "Iso value; voxels with value >= iso are inside (default: the input's suggestion, for phantoms)");
+  extract
+      ->add_option("--iso", ex.iso,
+                   "Iso value; voxels with value >= iso are inside (default: the input's suggestion, for phantoms)")
+      ->check(finiteNumber());
   extract->add_option("--method", ex.method, "mc, mt5, mt6 or bcc12")
       ->transform(oneOf("method", {"mc", "mt5", "mt6", "bcc12"}))
       ->capture_default_str();
@@ -687,21 +750,26 @@ int main(int argc, char** argv) {
                     "Write vertex normals from the field's gradient (PLY, OBJ and Draco; STL has facet normals)");
   extract->add_option("--report", ex.report, "Write a JSON report of the run");
   extract->add_flag("-q,--quiet", ex.quiet, "No progress line, notes or summary on stderr (warnings still print)");
-  extract->add_option("--threads", ex.threads,
-                      "Threads: N extraction workers beside a reader and a writer, and N .glb chunk encoders "
-                      "(default: the core count, at most 8); 1 uses the least memory. The output is the same for "
-                      "every count");
+  extract
+      ->add_option("--threads", ex.threads,
+                   "Threads: N extraction workers beside a reader and a writer, and N .glb chunk encoders "
+                   "(default: the core count, at most 8); 1 uses the least memory. The output is the same for "
+                   "every count")
+      ->check(integerIn(1, kMaxThreads));
   extract->add_option("--draco-level", ex.dracoLevel, "Draco (.glb, .drc): 0 fastest .. 10 smallest")
+      ->check(integerIn(0, 10))
       ->capture_default_str()
       ->group("Draco output");
   extract
       ->add_option("--quant-bits", ex.quantBits,
                    "Draco: bits per position component (default: the fewest whose step is at most 1/64 voxel)")
+      ->check(integerIn(1, 30))
       ->group("Draco output");
   extract
       ->add_option("--chunk-triangles", ex.chunkTriangles,
                    "Draco .glb: triangles per chunk, closed at the next slab boundary. .drc holds the whole mesh "
                    "in memory (about 28 bytes per triangle) to encode it at the end")
+      ->check(integerIn(1, std::numeric_limits<std::int64_t>::max()))
       ->capture_default_str()
       ->group("Draco output");
   extract
@@ -811,12 +879,12 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ValidationError& e) {
-    std::fprintf(stderr, "isoslab: error: %s\n", e.what());  // the message lists the choices
+    printError(e.what());  // the message lists the choices
     return 2;
   } catch (const CLI::ParseError& e) {
     const auto parsed = app.get_subcommands();
     const std::string help = parsed.empty() ? "isoslab --help" : "isoslab " + parsed.back()->get_name() + " --help";
-    std::fprintf(stderr, "isoslab: error: %s (see %s)\n", e.what(), help.c_str());
+    printError(fmt::format("{} (see {})", e.what(), help));
     return 2;
   }
 
@@ -828,20 +896,20 @@ int main(int argc, char** argv) {
     if (*metrics) return runMetrics(metricsInput, metricsSphere, metricsReport);
     if (*compare) return runCompare(cmp);
   } catch (const UsageError& e) {
-    std::fprintf(stderr, "isoslab: error: %s\n", e.what());
+    printError(e.what());
     return 2;
   } catch (const Interrupted& e) {
     // Unwinding has joined the threads and removed every temporary file.
     std::fprintf(stderr, "%sisoslab: interrupted by SIG%s\n", ex.quiet ? "" : "\n", sigabbrev_np(e.signal()));
     return 128 + e.signal();
   } catch (const Error& e) {
-    std::fprintf(stderr, "isoslab: error: %s\n", e.what());
+    printError(e.what());
     return 1;
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "isoslab: error: out of memory\n");
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "isoslab: error: %s\n", e.what());
+    printError(e.what());
     return 1;
   }
   return 0;

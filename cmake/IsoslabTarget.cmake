@@ -12,6 +12,19 @@ if(ISOSLAB_SANITIZE)
   add_link_options(-fsanitize=address,undefined)
 endif()
 
+# The fuzz build instruments every target for coverage (fuzzer-no-link) and for ASan and UBSan;
+# only the targets in tests/fuzz/ link libFuzzer itself.
+if(ISOSLAB_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "ISOSLAB_FUZZ needs clang: CC=clang CXX=clang++ cmake -DISOSLAB_FUZZ=ON ...")
+  endif()
+  # extract/mc_table.h builds its case table in a constexpr function that needs more steps than
+  # clang's default limit of 2^20.
+  add_compile_options(-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined
+                      -fno-omit-frame-pointer -g -fconstexpr-steps=100000000)
+  add_link_options(-fsanitize=address,undefined)
+endif()
+
 # isoslab_library(name folder sources...): a static library isoslab_<name>, aliased isoslab::<name>,
 # whose headers are included as "<folder>/<file>.h" from the project root.
 function(isoslab_library name)

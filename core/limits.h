@@ -13,6 +13,8 @@ namespace isoslab::limits {
 inline constexpr std::int64_t kMaxAxisPoints = 2147483647;
 /// Lattice points in one slice (x times y): slices are held in memory, a few at a time, as floats.
 inline constexpr std::int64_t kMaxSliceVoxels = std::int64_t{1} << 30;
+/// Bytes of one stored slice, all components together: it is read whole before conversion.
+inline constexpr std::int64_t kMaxSliceBytes = std::int64_t{8} * 1024 * 1024 * 1024;
 /// Components (channels) per voxel in a volume file.
 inline constexpr std::int64_t kMaxComponents = 1024;
 /// Files named by a data-file list or pattern (NRRD, MetaImage), that is, slices in files.
@@ -25,5 +27,7 @@ inline constexpr std::int64_t kMaxHeaderBytes = 16 * 1024 * 1024;
 inline constexpr std::int64_t kMaxMeshFileBytes = std::int64_t{16} * 1024 * 1024 * 1024;
 /// Depth of nested DICOM sequences (DCMTK's reader recurses once per level).
 inline constexpr int kMaxDicomSequenceDepth = 64;
+/// Bytes a deflated DICOM dataset may inflate to (the nesting walk inflates it before DCMTK does).
+inline constexpr std::int64_t kMaxInflatedDicomBytes = std::int64_t{1} << 30;
 
 }  // namespace isoslab::limits

@@ -35,6 +35,25 @@ double quantizationError(const IndexedMesh& mesh, const DracoSettings& s) {
   return worst;
 }
 
+// Draco quantizes positions on a grid over the volume's box. A position off the grid (a NaN, or a
+// decoded mesh whose vertices lie outside the box its metadata states) would overflow the
+// quantizer's integers. (A margin of 1/1000 of the grid keeps float rounding on the box's faces in.)
+void checkOnGrid(const std::vector<Vec3f>& positions, const DracoSettings& s, const std::string& path) {
+  const double margin = 1e-3 * static_cast<double>(s.range);
+  for (const Vec3f& p : positions) {
+    const float c[3] = {p.x, p.y, p.z};
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double offset = static_cast<double>(c[a]) - static_cast<double>(s.origin[a]);
+      if (!(offset >= -margin && offset <= static_cast<double>(s.range) + margin)) {
+        throw Error(
+            fmt::format("{}: a vertex at ({}, {}, {}) lies outside the volume's box, which Draco's "
+                        "quantization grid covers (from {}, {}, {}, {} on each axis)",
+                        path, p.x, p.y, p.z, s.origin[0], s.origin[1], s.origin[2], s.range));
+      }
+    }
+  }
+}
+
 void checkOptions(const WriterOptions& options) {
   if (options.dracoLevel < 0 || options.dracoLevel > 10) {
     throw Error(fmt::format("--draco-level: {} is not in 0..10", options.dracoLevel));
@@ -105,6 +124,7 @@ VertexId GlbDracoWriter::localVertex(VertexId id) {
 }
 
 void GlbDracoWriter::consume(const MeshChunk& chunk) {
+  checkOnGrid(chunk.positions, settings_, path_);
   window_.push(chunk);
   vertices_ += chunk.positions.size();
   if (current_.triangles.empty()) {
@@ -366,6 +386,7 @@ void DrcWriter::begin(const MeshHeader& header) {
 }
 
 void DrcWriter::consume(const MeshChunk& chunk) {
+  checkOnGrid(chunk.positions, settings_, path_);
   mesh_.positions.insert(mesh_.positions.end(), chunk.positions.begin(), chunk.positions.end());
   if (header_.normals) mesh_.normals.insert(mesh_.normals.end(), chunk.normals.begin(), chunk.normals.end());
   mesh_.triangles.insert(mesh_.triangles.end(), chunk.triangles.begin(), chunk.triangles.end());

@@ -1,6 +1,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -159,8 +160,13 @@ IndexedMesh readPly(const std::string& path, std::string data, MeshMetadata& met
   std::istringstream text(ascii ? in.rest() : std::string());
   auto scalar = [&](const std::string& type) -> double {
     if (ascii) {
-      double v;
-      if (!(text >> v)) throw Error(fmt::format("{}: the PLY data is truncated", path));
+      std::string word;
+      if (!(text >> word)) throw Error(fmt::format("{}: the PLY data is truncated", path));
+      char* end = nullptr;
+      const double v = std::strtod(word.c_str(), &end);
+      if (end != word.c_str() + word.size()) {
+        throw Error(fmt::format("{}: the PLY data holds '{}', not a number", path, word.substr(0, 40)));
+      }
       return v;
     }
     return decode(in.take(typeSize(type)), type);
@@ -173,13 +179,24 @@ IndexedMesh readPly(const std::string& path, std::string data, MeshMetadata& met
       for (const Property& p : e.properties) {
         if (!p.countType.empty()) {
           const double claimed = scalar(p.countType);
-          if (!(claimed >= 0 && claimed <= static_cast<double>(in.remaining()))) {
+          if (!(claimed >= 0 && claimed <= static_cast<double>(ascii ? text.str().size() : in.remaining()))) {
             throw Error(fmt::format("{}: a PLY list claims {} items, more than the file holds", path, claimed));
           }
+          if (claimed != std::floor(claimed)) {
+            throw Error(fmt::format("{}: a PLY list claims {} items, not a whole number", path, claimed));
+          }
           const auto count = static_cast<std::uint64_t>(claimed);
+          const bool indices = e.name == "face" && (p.name == "vertex_indices" || p.name == "vertex_index");
           std::vector<std::uint64_t> items;
-          for (std::uint64_t k = 0; k < count; ++k) items.push_back(static_cast<std::uint64_t>(scalar(p.type)));
-          if (e.name == "face" && (p.name == "vertex_indices" || p.name == "vertex_index")) poly = std::move(items);
+          for (std::uint64_t k = 0; k < count; ++k) {
+            const double v = scalar(p.type);
+            // A vertex index is a whole number from 0; a cast would truncate 1.5 and wrap -1.
+            if (indices && !(v >= 0 && v == std::floor(v) && v < 18446744073709551616.0)) {
+              throw Error(fmt::format("{}: a PLY face has the vertex index {}, not a whole number from 0", path, v));
+            }
+            if (indices) items.push_back(static_cast<std::uint64_t>(v));
+          }
+          if (indices) poly = std::move(items);
           continue;
         }
         const double v = scalar(p.type);
@@ -243,6 +260,14 @@ IndexedMesh readStl(const std::string& path, const std::string& data, MeshMetada
 
 // Wavefront OBJ: "v" and "vn" lines and triangular or polygonal "f" lines (v, v/t, v//n, v/t/n).
 IndexedMesh readObj(const std::string& path, const std::string& data, MeshMetadata& meta) {
+  // OBJ is text: a NUL or another control byte means a binary file with the wrong name.
+  for (std::size_t at = 0; at < data.size(); ++at) {
+    const auto c = static_cast<unsigned char>(data[at]);
+    if (c < 0x20 && c != '\t' && c != '\n' && c != '\r' && c != '\f' && c != '\v') {
+      throw Error(fmt::format("{}: not an OBJ file: byte {} is binary (0x{:02x})", path, at, c));
+    }
+  }
+  bool anyElement = false;
   IndexedMesh mesh;
   std::istringstream in(data);
   std::string line;
@@ -259,16 +284,35 @@ IndexedMesh readObj(const std::string& path, const std::string& data, MeshMetada
       float x, y, z;
       if (!(s >> x >> y >> z)) throw Error(fmt::format("{}: line {}: a vertex needs three numbers", path, lineNo));
       (word == "v" ? mesh.positions : mesh.normals).push_back({x, y, z});
+      anyElement = true;
     } else if (word == "f") {
       std::vector<std::uint64_t> poly;
       std::string item;
       while (s >> item) {
-        const long long v = std::stoll(item.substr(0, item.find('/')));
-        poly.push_back(static_cast<std::uint64_t>(v > 0 ? v - 1 : static_cast<long long>(mesh.positions.size()) + v));
+        // "v", "v/t", "v//n" or "v/t/n": v counts from 1, or back from the last vertex when negative.
+        const std::string index = item.substr(0, item.find('/'));
+        errno = 0;
+        char* end = nullptr;
+        const long long v = std::strtoll(index.c_str(), &end, 10);
+        const auto count = static_cast<long long>(mesh.positions.size());
+        if (index.empty() || end != index.c_str() + index.size() || errno == ERANGE || v == 0) {
+          throw Error(fmt::format("{}: line {}: a face has the vertex index '{}', not a whole number other than 0",
+                                  path, lineNo, index.substr(0, 40)));
+        }
+        if (v > count || v < -count) {
+          throw Error(
+              fmt::format("{}: line {}: a face references vertex {} of the {} before it", path, lineNo, v, count));
+        }
+        poly.push_back(static_cast<std::uint64_t>(v > 0 ? v - 1 : count + v));
       }
+      if (poly.size() < 3) throw Error(fmt::format("{}: line {}: a face needs three vertices", path, lineNo));
       addPolygon(mesh, poly, path);
+      anyElement = true;
     }
   }
+  // An OBJ written by isoslab for an empty surface still names its header in comments.
+  if (!anyElement && meta.method.empty() && !meta.iso)
+    throw Error(fmt::format("{}: not an OBJ mesh: no vertex or face lines", path));
   if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) mesh.normals.clear();
   return mesh;
 }
@@ -544,6 +588,30 @@ class GlbReader {
   std::unordered_map<PositionKey, std::pair<VertexId, int>, PositionHash> unmarkedPrevious_;
 };
 
+// A binary STL is exactly 84 + 50 n bytes, n being its triangle count; its 80-byte header may
+// begin with "solid" all the same (some exporters write that), so the size decides first.
+bool isBinaryStl(const std::string& data) {
+  if (data.size() < 84) return false;
+  std::uint32_t count = 0;
+  std::memcpy(&count, data.data() + 80, 4);
+  return data.size() == 84 + std::uint64_t{count} * 50;
+}
+
+IndexedMesh readMeshData(const std::string& path, std::string data, MeshMetadata& meta) {
+  if (data.compare(0, 4, "ply\n") == 0 || data.compare(0, 5, "ply\r\n") == 0)
+    return readPly(path, std::move(data), meta);
+  const std::size_t dot = path.rfind('.');
+  std::string ext = dot == std::string::npos ? "" : path.substr(dot);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (isBinaryStl(data) && (ext == ".stl" || data.compare(0, 5, "solid") == 0)) return readStl(path, data, meta);
+  if (data.compare(0, 5, "solid") == 0) throw Error(fmt::format("{}: ASCII STL is not supported", path));
+  if (ext == ".stl") return readStl(path, data, meta);
+  if (ext == ".obj") return readObj(path, data, meta);
+  if (data.compare(0, 4, "glTF") == 0) return GlbReader(path, data).read(meta);
+  if (data.compare(0, 5, "DRACO") == 0) return dracoDecode(data.data(), data.size(), path);
+  throw Error(fmt::format("{}: unknown mesh format (PLY, binary STL, OBJ, .glb or .drc expected)", path));
+}
+
 }  // namespace
 
 IndexedMesh readMesh(const std::string& path, MeshMetadata* metadata) {
@@ -562,18 +630,22 @@ IndexedMesh readMesh(const std::string& path, MeshMetadata* metadata) {
     throw Error(fmt::format("{}: {} bytes exceed the limit of {} bytes for a mesh file", path, size,
                             limits::kMaxMeshFileBytes));
   }
-  std::string data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  if (data.compare(0, 4, "ply\n") == 0 || data.compare(0, 5, "ply\r\n") == 0)
-    return readPly(path, std::move(data), meta);
-  if (data.compare(0, 5, "solid") == 0) throw Error(fmt::format("{}: ASCII STL is not supported", path));
-  const std::size_t dot = path.rfind('.');
-  std::string ext = dot == std::string::npos ? "" : path.substr(dot);
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == ".stl") return readStl(path, data, meta);
-  if (ext == ".obj") return readObj(path, data, meta);
-  if (data.compare(0, 4, "glTF") == 0) return GlbReader(path, data).read(meta);
-  if (data.compare(0, 5, "DRACO") == 0) return dracoDecode(data.data(), data.size(), path);
-  throw Error(fmt::format("{}: unknown mesh format (PLY, binary STL, .glb or .drc expected)", path));
+  std::string data;
+  try {
+    data.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  } catch (const std::bad_alloc&) {
+    throw Error(fmt::format("{}: out of memory reading {} bytes", path, size));
+  } catch (const std::exception&) {  // libstdc++'s "basic_filebuf::underflow error reading the file"
+    throw Error(fmt::format("{}: cannot read: {}", path, std::strerror(errno != 0 ? errno : EIO)));
+  }
+  IndexedMesh mesh = readMeshData(path, std::move(data), meta);
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+    const Vec3f& p = mesh.positions[v];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      throw Error(fmt::format("{}: vertex {} is at ({},{},{}): not finite", path, v, p.x, p.y, p.z));
+    }
+  }
+  return mesh;
 }
 
 std::vector<std::uint8_t> volumeFaceFlags(const std::vector<Vec3f>& positions, const VolumeFaces& faces, double extra) {

@@ -151,7 +151,8 @@ void LatticeKernel::trimmedRow(std::int64_t j, const std::array<const RowSpan*, 
   }
   if (bcc) marchRow(j, 0, 1, insideVolume);
   marchRow(j, lo, hi, insideVolume);
-  if (bcc) marchRow(j, cellsPerRow - 1, cellsPerRow, insideVolume);
+  // (A row of one cell has one boundary cell, marched above.)
+  if (bcc && cellsPerRow > 1) marchRow(j, cellsPerRow - 1, cellsPerRow, insideVolume);
 }
 
 // Cells [begin, end) of row j. The case code is built incrementally: the next cell's x=0 corners
@@ -319,7 +320,11 @@ VertexId LatticeKernel::vertex(const EdgeRef& e, std::int64_t i, std::int64_t j)
 void LatticeKernel::createVertex(const EdgeRef& e, std::int64_t i, std::int64_t j) {
   const double va = value_[e.a];
   const double vb = value_[e.b];
-  const double t = (options_.iso - va) / (vb - va);
+  double t = (options_.iso - va) / (vb - va);
+  // An infinite iso value or end value, or a NaN end (outside), leave no fraction to interpolate:
+  // the vertex goes to the edge's middle, so that it stays on its edge.
+  if (std::isnan(t)) t = 0.5;
+  t = std::clamp(t, 0.0, 1.0);
   const auto& nodes = cases_.nodes();
   const Vec3d a = field_.position(nodes[e.a], i, j);
   const Vec3d b = field_.position(nodes[e.b], i, j);
@@ -342,13 +347,13 @@ void LatticeKernel::createVertex(const EdgeRef& e, std::int64_t i, std::int64_t 
   const Vec3d gb = field_.gradient(nodes[e.b], i, j);
   Vec3d g = frame_.gradient({ga[0] + t * (gb[0] - ga[0]), ga[1] + t * (gb[1] - ga[1]), ga[2] + t * (gb[2] - ga[2])});
   double len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-  if (!(len > 0)) {
-    // The central differences cancel (a symmetric extremum at the vertex): take the one-sided
-    // difference along the vertex's own edge. It is never zero, since the edge crosses the iso
-    // value, and it points from the inside end to the outside end.
+  if (!(len > 0) || !std::isfinite(len)) {
+    // The central differences cancel (a symmetric extremum at the vertex), or are infinite or NaN
+    // (infinite or NaN values nearby): take the direction of the vertex's own edge, from its
+    // outside end to its inside end (the edge crosses the iso value, so one end is inside).
     const Vec3d d{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-    const double scale = (vb - va) / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    g = frame_.gradient({d[0] * scale, d[1] * scale, d[2] * scale});
+    const double sign = vb >= options_.iso ? 1.0 : -1.0;
+    g = frame_.gradient({d[0] * sign, d[1] * sign, d[2] * sign});
     len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
   }
   // The normal points down the gradient, from higher to lower values.

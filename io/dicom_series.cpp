@@ -17,9 +17,12 @@
 #include <dcmtk/oflog/oflog.h>
 #include <fmt/format.h>
 #include <openjpeg.h>
+#include <zlib.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -89,8 +92,49 @@ DcmItem* subItem(DcmItem* group, const DcmTagKey& seq) {
   return item;
 }
 
+// A decimal element (DS or FD) read as `n` numbers: empty when the element is absent or empty, an
+// error naming the file when it holds text, fewer values, or NaN or infinity. (Taking text as
+// absent would put a default, such as a RescaleSlope of 1, in its place without a word.)
+std::optional<std::array<double, 6>> getDecimals(DcmItem* item, const DcmTagKey& tag, int n, const std::string& path) {
+  DcmElement* element = nullptr;
+  if (item == nullptr || item->findAndGetElement(tag, element).bad() || element == nullptr ||
+      element->getLength() == 0) {
+    return std::nullopt;
+  }
+  std::array<double, 6> v{};
+  for (int i = 0; i < n; ++i) {
+    Float64 x = 0;
+    bool ok = element->getFloat64(x, static_cast<unsigned long>(i)).good();
+    if (ok && element->ident() == EVR_DS) {
+      // DCMTK takes the leading number of a decimal string ("1\n2" as 1): the whole value must be one.
+      OFString one;
+      ok = element->getOFString(one, static_cast<unsigned long>(i), OFTrue).good();
+      const char* begin = one.c_str();
+      char* end = nullptr;
+      x = std::strtod(begin, &end);
+      while (ok && end != nullptr && *end == ' ') ++end;
+      ok =
+          ok && end != begin && end != nullptr && *end == '\0' && std::isspace(static_cast<unsigned char>(*begin)) == 0;
+    }
+    if (!ok || !std::isfinite(x)) {
+      OFString raw;
+      element->getOFStringArray(raw);
+      std::string text(raw.c_str());
+      if (text.size() > 64) text = text.substr(0, 64) + "...";
+      const unsigned long values = element->getVM();
+      throw Error(fmt::format("{}: {} '{}' is not {}{}", path, DcmTag(tag).getTagName(), text,
+                              n == 1 ? std::string("a finite number") : fmt::format("{} finite numbers", n),
+                              values < static_cast<unsigned long>(n) ? fmt::format(" (it has {})", values) : ""));
+    }
+    v[static_cast<std::size_t>(i)] = x;
+  }
+  return v;
+}
+
 // Geometry and rescale of one frame, from a plain image or the functional groups of a
-// multi-frame image (per-frame group first, then the shared group).
+// multi-frame image (per-frame group first, then the shared group). Text, NaN or infinity in any
+// of these is an error naming `path`, as are a PixelSpacing that is not positive and an
+// ImageOrientationPatient whose row and column directions are zero or parallel.
 struct FrameGeometry {
   std::optional<Vec3> position;
   std::optional<std::array<double, 6>> orientation;
@@ -100,33 +144,56 @@ struct FrameGeometry {
   double intercept = 0;
 };
 
-FrameGeometry frameGeometry(DcmItem* plain, DcmItem* perFrame, DcmItem* shared) {
+FrameGeometry frameGeometry(DcmItem* plain, DcmItem* perFrame, DcmItem* shared, const std::string& path) {
   FrameGeometry g;
+  auto position = [&](DcmItem* item) -> std::optional<Vec3> {
+    if (auto v = getDecimals(item, DCM_ImagePositionPatient, 3, path)) return Vec3{(*v)[0], (*v)[1], (*v)[2]};
+    return std::nullopt;
+  };
+  auto spacing = [&](DcmItem* item) -> std::optional<std::array<double, 2>> {
+    if (auto v = getDecimals(item, DCM_PixelSpacing, 2, path)) return std::array<double, 2>{(*v)[0], (*v)[1]};
+    return std::nullopt;
+  };
   for (DcmItem* level : {shared, perFrame}) {  // per-frame values override shared ones
     if (level == nullptr) continue;
-    double v[6];
-    if (getDoubles(subItem(level, DCM_PlanePositionSequence), DCM_ImagePositionPatient, v, 3))
-      g.position = Vec3{v[0], v[1], v[2]};
-    if (getDoubles(subItem(level, DCM_PlaneOrientationSequence), DCM_ImageOrientationPatient, v, 6)) {
-      g.orientation = std::array<double, 6>{v[0], v[1], v[2], v[3], v[4], v[5]};
+    if (auto v = position(subItem(level, DCM_PlanePositionSequence))) g.position = v;
+    if (auto v = getDecimals(subItem(level, DCM_PlaneOrientationSequence), DCM_ImageOrientationPatient, 6, path)) {
+      g.orientation = v;
     }
-    if (getDoubles(subItem(level, DCM_PixelMeasuresSequence), DCM_PixelSpacing, v, 2))
-      g.spacing = std::array<double, 2>{v[0], v[1]};
-    if (getDoubles(subItem(level, DCM_PixelMeasuresSequence), DCM_SliceThickness, v, 1)) g.thickness = v[0];
+    DcmItem* measures = subItem(level, DCM_PixelMeasuresSequence);
+    if (auto v = spacing(measures)) g.spacing = v;
+    if (double t = 0; getDoubles(measures, DCM_SliceThickness, &t, 1)) g.thickness = t;
     DcmItem* transform = subItem(level, DCM_PixelValueTransformationSequence);
-    if (getDoubles(transform, DCM_RescaleSlope, v, 1)) g.slope = v[0];
-    if (getDoubles(transform, DCM_RescaleIntercept, v, 1)) g.intercept = v[0];
+    if (auto v = getDecimals(transform, DCM_RescaleSlope, 1, path)) g.slope = (*v)[0];
+    if (auto v = getDecimals(transform, DCM_RescaleIntercept, 1, path)) g.intercept = (*v)[0];
   }
   if (plain != nullptr) {
-    double v[6];
-    if (!g.position && getDoubles(plain, DCM_ImagePositionPatient, v, 3)) g.position = Vec3{v[0], v[1], v[2]};
-    if (!g.orientation && getDoubles(plain, DCM_ImageOrientationPatient, v, 6)) {
-      g.orientation = std::array<double, 6>{v[0], v[1], v[2], v[3], v[4], v[5]};
+    if (auto v = position(plain); v && !g.position) g.position = v;
+    if (auto v = getDecimals(plain, DCM_ImageOrientationPatient, 6, path); v && !g.orientation) g.orientation = v;
+    if (auto v = spacing(plain); v && !g.spacing) g.spacing = v;
+    if (double t = 0; !g.thickness && getDoubles(plain, DCM_SliceThickness, &t, 1)) g.thickness = t;
+    if (auto v = getDecimals(plain, DCM_RescaleSlope, 1, path)) g.slope = (*v)[0];
+    if (auto v = getDecimals(plain, DCM_RescaleIntercept, 1, path)) g.intercept = (*v)[0];
+  }
+  if (g.spacing && !((*g.spacing)[0] > 0 && (*g.spacing)[1] > 0)) {
+    throw Error(fmt::format("{}: PixelSpacing {:g}\\{:g} is not positive", path, (*g.spacing)[0], (*g.spacing)[1]));
+  }
+  if (g.orientation) {
+    const auto& o = *g.orientation;
+    const Vec3 row{o[0], o[1], o[2]};
+    const Vec3 col{o[3], o[4], o[5]};
+    const double rowLength = std::sqrt(dot(row, row));
+    const double colLength = std::sqrt(dot(col, col));
+    const Vec3 n = cross(row, col);
+    // The sine of the angle between the directions: 1 for a proper orientation.
+    const double sine = rowLength > 0 && colLength > 0 ? std::sqrt(dot(n, n)) / (rowLength * colLength) : 0;
+    if (!(rowLength > 1e-6) || !(colLength > 1e-6) || !(sine > 1e-3)) {
+      throw Error(fmt::format("{}: ImageOrientationPatient {:g}\\{:g}\\{:g}\\{:g}\\{:g}\\{:g} is degenerate: {}", path,
+                              o[0], o[1], o[2], o[3], o[4], o[5],
+                              !(rowLength > 1e-6)   ? "the row direction is zero"
+                              : !(colLength > 1e-6) ? "the column direction is zero"
+                                                    : "the row and column directions are parallel"));
     }
-    if (!g.spacing && getDoubles(plain, DCM_PixelSpacing, v, 2)) g.spacing = std::array<double, 2>{v[0], v[1]};
-    if (!g.thickness && getDoubles(plain, DCM_SliceThickness, v, 1)) g.thickness = v[0];
-    if (getDoubles(plain, DCM_RescaleSlope, v, 1)) g.slope = v[0];
-    if (getDoubles(plain, DCM_RescaleIntercept, v, 1)) g.intercept = v[0];
   }
   return g;
 }
@@ -136,26 +203,114 @@ struct FileHeader {
   DicomSeries series;  // the series fields, with this file's slices
 };
 
-// Whether a DICOM file nests sequences deeper than `limit`. DCMTK's reader recurses once per
-// level, so a crafted file of thousands of nested sequences would overflow the stack; this walk
-// keeps its own stack. It reads tags and lengths only and seeks over values. Deflated datasets are
-// not walked (DCMTK inflates them itself). Truncated or odd files stop the walk; DCMTK then reports
-// them.
-bool nestsDeeperThan(const std::string& path, int limit) {
-  std::ifstream f(path, std::ios::binary);
-  std::error_code ec;
-  const auto size = static_cast<std::uint64_t>(fs::file_size(path, ec));
-  if (!f || ec || size < 132) return false;
-  constexpr std::uint32_t kUndefined = 0xFFFFFFFFu;
-  std::uint64_t pos = 132;
-  bool bigEndian = false, bigEndianDataset = false, explicitVr = true;
-  auto read = [&](char* into, std::size_t n) {
-    if (pos + n > size) return false;
-    f.seekg(static_cast<std::streamoff>(pos));
-    if (!f.read(into, static_cast<std::streamsize>(n))) return false;
+// The bytes of a DICOM file for the nesting walk, read forward: from the file, and, once the
+// dataset of a deflated file starts, through zlib's inflate. Skips are lazy (a value is skipped by
+// moving `pos`; the bytes are sought over, or inflated and dropped, only when more is read).
+class WalkBytes {
+ public:
+  explicit WalkBytes(const std::string& path) : file_(path, std::ios::binary) {
+    std::error_code ec;
+    size_ = static_cast<std::uint64_t>(fs::file_size(path, ec));
+    if (ec) file_.setstate(std::ios::failbit);
+  }
+  WalkBytes(const WalkBytes&) = delete;
+  WalkBytes& operator=(const WalkBytes&) = delete;
+  ~WalkBytes() {
+    if (inflating_) inflateEnd(&z_);
+  }
+  bool good() const { return static_cast<bool>(file_); }
+  std::uint64_t size() const { return size_; }
+
+  // From here on the bytes are a raw deflate stream (RFC 1951) starting at file offset `pos`.
+  bool startInflating() {
+    z_ = z_stream{};
+    if (inflateInit2(&z_, -MAX_WBITS) != Z_OK) return false;
+    inflating_ = true;
+    fileAt_ = pos;
+    base_ = pos;
+    produced_ = pos;  // positions stay continuous: the inflated bytes follow the meta group
+    return true;
+  }
+  // Whether the inflated data passed `limit` bytes (the walk then stops).
+  bool tooLarge() const { return tooLarge_; }
+
+  std::uint64_t pos = 0;
+
+  bool read(char* into, std::size_t n) {
+    if (!inflating_) {
+      if (pos + n > size_) return false;
+      file_.seekg(static_cast<std::streamoff>(pos));
+      if (!file_.read(into, static_cast<std::streamsize>(n))) return false;
+      pos += n;
+      return true;
+    }
+    while (produced_ < pos) {  // skip lazily
+      char drop[16384];
+      const auto k = static_cast<std::size_t>(std::min<std::uint64_t>(sizeof drop, pos - produced_));
+      if (!inflateSome(drop, k)) return false;
+    }
+    if (!inflateSome(into, n)) return false;
     pos += n;
     return true;
-  };
+  }
+
+ private:
+  // Inflates exactly `n` more bytes into `into`.
+  bool inflateSome(char* into, std::size_t n) {
+    if (produced_ - base_ + n > static_cast<std::uint64_t>(limits::kMaxInflatedDicomBytes)) {
+      tooLarge_ = true;
+      return false;
+    }
+    z_.next_out = reinterpret_cast<Bytef*>(into);
+    z_.avail_out = static_cast<uInt>(n);
+    while (z_.avail_out > 0) {
+      if (z_.avail_in == 0) {
+        if (fileAt_ >= size_) return false;
+        file_.seekg(static_cast<std::streamoff>(fileAt_));
+        const auto k = static_cast<std::streamsize>(std::min<std::uint64_t>(sizeof in_, size_ - fileAt_));
+        if (!file_.read(in_, k)) return false;
+        fileAt_ += static_cast<std::uint64_t>(k);
+        z_.next_in = reinterpret_cast<Bytef*>(in_);
+        z_.avail_in = static_cast<uInt>(k);
+      }
+      const int r = inflate(&z_, Z_NO_FLUSH);
+      if (r == Z_STREAM_END && z_.avail_out > 0) return false;
+      if (r != Z_OK && r != Z_STREAM_END) return false;
+    }
+    produced_ += n;
+    return true;
+  }
+
+  std::ifstream file_;
+  std::uint64_t size_ = 0;
+  bool inflating_ = false;
+  bool tooLarge_ = false;
+  z_stream z_{};
+  std::uint64_t fileAt_ = 0;    // next file offset to feed to inflate
+  std::uint64_t base_ = 0;      // walk position of the first inflated byte
+  std::uint64_t produced_ = 0;  // walk position of the next inflated byte
+  char in_[16384];
+};
+
+// What the nesting walk found.
+enum class Nesting { kWithin, kTooDeep, kTooLarge };
+
+// Whether a DICOM file nests sequences deeper than `limit`. DCMTK's reader recurses once per
+// level, so a crafted file of thousands of nested sequences would overflow the stack; this walk
+// keeps its own stack. It reads tags and lengths only and skips over values. A deflated dataset is
+// inflated as it is walked, up to limits::kMaxInflatedDicomBytes. Truncated or odd files stop the
+// walk; DCMTK then reports them.
+Nesting nesting(const std::string& path, int limit) {
+  WalkBytes bytes(path);
+  const std::uint64_t size = bytes.size();
+  if (!bytes.good() || size < 132) return Nesting::kWithin;
+  constexpr std::uint32_t kUndefined = 0xFFFFFFFFu;
+  std::uint64_t& pos = bytes.pos;
+  pos = 132;
+  bool bigEndian = false, bigEndianDataset = false, explicitVr = true, deflated = false;
+  std::optional<std::uint64_t> metaEnd;  // from the meta group's length (0002,0000)
+  auto read = [&](char* into, std::size_t n) { return bytes.read(into, n); };
+  auto stop = [&] { return bytes.tooLarge() ? Nesting::kTooLarge : Nesting::kWithin; };
   auto u16 = [&](const unsigned char* b) {
     return static_cast<std::uint16_t>(bigEndian ? (b[0] << 8) | b[1] : b[0] | (b[1] << 8));
   };
@@ -179,19 +334,27 @@ bool nestsDeeperThan(const std::string& path, int limit) {
     }
     const std::uint64_t start = pos;
     unsigned char b[12];
-    if (!read(reinterpret_cast<char*>(b), 4)) return false;
+    if (meta && metaEnd && start >= *metaEnd) {
+      // The dataset starts where the meta group's length says (a deflate stream may begin with
+      // bytes that look like group 0002).
+      meta = false;
+      bigEndian = bigEndianDataset;
+      if (deflated && !bytes.startInflating()) return stop();
+    }
+    if (!read(reinterpret_cast<char*>(b), 4)) return stop();
     std::uint16_t group = u16(b);
     if (meta && group != 0x0002) {
       // The dataset starts: the meta group was explicit little endian; the rest follows the syntax.
       meta = false;
       bigEndian = bigEndianDataset;
       pos = start;
-      if (!read(reinterpret_cast<char*>(b), 4)) return false;
+      if (deflated && !bytes.startInflating()) return stop();
+      if (!read(reinterpret_cast<char*>(b), 4)) return stop();
       group = u16(b);
     }
     const std::uint16_t element = u16(b + 2);
     if (group == 0xFFFE) {
-      if (!read(reinterpret_cast<char*>(b + 4), 4)) return false;
+      if (!read(reinterpret_cast<char*>(b + 4), 4)) return stop();
       const std::uint32_t length = u32(b + 4);
       if (element == 0xE000) {
         if (!open.empty() && open.back().kind == Open::kFragments) {
@@ -208,27 +371,33 @@ bool nestsDeeperThan(const std::string& path, int limit) {
     std::uint32_t length = 0;
     bool sequence = false;
     if (explicitVr || meta) {
-      if (!read(reinterpret_cast<char*>(b + 4), 4)) return false;
+      if (!read(reinterpret_cast<char*>(b + 4), 4)) return stop();
       const std::string vr(reinterpret_cast<const char*>(b + 4), 2);
       static const std::set<std::string> kLong = {"OB", "OD", "OF", "OL", "OV", "OW", "SQ",
                                                   "SV", "UC", "UN", "UR", "UT", "UV"};
       if (kLong.count(vr)) {
-        if (!read(reinterpret_cast<char*>(b + 8), 4)) return false;
+        if (!read(reinterpret_cast<char*>(b + 8), 4)) return stop();
         length = u32(b + 8);
       } else {
         length = u16(b + 6);
       }
       sequence = vr == "SQ" || (vr == "UN" && length == kUndefined);
     } else {
-      if (!read(reinterpret_cast<char*>(b + 4), 4)) return false;
+      if (!read(reinterpret_cast<char*>(b + 4), 4)) return stop();
       length = u32(b + 4);
       sequence = length == kUndefined || DcmTag(group, element).getEVR() == EVR_SQ;
     }
+    if (meta && group == 0x0002 && element == 0x0000 && length == 4) {
+      unsigned char v[4];
+      if (!read(reinterpret_cast<char*>(v), 4)) return stop();
+      metaEnd = pos + u32(v);
+      continue;
+    }
     if (meta && group == 0x0002 && element == 0x0010 && length < 128) {
       std::string uid(length, '\0');
-      if (!read(uid.data(), length)) return false;
+      if (!read(uid.data(), length)) return stop();
       while (!uid.empty() && (uid.back() == '\0' || uid.back() == ' ')) uid.pop_back();
-      if (uid == UID_DeflatedExplicitVRLittleEndianTransferSyntax) return false;
+      deflated = uid == UID_DeflatedExplicitVRLittleEndianTransferSyntax;
       explicitVr = uid != UID_LittleEndianImplicitTransferSyntax;
       bigEndianDataset = uid == UID_BigEndianExplicitTransferSyntax;  // from the dataset on
       continue;
@@ -237,19 +406,30 @@ bool nestsDeeperThan(const std::string& path, int limit) {
       open.push_back({UINT64_MAX, Open::kFragments});
     } else if (sequence) {
       open.push_back({length == kUndefined ? UINT64_MAX : pos + length, Open::kSequence});
-      if (++depth > limit) return true;
+      if (++depth > limit) return Nesting::kTooDeep;
     } else if (length != kUndefined) {
       pos += length;
     }
   }
 }
 
+// The message for a file that DCMTK must not read, or empty.
+std::string nestingProblem(const std::string& path) {
+  switch (nesting(path, limits::kMaxDicomSequenceDepth)) {
+    case Nesting::kTooDeep:
+      return fmt::format("{}: sequences nest deeper than the limit of {} levels", path, limits::kMaxDicomSequenceDepth);
+    case Nesting::kTooLarge:
+      return fmt::format("{}: the deflated dataset inflates to more than the limit of {} bytes", path,
+                         limits::kMaxInflatedDicomBytes);
+    case Nesting::kWithin:
+      break;
+  }
+  return {};
+}
+
 std::vector<std::string> dicomdirFiles(const std::string& path) {
   initDcmtk();
-  if (nestsDeeperThan(path, limits::kMaxDicomSequenceDepth)) {
-    throw Error(
-        fmt::format("{}: sequences nest deeper than the limit of {} levels", path, limits::kMaxDicomSequenceDepth));
-  }
+  if (const std::string problem = nestingProblem(path); !problem.empty()) throw Error(problem);
   DcmFileFormat ff;
   const OFCondition c = ff.loadFile(path.c_str());
   if (c.bad()) throw Error(fmt::format("{}: not a readable DICOMDIR: {}", path, c.text()));
@@ -276,6 +456,30 @@ double thicknessTolerance(double thickness) {
 
 std::string seriesLabel(const DicomSeries& s) {
   return fmt::format("series {}", s.uid);
+}
+
+// Whether two PixelSpacing values are the same to the precision DICOM writes them with.
+bool sameSpacing(const std::array<double, 2>& a, const std::array<double, 2>& b) {
+  for (std::size_t i = 0; i < 2; ++i) {
+    if (std::abs(a[i] - b[i]) > 1e-4 * std::max(std::abs(a[i]), std::abs(b[i]))) return false;
+  }
+  return true;
+}
+
+// What is wrong with an image's pixel description, or empty: the pixel reader masks and shifts by
+// BitsStored, so it must be 1..BitsAllocated with HighBit one below it.
+std::string pixelModuleProblem(std::uint16_t bitsAllocated, std::uint16_t bitsStored, std::uint16_t highBit,
+                               std::uint16_t samplesPerPixel) {
+  if (bitsAllocated == 0) return "BitsAllocated is 0";
+  if (bitsStored == 0) return "BitsStored is 0";
+  if (bitsStored > bitsAllocated) {
+    return fmt::format("BitsStored {} is more than BitsAllocated {}", bitsStored, bitsAllocated);
+  }
+  if (highBit + 1 != bitsStored) {
+    return fmt::format("HighBit {} does not match BitsStored {} (it must be {})", highBit, bitsStored, bitsStored - 1);
+  }
+  if (samplesPerPixel == 0) return "SamplesPerPixel is 0";
+  return {};
 }
 
 }  // namespace
@@ -331,13 +535,20 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
   std::vector<DicomSeries> series;
   std::map<std::string, std::vector<std::string>> filesOfSeries;
   for (const std::string& path : files) {
+    // Files a DICOMDIR lists may be missing, or be FIFOs and devices (which would block or never end).
+    if (std::error_code ec; !fs::is_regular_file(path, ec)) {
+      const bool exists = fs::exists(path, ec);
+      const std::string msg = exists ? fmt::format("{}: not a regular file (FIFOs and devices are not read)", path)
+                                     : fmt::format("{}: cannot open: {}", path, std::strerror(ENOENT));
+      if (!options.skipBad) throw Error(msg);
+      scan.warnings.push_back(msg + " (skipped)");
+      continue;
+    }
     if (fs::path(path).filename() == "DICOMDIR" || !looksLikeDicom(path)) {
       ++scan.skipped;
       continue;
     }
-    if (nestsDeeperThan(path, limits::kMaxDicomSequenceDepth)) {
-      const std::string msg =
-          fmt::format("{}: sequences nest deeper than the limit of {} levels", path, limits::kMaxDicomSequenceDepth);
+    if (const std::string msg = nestingProblem(path); !msg.empty()) {
       if (!options.skipBad) throw Error(msg);
       scan.warnings.push_back(msg + " (skipped)");
       continue;
@@ -367,11 +578,19 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
     s.columns = getU16(ds, DCM_Columns);
     s.bitsAllocated = getU16(ds, DCM_BitsAllocated, 16);
     s.bitsStored = getU16(ds, DCM_BitsStored, s.bitsAllocated);
+    s.highBit = getU16(ds, DCM_HighBit, static_cast<std::uint16_t>(std::max(1, int{s.bitsStored}) - 1));
     s.pixelRepresentation = getU16(ds, DCM_PixelRepresentation);
     s.samplesPerPixel = getU16(ds, DCM_SamplesPerPixel, 1);
     s.planarConfiguration = getU16(ds, DCM_PlanarConfiguration);
     s.photometric = getString(ds, DCM_PhotometricInterpretation);
     if (double tilt = 0; getDoubles(ds, DCM_GantryDetectorTilt, &tilt, 1)) s.gantryTilt = tilt;
+    if (const std::string problem = pixelModuleProblem(s.bitsAllocated, s.bitsStored, s.highBit, s.samplesPerPixel);
+        !problem.empty()) {
+      const std::string msg = fmt::format("{}: {}", path, problem);
+      if (!options.skipBad) throw Error(msg);
+      scan.warnings.push_back(msg + " (skipped)");
+      continue;
+    }
     Sint32 frames = 1;
     if (ds->findAndGetSint32(DCM_NumberOfFrames, frames).bad() || frames < 1) frames = 1;
     {
@@ -402,31 +621,30 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
     for (Sint32 f = 0; f < frames; ++f) {
       DcmItem* perFrame = nullptr;
       if (s.multiFrame) ds->findAndGetSequenceItem(DCM_PerFrameFunctionalGroupsSequence, perFrame, f);
-      const FrameGeometry g = frameGeometry(s.multiFrame ? nullptr : ds, perFrame, shared);
-      // Non-finite geometry would sort, space and place slices nowhere (and never end a gap walk).
-      const bool finitePosition =
-          !g.position || std::all_of(g.position->begin(), g.position->end(), [](double x) { return std::isfinite(x); });
-      const bool finiteOrientation = !g.orientation || std::all_of(g.orientation->begin(), g.orientation->end(),
-                                                                   [](double x) { return std::isfinite(x); });
-      if (!finitePosition || !finiteOrientation) {
-        throw Error(fmt::format("{}: {} is not finite", path,
-                                finitePosition ? "ImageOrientationPatient" : "ImagePositionPatient"));
-      }
+      // Non-finite geometry would sort, space and place slices nowhere (and never end a gap walk):
+      // frameGeometry refuses it, with text, zero spacing and degenerate orientations.
+      const FrameGeometry g = frameGeometry(s.multiFrame ? nullptr : ds, perFrame, shared, path);
       const std::string stack = getString(subItem(perFrame, DCM_FrameContentSequence), DCM_StackID);
       auto [entry, first] = stacks.try_emplace(stack, s);
       DicomSeries& into = entry->second;
       if (first) {
         if (g.orientation) into.orientation = *g.orientation;
         if (g.spacing) into.pixelSpacing = *g.spacing;
-      } else if (g.orientation) {
-        for (int k = 0; k < 6; ++k) {
-          if (std::abs((*g.orientation)[static_cast<std::size_t>(k)] - into.orientation[static_cast<std::size_t>(k)]) >
-              1e-4) {
-            throw Error(
-                fmt::format("{}: frames of one stack have different orientations; "
-                            "choose a single-orientation export of this series",
-                            path));
+      } else {
+        if (g.orientation) {
+          for (int k = 0; k < 6; ++k) {
+            if (std::abs((*g.orientation)[static_cast<std::size_t>(k)] -
+                         into.orientation[static_cast<std::size_t>(k)]) > 1e-4) {
+              throw Error(
+                  fmt::format("{}: frames of one stack have different orientations; "
+                              "choose a single-orientation export of this series",
+                              path));
+            }
           }
+        }
+        if (g.spacing && !sameSpacing(*g.spacing, into.pixelSpacing)) {
+          throw Error(fmt::format("{}: frame {} has PixelSpacing {:g}\\{:g} but frame 1 has {:g}\\{:g}", path, f + 1,
+                                  (*g.spacing)[0], (*g.spacing)[1], into.pixelSpacing[0], into.pixelSpacing[1]));
         }
       }
       DicomSlice slice;
@@ -467,14 +685,24 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
                         seriesLabel(into), path, first));
       }
     }
-    if (s.samplesPerPixel != into.samplesPerPixel) {
-      throw Error(fmt::format("{}: {} has {} samples per pixel but {} has {} (mixed pixel types in one series)",
-                              seriesLabel(into), path, s.samplesPerPixel, first, into.samplesPerPixel));
-    }
-    if (s.bitsAllocated != into.bitsAllocated || s.bitsStored != into.bitsStored ||
-        s.pixelRepresentation != into.pixelRepresentation || s.photometric != into.photometric) {
-      into.warnings.push_back(
-          fmt::format("{} and {} differ in pixel type; each is converted by its own header", path, first));
+    // Every image must agree with the first, so all agree with each other: the volume has one
+    // pixel type and one in-plane spacing.
+    auto differs = [&](const char* what, const auto& mine, const auto& theirs) {
+      if (mine == theirs) return;
+      throw Error(fmt::format("{}: {} has {} {} but {} has {} (mixed pixel types in one series)", seriesLabel(into),
+                              path, what, mine, first, theirs));
+    };
+    differs("SamplesPerPixel", s.samplesPerPixel, into.samplesPerPixel);
+    differs("BitsAllocated", s.bitsAllocated, into.bitsAllocated);
+    differs("BitsStored", s.bitsStored, into.bitsStored);
+    differs("HighBit", s.highBit, into.highBit);
+    differs("PixelRepresentation", s.pixelRepresentation, into.pixelRepresentation);
+    differs("PhotometricInterpretation", s.photometric.empty() ? std::string("(none)") : s.photometric,
+            into.photometric.empty() ? std::string("(none)") : into.photometric);
+    if (!sameSpacing(s.pixelSpacing, into.pixelSpacing)) {
+      throw Error(fmt::format("{}: {} has PixelSpacing {:g}\\{:g} but {} has {:g}\\{:g} (mixed spacings in one series)",
+                              seriesLabel(into), path, s.pixelSpacing[0], s.pixelSpacing[1], first,
+                              into.pixelSpacing[0], into.pixelSpacing[1]));
     }
     into.slices.insert(into.slices.end(), s.slices.begin(), s.slices.end());
   }
@@ -486,6 +714,19 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
     const Vec3 normal = cross(row, col);
     const bool positioned =
         std::all_of(s.slices.begin(), s.slices.end(), [](const DicomSlice& d) { return d.position.has_value(); });
+    if (!positioned) {
+      // Some slices placed and some not cannot be sorted or spaced: neither order is right.
+      const auto with = std::find_if(s.slices.begin(), s.slices.end(), [](const DicomSlice& d) { return d.position; });
+      if (with != s.slices.end()) {
+        const auto without =
+            std::find_if(s.slices.begin(), s.slices.end(), [](const DicomSlice& d) { return !d.position; });
+        const auto frameOf = [&](const DicomSlice& d) {
+          return s.multiFrame ? fmt::format(" frame {}", d.frame + 1) : std::string();
+        };
+        throw Error(fmt::format("{}: {}{} has no ImagePositionPatient, but {}{} has one", seriesLabel(s), without->path,
+                                frameOf(*without), with->path, frameOf(*with)));
+      }
+    }
     auto key = [&](const DicomSlice& d) {
       return positioned ? dot(*d.position, normal) : static_cast<double>(d.instanceNumber);
     };
@@ -763,12 +1004,26 @@ class DicomSource final : public SliceSource {
         throw Error(fmt::format("{}: colour images ({}, {} samples per pixel); choose a channel with --channel 0..{}",
                                 first, series.photometric, series.samplesPerPixel, series.samplesPerPixel - 1));
       }
-      if (options.channel >= series.samplesPerPixel) {
-        throw Error(fmt::format("--channel: {} has {} samples per pixel", first, series.samplesPerPixel));
-      }
+    }
+    // Also for grey images: a channel past the samples would index past every pixel's.
+    if (options.channel >= series.samplesPerPixel) {
+      throw Error(fmt::format("--channel: {} has {} sample{} per pixel", first, series.samplesPerPixel,
+                              series.samplesPerPixel == 1 ? "" : "s"));
     }
     if (series.bitsAllocated != 8 && series.bitsAllocated != 16 && series.bitsAllocated != 32) {
       throw Error(fmt::format("{}: BitsAllocated {} is not supported (8, 16 or 32)", first, series.bitsAllocated));
+    }
+    if (const std::string problem =
+            pixelModuleProblem(series.bitsAllocated, series.bitsStored, series.highBit, series.samplesPerPixel);
+        !problem.empty()) {
+      throw Error(fmt::format("{}: {}", first, problem));
+    }
+    // Positions are used for every slice or for none (the scan refuses a series that mixes them).
+    for (const DicomSlice& s : series.slices) {
+      if (s.position.has_value() != series.slices.front().position.has_value()) {
+        throw Error(fmt::format("{}: ImagePositionPatient is {}, but {} {}", s.path, s.position ? "present" : "missing",
+                                first, s.position ? "lacks it" : "has it"));
+      }
     }
     const auto& o = series.orientation;
     const Vec3 row{o[0], o[1], o[2]};
@@ -776,6 +1031,7 @@ class DicomSource final : public SliceSource {
     const Vec3 normal = cross(row, col);
     VolumeInfo& info = info_;
     info.dims = {series.columns, series.rows, static_cast<std::int64_t>(series.slices.size())};
+    validateDims(info.dims, first);  // a 1-pixel-wide image has no cell, as in every other reader
     info.reader = "dicom";
     info.source = first;
     info.frame = "lps";
@@ -832,6 +1088,20 @@ class DicomSource final : public SliceSource {
     const std::uint16_t bitsStored = getU16(ds, DCM_BitsStored, bitsAllocated);
     const bool sign = getU16(ds, DCM_PixelRepresentation) == 1;
     const std::uint16_t spp = getU16(ds, DCM_SamplesPerPixel, 1);
+    const std::uint16_t highBit = getU16(ds, DCM_HighBit, static_cast<std::uint16_t>(std::max(1, int{bitsStored}) - 1));
+    // The masks and shifts below take BitsStored as it is: check it first (the file may also have
+    // changed since the scan).
+    if (const std::string problem = pixelModuleProblem(bitsAllocated, bitsStored, highBit, spp); !problem.empty()) {
+      throw Error(fmt::format("{}: {}", slice.path, problem));
+    }
+    if (bitsAllocated != series_.bitsAllocated || bitsStored != series_.bitsStored || spp != series_.samplesPerPixel ||
+        sign != (series_.pixelRepresentation == 1)) {
+      throw Error(
+          fmt::format("{}: BitsAllocated {}, BitsStored {}, PixelRepresentation {} and SamplesPerPixel {} "
+                      "differ from the series' {}, {}, {} and {}",
+                      slice.path, bitsAllocated, bitsStored, sign ? 1 : 0, spp, series_.bitsAllocated,
+                      series_.bitsStored, series_.pixelRepresentation, series_.samplesPerPixel));
+    }
     const bool planar = getU16(ds, DCM_PlanarConfiguration) == 1;
     const bool mono1 = getString(ds, DCM_PhotometricInterpretation) == "MONOCHROME1";
     const std::size_t pixels = static_cast<std::size_t>(rows) * columns;

@@ -54,6 +54,7 @@ struct DicomSeries {
   std::uint16_t columns = 0;
   std::uint16_t bitsAllocated = 0;
   std::uint16_t bitsStored = 0;
+  std::uint16_t highBit = 0;
   std::uint16_t pixelRepresentation = 0;  // 1: signed
   std::uint16_t samplesPerPixel = 1;
   std::uint16_t planarConfiguration = 0;

@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <system_error>
 
 #include "core/error.h"
@@ -87,6 +89,52 @@ std::string formatPattern(const std::string& pattern, long index) {
   return fmt::sprintf(pattern, index);
 }
 
+namespace {
+
+// The smallest index above `after` whose name exists in the pattern's folder, found by listing the
+// folder (not by probing index after index). Empty when none does, or when the conversion is in
+// the folder part of the pattern.
+std::optional<long> nextPatternIndex(const std::string& pattern, long after) {
+  const fs::path p(pattern);
+  const std::string name = p.filename().string();
+  if (!isSlicePattern(name)) return std::nullopt;
+  std::size_t percent = 0;
+  while (percent < name.size() && (name[percent] != '%' || (percent + 1 < name.size() && name[percent + 1] == '%'))) {
+    percent += name[percent] == '%' ? 2 : 1;
+  }
+  if (percent >= name.size()) return std::nullopt;
+  std::size_t conversion = percent + 1;
+  while (conversion < name.size() && std::string_view("diu").find(name[conversion]) == std::string_view::npos) {
+    ++conversion;
+  }
+  const std::string prefix = fmt::sprintf(name.substr(0, percent));  // "%%" becomes "%"
+  const std::string suffix = fmt::sprintf(name.substr(conversion + 1));
+  const std::string folder = p.parent_path().empty() ? std::string(".") : p.parent_path().string();
+  std::error_code ec;
+  std::optional<long> best;
+  for (fs::directory_iterator it(folder, ec), stop; !ec && it != stop; it.increment(ec)) {
+    const std::string n = it->path().filename().string();
+    if (n.size() <= prefix.size() + suffix.size() || n.compare(0, prefix.size(), prefix) != 0 ||
+        n.compare(n.size() - suffix.size(), suffix.size(), suffix) != 0) {
+      continue;
+    }
+    const std::string digits = n.substr(prefix.size(), n.size() - prefix.size() - suffix.size());
+    if (digits.size() > 18 || !std::all_of(digits.begin(), digits.end(), [](char c) {
+          return std::isdigit(static_cast<unsigned char>(c)) != 0 || c == '-' || c == '+' || c == ' ';
+        })) {
+      continue;
+    }
+    char* stop2 = nullptr;
+    const long index = std::strtol(digits.c_str(), &stop2, 10);
+    if (stop2 != digits.c_str() + digits.size() || index <= after || (best && index >= *best)) continue;
+    // The name must be the one the pattern gives for that index (not another width of zeros).
+    if (formatPattern(name, index) == n && fs::is_regular_file(it->path(), ec)) best = index;
+  }
+  return best;
+}
+
+}  // namespace
+
 std::vector<std::string> expandPattern(const std::string& pattern) {
   std::vector<std::string> paths;
   std::error_code ec;
@@ -100,14 +148,21 @@ std::vector<std::string> expandPattern(const std::string& pattern) {
   if (first < 0) {
     throw Error(fmt::format("{}: the pattern matches no file (tried indices 0 and 1)", pattern));
   }
-  for (long i = first;; ++i) {
-    std::string p = formatPattern(pattern, i);
+  long end = first;
+  for (;; ++end) {
+    std::string p = formatPattern(pattern, end);
     if (!fs::is_regular_file(p, ec)) {
       if (fs::exists(p, ec))
         throw Error(fmt::format("{}: not a regular file (FIFOs, devices and folders are not read)", p));
       break;
     }
     paths.push_back(std::move(p));
+  }
+  // The first missing index ends the slices, unless a later index has a file: then a slice is
+  // missing in the middle, and stopping there would silently drop the rest.
+  if (const auto later = nextPatternIndex(pattern, end)) {
+    throw Error(fmt::format("{}: missing, but {} follows it: the pattern's slices have a gap",
+                            formatPattern(pattern, end), formatPattern(pattern, *later)));
   }
   return paths;
 }

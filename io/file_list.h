@@ -20,7 +20,8 @@ std::vector<std::string> listFolder(const std::string& folder);
 bool isSlicePattern(std::string_view pattern) noexcept;
 
 /// Expands a printf pattern to the files that exist for consecutive indices, starting at the
-/// first of 0 and 1 that exists. Throws isoslab::Error if none does.
+/// first of 0 and 1 that exists. Throws isoslab::Error if none does, or if a file for a later
+/// index exists after the first missing one (a gap, naming the missing file).
 std::vector<std::string> expandPattern(const std::string& pattern);
 
 /// The pattern with `index` substituted.

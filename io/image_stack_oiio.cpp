@@ -7,25 +7,140 @@
 #include <fnmatch.h>
 
 #include <OpenImageIO/imageio.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <mutex>
 
 #include "core/error.h"
 #include "io/file_list.h"
+#include "core/limits.h"
 
 namespace fs = std::filesystem;
 
 namespace isoslab {
 namespace {
 
-std::string oiioError(const std::string& fallback) {
-  std::string e = OIIO::geterror();
-  if (e.empty()) return fallback;
-  std::replace(e.begin(), e.end(), '\n', ' ');
-  while (!e.empty() && e.back() == ' ') e.pop_back();
-  return e;
+// Libraries under OpenImageIO (libpng above all) print their own diagnostics on stderr, and
+// OpenImageIO's messages run over several lines. Both go into isoslab's one-line error instead:
+// stderr (fd 2) is captured while an OpenImageIO call runs, and the lines are joined.
+class StderrCapture {
+ public:
+  StderrCapture() {
+    std::fflush(stderr);
+    file_ = ::memfd_create("isoslab-stderr", MFD_CLOEXEC);
+    if (file_ < 0) return;
+    saved_ = ::dup(2);
+    if (saved_ < 0 || ::dup2(file_, 2) < 0) {
+      restore();
+      return;
+    }
+  }
+  StderrCapture(const StderrCapture&) = delete;
+  StderrCapture& operator=(const StderrCapture&) = delete;
+  ~StderrCapture() { finish(); }
+
+  // Restores stderr and returns what was written to it meanwhile. isoslab's own lines (another
+  // thread's progress or warnings) are passed on to the real stderr.
+  std::string finish() {
+    if (file_ < 0) return {};
+    std::fflush(stderr);
+    std::string text;
+    if (saved_ >= 0) {
+      ::dup2(saved_, 2);
+      if (::lseek(file_, 0, SEEK_SET) == 0) {
+        char buffer[4096];
+        for (ssize_t n; text.size() < 65536 && (n = ::read(file_, buffer, sizeof buffer)) > 0;) {
+          text.append(buffer, static_cast<std::size_t>(n));
+        }
+      }
+    }
+    restore();
+    std::string library;
+    std::size_t start = 0;
+    while (start < text.size()) {
+      std::size_t end = text.find('\n', start);
+      if (end == std::string::npos) end = text.size();
+      const std::string line = text.substr(start, end - start + (end < text.size() ? 1 : 0));
+      if (line.find("isoslab") != std::string::npos) {
+        std::fputs(line.c_str(), stderr);
+      } else {
+        library += line;
+      }
+      start = end + 1;
+    }
+    return library;
+  }
+
+ private:
+  void restore() {
+    if (saved_ >= 0) ::close(saved_);
+    if (file_ >= 0) ::close(file_);
+    saved_ = file_ = -1;
+  }
+  int file_ = -1;
+  int saved_ = -1;
+};
+
+// One capture at a time: fd 2 is process-wide.
+std::mutex& captureMutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
+// Runs one OpenImageIO call with stderr captured; *noise gets what the libraries printed.
+template <typename F>
+auto quietly(std::string* noise, F&& call) {
+  std::lock_guard lock(captureMutex());
+  StderrCapture capture;
+  auto result = call();
+  *noise += capture.finish();
+  return result;
+}
+
+// One line from OpenImageIO's messages and the libraries' stderr: lines trimmed, the libraries'
+// "libpng error: " prefixes dropped, and a line dropped when another holds it.
+std::string oneLine(const std::string& text, const std::string& fallback) {
+  std::vector<std::string> lines;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(start, end - start);
+    for (const char* prefix : {"libpng error: ", "libpng warning: "}) {
+      if (line.rfind(prefix, 0) == 0) line = line.substr(std::strlen(prefix));
+    }
+    while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
+    while (!line.empty() && std::isspace(static_cast<unsigned char>(line.front()))) line.erase(0, 1);
+    if (!line.empty()) lines.push_back(line);
+    start = end + 1;
+  }
+  std::string out;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    bool held = false;
+    for (std::size_t j = 0; j < lines.size() && !held; ++j) {
+      held = j != i && lines[j].find(lines[i]) != std::string::npos && (lines[j] != lines[i] || j < i);
+    }
+    if (held) continue;
+    if (!out.empty()) out += "; ";
+    out += lines[i];
+  }
+  if (out.empty()) return fallback;
+  if (out.size() > 400) out = out.substr(0, 400) + "...";
+  return out;
+}
+
+std::string oiioError(const std::string& objectError, const std::string& noise, const std::string& fallback) {
+  return oneLine(objectError + "\n" + OIIO::geterror() + "\n" + noise, fallback);
+}
+
+std::string baseTypeName(OIIO::TypeDesc t) {
+  return OIIO::TypeDesc(static_cast<OIIO::TypeDesc::BASETYPE>(t.basetype)).c_str();
 }
 
 std::optional<VoxelType> voxelTypeOf(OIIO::TypeDesc t) {
@@ -63,14 +178,41 @@ class ImageStackSource final : public SliceSource {
       : options_(options) {
     std::optional<std::array<double, 2>> resolution;
     for (const std::string& path : files) {
-      auto in = OIIO::ImageInput::open(path);
-      if (!in) throw Error(fmt::format("{}: cannot read the image: {}", path, oiioError("unknown format")));
-      for (int sub = 0; in->seek_subimage(sub, 0); ++sub) {
+      std::string noise;
+      auto in = quietly(&noise, [&] { return OIIO::ImageInput::open(path); });
+      if (!in) throw Error(fmt::format("{}: cannot read the image: {}", path, oiioError("", noise, "unknown format")));
+      for (int sub = 0;; ++sub) {
+        if (!quietly(&noise, [&] { return in->seek_subimage(sub, 0); })) {
+          // Past the last page OpenImageIO 2.4's TIFF reader leaves libtiff's message (which varies:
+          // the file's name, or "Out of memory"), so only the first page's failure is an error; a
+          // page whose pixels are cut short fails when it is read.
+          const std::string e = in->geterror();
+          if (sub > 0) break;
+          throw Error(fmt::format("{}: cannot read the image: {}", path, oiioError(e, noise, "unknown error")));
+        }
         const OIIO::ImageSpec& spec = in->spec();
+        const std::string page = sub > 0 ? fmt::format("{} page {}", path, sub + 1) : path;
+        const int bits = spec.get_int_attribute("oiio:BitsPerSample", static_cast<int>(spec.format.size() * 8));
         if (pages_.empty()) {
+          // The header's counts, before anything is allocated; a slice needs 2x2 pixels for a cell.
+          if (spec.width < 2 || spec.height < 2) {
+            throw Error(fmt::format("{}: the image is {}x{} pixels; every axis needs at least 2 points", page,
+                                    spec.width, spec.height));
+          }
+          if (std::int64_t{spec.width} * spec.height > limits::kMaxSliceVoxels) {
+            throw Error(fmt::format("{}: the image is {}x{} pixels; a slice of {} points exceeds the limit of {}", page,
+                                    spec.width, spec.height, std::int64_t{spec.width} * spec.height,
+                                    limits::kMaxSliceVoxels));
+          }
+          if (spec.nchannels < 1 || spec.nchannels > limits::kMaxComponents) {
+            throw Error(
+                fmt::format("{}: {} channels; the limit is 1 to {}", page, spec.nchannels, limits::kMaxComponents));
+          }
           width_ = spec.width;
           height_ = spec.height;
           channels_ = spec.nchannels;
+          stored_ = spec.format;
+          bits_ = bits;
           format_ = spec.format.basetype == OIIO::TypeDesc::HALF ? OIIO::TypeDesc(OIIO::TypeDesc::FLOAT) : spec.format;
           const auto type = voxelTypeOf(format_);
           if (!type) throw Error(fmt::format("{}: pixel type {} is not supported", path, spec.format.c_str()));
@@ -78,11 +220,18 @@ class ImageStackSource final : public SliceSource {
           firstPath_ = path;
           resolution = resolutionOf(spec);
         } else if (spec.width != width_ || spec.height != height_ || spec.nchannels != channels_) {
-          throw Error(fmt::format("{}: {}x{} with {} channels, but {} is {}x{} with {} channels",
-                                  sub > 0 ? fmt::format("{} page {}", path, sub + 1) : path, spec.width, spec.height,
-                                  spec.nchannels, firstPath_, width_, height_, channels_));
+          throw Error(fmt::format("{}: {}x{} with {} channels, but {} is {}x{} with {} channels", page, spec.width,
+                                  spec.height, spec.nchannels, firstPath_, width_, height_, channels_));
+        } else if (spec.format.basetype != stored_.basetype || bits != bits_) {
+          // OpenImageIO would convert them to the first one's type, scaling the values.
+          throw Error(
+              fmt::format("{}: {}-bit samples ({}), but {} has {}-bit samples ({}); a stack needs one pixel type", page,
+                          bits, baseTypeName(spec.format), firstPath_, bits_, baseTypeName(stored_)));
         }
         pages_.push_back({path, sub});
+      }
+      if (const std::string e = in->geterror(); !e.empty()) {
+        throw Error(fmt::format("{}: cannot read the image: {}", path, oiioError(e, noise, "unknown error")));
       }
       in->close();
     }
@@ -90,6 +239,7 @@ class ImageStackSource final : public SliceSource {
       throw Error(fmt::format("{}: an image stack needs at least 2 slices, found {}", files.front(), pages_.size()));
     if (options.channel >= channels_) throw Error(fmt::format("--channel: {} has {} channels", firstPath_, channels_));
     info_.dims = {width_, height_, static_cast<std::int64_t>(pages_.size())};
+    validateDims(info_.dims, firstPath_);
     info_.reader = "image stack";
     info_.source = files.size() == 1 ? files.front() : fs::path(files.front()).parent_path().string();
     std::string spacingNote;
@@ -109,8 +259,13 @@ class ImageStackSource final : public SliceSource {
     }
     const auto samples =
         static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * static_cast<std::size_t>(channels_);
-    buffer_.resize(samples * format_.size());
-    samples_.resize(samples);
+    try {
+      buffer_.resize(samples * format_.size());
+      samples_.resize(samples);
+    } catch (const std::bad_alloc&) {
+      throw Error(fmt::format("{}: out of memory for a slice of {}x{} pixels with {} channels", firstPath_, width_,
+                              height_, channels_));
+    }
   }
 
   const VolumeInfo& info() const noexcept override { return info_; }
@@ -118,13 +273,24 @@ class ImageStackSource final : public SliceSource {
   bool readSlice(std::span<float> out) override {
     if (next_ >= pages_.size()) return false;
     const Page& page = pages_[next_++];
+    std::string noise;
     if (!in_ || openPath_ != page.path) {
-      in_ = OIIO::ImageInput::open(page.path);
-      if (!in_) throw Error(fmt::format("{}: cannot read the image: {}", page.path, oiioError("unknown format")));
+      in_.reset();
+      openPath_.clear();
+      in_ = quietly(&noise, [&] { return OIIO::ImageInput::open(page.path); });
+      if (!in_) {
+        throw Error(fmt::format("{}: cannot read the image: {}", page.path, oiioError("", noise, "unknown format")));
+      }
       openPath_ = page.path;
     }
-    if (!in_->read_image(page.subimage, 0, 0, channels_, format_, buffer_.data())) {
-      throw Error(fmt::format("{}: cannot read the pixels: {}", page.path, oiioError(in_->geterror())));
+    const bool read =
+        quietly(&noise, [&] { return in_->read_image(page.subimage, 0, 0, channels_, format_, buffer_.data()); });
+    // A truncated TIFF reads "successfully", with the missing strips left as they were, but leaves
+    // its errors behind: any message at all means the pixels are not all there.
+    if (const std::string e = in_->geterror(); !read || !e.empty()) {
+      in_.reset();
+      openPath_.clear();
+      throw Error(fmt::format("{}: cannot read the pixels: {}", page.path, oiioError(e, noise, "unknown error")));
     }
     const std::size_t n = samples_.size();
     convertToFloat(std::span<const std::byte>(buffer_.data(), buffer_.size()), info_.type, hostByteOrder(), samples_);
@@ -165,6 +331,8 @@ class ImageStackSource final : public SliceSource {
   std::vector<Page> pages_;
   int width_ = 0, height_ = 0, channels_ = 0;
   OIIO::TypeDesc format_;
+  OIIO::TypeDesc stored_;  // the first page's sample type, as stored
+  int bits_ = 0;           // and its bits per sample
   std::string firstPath_;
   std::vector<std::byte> buffer_;
   std::vector<float> samples_;
@@ -183,8 +351,12 @@ extern "C" __attribute__((visibility("default"))) isoslab::SliceSource* isoslab_
     std::string* error) {
   try {
     return new isoslab::ImageStackSource(*files, *options, notes);
-  } catch (const std::exception& e) {
+  } catch (const isoslab::Error& e) {
     *error = e.what();
-    return nullptr;
+  } catch (const std::bad_alloc&) {
+    *error = files->front() + ": out of memory while opening the image stack";
+  } catch (const std::exception& e) {
+    *error = files->front() + ": cannot read the image stack: " + e.what();
   }
+  return nullptr;
 }

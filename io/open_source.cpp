@@ -21,8 +21,10 @@ std::unique_ptr<SliceSource> openSource(const std::string& input, const SourceOp
   return openSource(std::vector<std::string>{input}, options, notes);
 }
 
-std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, const SourceOptions& options,
-                                        std::vector<std::string>* notes) {
+namespace {
+
+std::unique_ptr<SliceSource> openUnchecked(const std::vector<std::string>& inputs, const SourceOptions& options,
+                                           std::vector<std::string>* notes) {
   if (inputs.empty()) throw Error("no input given");
   const std::string& input = inputs.front();
   // A FIFO, a device or a socket would be read without end (/dev/zero) or block forever.
@@ -76,6 +78,17 @@ std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, 
     return openDicomSeries(series, options.dicom);
   }
   throw Error(fmt::format("{}: unrecognised input format; for raw data give --raw-dims X,Y[,Z] and --raw-type", input));
+}
+
+}  // namespace
+
+std::unique_ptr<SliceSource> openSource(const std::vector<std::string>& inputs, const SourceOptions& options,
+                                        std::vector<std::string>* notes) {
+  auto source = openUnchecked(inputs, options, notes);
+  // One geometry check for every reader: NaN, zero or degenerate geometry never reaches a mesh.
+  const VolumeInfo& info = source->info();
+  validateGeometry(info, info.source.empty() ? inputs.front() : info.source);
+  return source;
 }
 
 }  // namespace isoslab

@@ -45,4 +45,11 @@ class SliceSource {
   virtual std::vector<std::string> warnings() { return {}; }
 };
 
+/// Checks a volume's geometry, whatever read it: every spacing finite and positive, the origin and
+/// every slice origin finite, the direction's entries finite, no column zero, and the columns
+/// neither collinear nor nearly coplanar (a flat or NaN mesh would follow). Throws
+/// isoslab::Error "WHAT: FIELD ..." naming the field otherwise. openSource() applies it to every
+/// source it opens.
+void validateGeometry(const VolumeInfo& info, const std::string& what);
+
 }  // namespace isoslab

@@ -10,6 +10,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/limits.h"
 
 namespace fs = std::filesystem;
 
@@ -25,13 +26,11 @@ class ByteStream {
     if (std::fseek(file_, static_cast<long>(offset), SEEK_SET) != 0) {
       throw Error(fmt::format("{}: cannot seek to byte {}: {}", path, offset, std::strerror(errno)));
     }
-    inflating_ = compression == Compression::kDeflate;
-    if (compression == Compression::kAutoGzip) {
-      unsigned char magic[2] = {0, 0};
-      const std::size_t n = std::fread(magic, 1, 2, file_);
-      inflating_ = n == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
-      std::fseek(file_, static_cast<long>(offset), SEEK_SET);
-    }
+    unsigned char magic[2] = {0, 0};
+    const bool gzip = std::fread(magic, 1, 2, file_) == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
+    std::fseek(file_, static_cast<long>(offset), SEEK_SET);
+    inflating_ = compression == Compression::kDeflate || (compression == Compression::kAutoGzip && gzip);
+    kind_ = gzip ? "gzip" : "zlib";
     if (inflating_) {
       std::memset(&z_, 0, sizeof z_);
       if (inflateInit2(&z_, 15 + 32) != Z_OK) throw Error(fmt::format("{}: cannot start inflating", path));
@@ -74,10 +73,7 @@ class ByteStream {
         z_.next_out = out + got;
         z_.avail_out = static_cast<uInt>(std::min<std::int64_t>(want, 1 << 30));
         const int status = inflate(&z_, Z_NO_FLUSH);
-        if (status != Z_OK && status != Z_STREAM_END && status != Z_BUF_ERROR) {
-          throw Error(
-              fmt::format("{}: corrupt compressed data: {}", path_, z_.msg != nullptr ? z_.msg : "inflate failed"));
-        }
+        if (status != Z_OK && status != Z_STREAM_END && status != Z_BUF_ERROR) corrupt_();
         r = static_cast<std::int64_t>(z_.next_out - (out + got));
         if (status == Z_STREAM_END) ended_ = true;
       }
@@ -86,23 +82,28 @@ class ByteStream {
     position_ += n;
   }
 
-  /// Reads a compressed stream to its end and returns how many inflated bytes were left. Only
-  /// counts: a corrupt or truncated end stops it quietly.
-  std::int64_t countRest() {
+  /// Reads a compressed stream to its end, where zlib checks the gzip CRC-32 and length (or the
+  /// zlib Adler-32), and returns how many inflated bytes were left over. A corrupt, truncated or
+  /// unterminated stream is an error: the bytes read so far cannot be trusted either.
+  std::int64_t finish() {
     std::vector<unsigned char> scratch(1 << 16);
     std::int64_t rest = 0;
     while (inflating_ && !ended_) {
       if (z_.avail_in == 0) {
         z_.avail_in = static_cast<uInt>(std::fread(input_.data(), 1, input_.size(), file_));
         z_.next_in = input_.data();
-        if (z_.avail_in == 0) break;
+        if (z_.avail_in == 0) {
+          if (std::ferror(file_)) throw Error(fmt::format("{}: cannot read: {}", path_, std::strerror(errno)));
+          throw Error(fmt::format("{}: corrupt {} data: the stream is truncated (its end and checksum are missing)",
+                                  path_, kind_));
+        }
       }
       z_.next_out = scratch.data();
       z_.avail_out = static_cast<uInt>(scratch.size());
       const int status = inflate(&z_, Z_NO_FLUSH);
       rest += static_cast<std::int64_t>(scratch.size() - z_.avail_out);
       if (status == Z_STREAM_END) ended_ = true;
-      if (status != Z_OK && status != Z_STREAM_END && !(status == Z_BUF_ERROR && z_.avail_in == 0)) break;
+      if (status != Z_OK && status != Z_STREAM_END && status != Z_BUF_ERROR) corrupt_();
     }
     return rest;
   }
@@ -117,12 +118,17 @@ class ByteStream {
   }
 
  private:
+  [[noreturn]] void corrupt_() const {
+    throw Error(fmt::format("{}: corrupt {} data: {}", path_, kind_, z_.msg != nullptr ? z_.msg : "inflate failed"));
+  }
+
   [[noreturn]] void short_(std::int64_t got, std::int64_t expected) {
     throw Error(fmt::format("{}: data ends after {} of {} bytes", path_, position_ + got, expected));
   }
 
   std::string path_;
   std::FILE* file_ = nullptr;
+  const char* kind_ = "gzip";
   bool inflating_ = false;
   bool ended_ = false;
   z_stream z_{};
@@ -181,13 +187,31 @@ class VolumeFileSource final : public SliceSource {
   VolumeFileSource(const VolumeInfo& info, const VolumeFileLayout& layout) : info_(info), layout_(layout) {
     validateDims(info_.dims, layout.files.empty() ? info_.source : layout.files.front());
     if (layout.files.empty()) throw Error(fmt::format("{}: no data file", info_.source));
+    validateGeometry(info_, info_.source.empty() ? layout.files.front() : info_.source);
+    if (layout.fileOffset < 0 || layout.skipBytes < 0) {
+      throw Error(fmt::format("{}: the data starts at a negative offset ({} + {})", layout.files.front(),
+                              layout.fileOffset, layout.skipBytes));
+    }
     if (layout.perSlice && static_cast<std::int64_t>(layout.files.size()) < info_.dims[2]) {
       throw Error(fmt::format("{}: dims {} need {} slice files but only {} exist", info_.source, dimsText(info_.dims),
                               info_.dims[2], layout.files.size()));
     }
     const auto voxel = static_cast<std::int64_t>(voxelSize(layout.type)) * layout.components;
-    sliceBytes_ = info_.dims[0] * info_.dims[1] * voxel;
-    const std::int64_t header = layout.fileOffset + layout.skipBytes;
+    sliceBytes_ = info_.dims[0] * info_.dims[1] * voxel;  // validateDims bounds it by 2^30 * 8 * 1024
+    if (sliceBytes_ > limits::kMaxSliceBytes) {
+      throw Error(fmt::format("{}: one {}x{} slice of {} components of {} takes {} bytes, over the limit of {}",
+                              layout.files.front(), info_.dims[0], info_.dims[1], layout.components,
+                              voxelTypeName(layout.type), sliceBytes_, limits::kMaxSliceBytes));
+    }
+    std::int64_t header = 0;
+    std::int64_t dataEnd = 0;  // the header and the data of one file
+    if (__builtin_add_overflow(layout.fileOffset, layout.skipBytes, &header) ||
+        __builtin_mul_overflow(sliceBytes_, layout.perSlice ? 1 : info_.dims[2], &dataEnd) ||
+        __builtin_add_overflow(dataEnd, header, &dataEnd)) {
+      throw Error(fmt::format("{}: a header of {} + {} bytes and dims {} of {} overflow any file size",
+                              layout.files.front(), layout.fileOffset, layout.skipBytes, dimsText(info_.dims),
+                              voxelTypeName(layout.type)));
+    }
     std::int64_t longFiles = 0;  // plain files with bytes left over
     std::string firstLong;
     std::int64_t firstLongSize = 0;
@@ -204,8 +228,7 @@ class VolumeFileSource final : public SliceSource {
         continue;  // checked as the stream is inflated
       }
       const auto size = static_cast<std::int64_t>(fs::file_size(path, ec));
-      const std::int64_t need =
-          layout.fileOffset + layout.skipBytes + (layout.perSlice ? sliceBytes_ : sliceBytes_ * info_.dims[2]);
+      const std::int64_t need = dataEnd;
       if (size < need) {
         throw Error(fmt::format("{}: holds {} bytes, but dims {} of {} after a {}-byte header need {}{}", path, size,
                                 dimsText(info_.dims), voxelTypeName(layout.type), layout.fileOffset + layout.skipBytes,
@@ -229,25 +252,19 @@ class VolumeFileSource final : public SliceSource {
           firstLongSize, firstLongSize - need, info_.dims[0], info_.dims[1], voxelTypeName(layout.type), headerText(),
           others, extraBytesHint(firstLongSize - header, info_.dims, layout.type, true)));
     }
-    bytes_.resize(static_cast<std::size_t>(sliceBytes_));
-    if (layout.components > 1)
-      component_.resize(
-          static_cast<std::size_t>(info_.sliceVoxels() * static_cast<std::int64_t>(voxelSize(layout.type))));
+    try {
+      bytes_.resize(static_cast<std::size_t>(sliceBytes_));
+      if (layout.components > 1)
+        component_.resize(
+            static_cast<std::size_t>(info_.sliceVoxels() * static_cast<std::int64_t>(voxelSize(layout.type))));
+    } catch (const std::exception&) {  // std::bad_alloc, std::length_error
+      throw Error(fmt::format("{}: out of memory for one slice of {} bytes", layout.files.front(), sliceBytes_));
+    }
   }
 
   const VolumeInfo& info() const noexcept override { return info_; }
 
-  std::vector<std::string> warnings() override {
-    // A compressed volume file: what is left once every slice has been read.
-    if (layout_.warnExtraBytes && !layout_.perSlice && !restCounted_ && next_ == info_.dims[2] && stream_ &&
-        stream_->inflating()) {
-      restCounted_ = true;
-      const std::int64_t rest = stream_->countRest();
-      const std::int64_t size = layout_.skipBytes + sliceBytes_ * info_.dims[2] + rest;
-      if (rest > 0) warnings_.push_back(extraBytesWarning(layout_.files.front(), size, true));
-    }
-    return warnings_;
-  }
+  std::vector<std::string> warnings() override { return warnings_; }
 
   bool readSlice(std::span<float> slice) override {
     if (next_ >= info_.dims[2]) return false;
@@ -259,6 +276,13 @@ class VolumeFileSource final : public SliceSource {
       if (layout_.skipBytes > 0) stream_->skip(layout_.skipBytes, expected);
     }
     stream_->read(bytes_.data(), sliceBytes_, expected);
+    // The last slice of a compressed stream: read it to its end, where zlib checks its CRC.
+    if (stream_->inflating() && (perSlice || next_ + 1 == info_.dims[2])) {
+      const std::int64_t rest = stream_->finish();
+      if (layout_.warnExtraBytes && !perSlice && rest > 0) {
+        warnings_.push_back(extraBytesWarning(layout_.files.front(), expected + rest, true));
+      }
+    }
     std::span<const std::byte> data(bytes_);
     if (layout_.components > 1) {
       const std::size_t size = voxelSize(layout_.type);
@@ -304,7 +328,6 @@ class VolumeFileSource final : public SliceSource {
   std::unique_ptr<ByteStream> stream_;
   std::int64_t next_ = 0;
   std::vector<std::string> warnings_;
-  bool restCounted_ = false;
 };
 
 }  // namespace

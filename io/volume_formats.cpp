@@ -60,6 +60,37 @@ std::vector<double> numbersIn(const std::string& path, const std::string& key, c
   return v;
 }
 
+// One whole number of a header field in [lo, hi]; "4.5", "1e30" or NaN are errors (a cast would
+// truncate them, or be undefined).
+std::int64_t wholeNumber(const std::string& path, const std::string& key, double v, std::int64_t lo, std::int64_t hi) {
+  if (!(v == std::floor(v))) throw Error(fmt::format("{}: {} value {} is not a whole number", path, key, v));
+  if (!(v >= static_cast<double>(lo) && v <= static_cast<double>(hi))) {
+    throw Error(fmt::format("{}: {} value {} is out of range ({} to {})", path, key, v, lo, hi));
+  }
+  return static_cast<std::int64_t>(v);
+}
+
+// A header field that must be one integer: no trailing text, no overflow.
+std::int64_t integerField(const std::string& path, const std::string& key, const std::string& text) {
+  const std::string t = trim(text);
+  errno = 0;
+  char* end = nullptr;
+  const long long v = std::strtoll(t.c_str(), &end, 10);
+  if (t.empty() || end != t.c_str() + t.size()) {
+    throw Error(fmt::format("{}: field '{}' is not an integer: '{}'", path, key, t.substr(0, 60)));
+  }
+  if (errno == ERANGE) throw Error(fmt::format("{}: field '{}' is out of range: '{}'", path, key, t.substr(0, 60)));
+  return static_cast<std::int64_t>(v);
+}
+
+// A spacing field's three values: finite and positive.
+void checkSpacing(const std::string& path, const std::string& key, const std::array<double, 3>& s) {
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (!std::isfinite(s[a])) throw Error(fmt::format("{}: {} {} along axis {} is not finite", path, key, s[a], a));
+    if (!(s[a] > 0)) throw Error(fmt::format("{}: {} {} along axis {} is not positive", path, key, s[a], a));
+  }
+}
+
 // Resolves a data file named in a header relative to the header's folder.
 std::string besides(const std::string& header, const std::string& name) {
   const fs::path p(name);
@@ -73,7 +104,12 @@ std::vector<std::string> patternFiles(const std::string& header, const std::stri
   std::string pattern;
   long first = 0, last = 0, step = 1;
   s >> pattern >> first >> last >> step;
-  if (!isSlicePattern(pattern) || step == 0) throw Error(fmt::format("{}: bad data file pattern '{}'", header, spec));
+  const bool parsed = !s.fail();
+  std::string subdim, extra;  // NRRD allows a sub-dimension after the step, nothing more
+  if (parsed) s >> subdim >> extra;
+  if (!parsed || !isSlicePattern(pattern) || step == 0 || !extra.empty()) {
+    throw Error(fmt::format("{}: bad data file pattern '{}'", header, spec));
+  }
   // Count the names before making any (the bounds are 64-bit, the difference may not be).
   const long double names = (static_cast<long double>(last) - static_cast<long double>(first)) / step;
   if (names >= static_cast<long double>(limits::kMaxDataFiles)) {
@@ -83,15 +119,34 @@ std::vector<std::string> patternFiles(const std::string& header, const std::stri
   std::vector<std::string> files;
   if (names < 0) return files;
   const long count = static_cast<long>(names) + 1;
-  for (long n = 0; n < count; ++n) files.push_back(besides(header, formatPattern(pattern, first + n * step)));
+  for (long n = 0; n < count; ++n) {
+    long value = 0;
+    if (__builtin_mul_overflow(n, step, &value) || __builtin_add_overflow(first, value, &value)) {
+      throw Error(fmt::format("{}: the data file pattern '{}' counts beyond 64-bit numbers", header, spec));
+    }
+    files.push_back(besides(header, formatPattern(pattern, value)));
+  }
   return files;
 }
 
-void setGeometry(VolumeInfo& info, const std::array<Vec3, 3>& axes, const Vec3& origin) {
+// Axes (direction times spacing) and origin from the header fields `axesField` and `originField`.
+// Non-finite or zero axes are named here, by their field; validateGeometry() checks the rest.
+void setGeometry(VolumeInfo& info, const std::array<Vec3, 3>& axes, const Vec3& origin, const std::string& axesField,
+                 const std::string& originField) {
+  for (const double o : origin) {
+    if (!std::isfinite(o)) {
+      throw Error(
+          fmt::format("{}: {} {},{},{} is not finite", info.source, originField, origin[0], origin[1], origin[2]));
+    }
+  }
   for (int a = 0; a < 3; ++a) {
     const Vec3& v = axes[static_cast<std::size_t>(a)];
-    const double len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (!(len > 0)) throw Error(fmt::format("{}: axis {} has a zero direction", info.source, a));
+    if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) {
+      throw Error(
+          fmt::format("{}: {} for axis {} is ({},{},{}): not finite", info.source, axesField, a, v[0], v[1], v[2]));
+    }
+    const double len = std::hypot(v[0], v[1], v[2]);
+    if (!(len > 0)) throw Error(fmt::format("{}: {} for axis {} is a zero vector", info.source, axesField, a));
     info.spacing[static_cast<std::size_t>(a)] = len;
     for (int r = 0; r < 3; ++r)
       info.direction[static_cast<std::size_t>(3 * r + a)] = v[static_cast<std::size_t>(r)] / len;
@@ -113,6 +168,23 @@ void pickComponent(VolumeFileLayout& layout, double components, int channel, con
     if (channel >= count) throw Error(fmt::format("--channel: {} has {} components per voxel", path, count));
     layout.component = channel;
   }
+}
+
+// Where the data starts in `file` when it ends the file ("byte skip: -1", "HeaderSize = -1").
+std::int64_t dataFromEnd(const std::string& path, const std::string& file, const std::array<std::int64_t, 3>& dims,
+                         const VolumeFileLayout& layout) {
+  validateDims(dims, path);  // the voxel count then fits in 60 bits
+  std::int64_t bytes = 0;
+  const bool overflow = __builtin_mul_overflow(
+      dims[0] * dims[1] * dims[2], static_cast<std::int64_t>(voxelSize(layout.type)) * layout.components, &bytes);
+  std::error_code ec;
+  const auto size = static_cast<std::int64_t>(fs::file_size(file, ec));
+  if (ec) throw Error(fmt::format("{}: cannot open: {}", file, ec.message()));
+  if (overflow || size < bytes) {
+    throw Error(fmt::format("{}: holds {} bytes, fewer than dims {}x{}x{} of {} need", file, size, dims[0], dims[1],
+                            dims[2], voxelTypeName(layout.type)));
+  }
+  return size - bytes;
 }
 
 // --- NRRD ---------------------------------------------------------------------------------------
@@ -220,9 +292,9 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
   if (!type) throw Error(fmt::format("{}: NRRD type '{}' is not supported", path, need("type")));
   layout.type = *type;
   info.type = *type;
-  const int dimension = std::atoi(need("dimension").c_str());
+  const std::int64_t dimension = integerField(path, "dimension", need("dimension"));
   const auto sizes = numbersIn(path, "sizes", need("sizes"));
-  if (static_cast<int>(sizes.size()) != dimension || dimension < 3 || dimension > 4) {
+  if (static_cast<std::int64_t>(sizes.size()) != dimension || dimension < 3 || dimension > 4) {
     throw Error(
         fmt::format("{}: NRRD dimension {} with sizes '{}' is not a 3-D volume", path, dimension, need("sizes")));
   }
@@ -239,7 +311,9 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
       notes->push_back(fmt::format("{}: 4-D data; reading the first of {} volumes", path, sizes[3]));
     }
   }
-  for (std::size_t a = 0; a < 3; ++a) info.dims[a] = static_cast<std::int64_t>(sizes[first + a]);
+  for (std::size_t a = 0; a < 3; ++a)
+    info.dims[a] =
+        wholeNumber(path, fmt::format("NRRD sizes: axis {}", first + a), sizes[first + a], 1, limits::kMaxAxisPoints);
   pickComponent(layout, components, channel, path);
   const std::string encoding = lower(fields.count("encoding") ? fields["encoding"] : "raw");
   if (encoding == "gzip" || encoding == "gz") {
@@ -248,6 +322,9 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
     throw Error(fmt::format("{}: NRRD encoding '{}' is not supported (raw or gzip)", path, encoding));
   }
   const std::string endian = lower(fields.count("endian") ? fields["endian"] : "little");
+  if (endian != "little" && endian != "big") {
+    throw Error(fmt::format("{}: NRRD endian '{}' is neither little nor big", path, endian.substr(0, 60)));
+  }
   layout.byteOrder = endian == "big" ? ByteOrder::kBig : ByteOrder::kLittle;
   // Geometry.
   const std::string space = lower(fields.count("space") ? fields["space"] : "");
@@ -276,16 +353,14 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
       for (auto& v : axes) v = {-v[0], -v[1], v[2]};
       origin = {-origin[0], -origin[1], origin[2]};
     }
-    setGeometry(info, {axes[0], axes[1], axes[2]}, origin);
+    setGeometry(info, {axes[0], axes[1], axes[2]}, origin, "NRRD space directions", "NRRD space origin");
     if (space.find("left") != std::string::npos || space == "lps" || ras) info.frame = "lps";
   } else if (fields.count("spacings")) {
     const auto sp = numbersIn(path, "spacings", fields["spacings"]);
     if (sp.size() != static_cast<std::size_t>(dimension))
       throw Error(fmt::format("{}: NRRD spacings need one value per axis", path));
-    for (std::size_t a = 0; a < 3; ++a) {
-      const double v = sp[first + a];
-      info.spacing[a] = std::isfinite(v) && v > 0 ? v : 1.0;
-    }
+    for (std::size_t a = 0; a < 3; ++a) info.spacing[a] = sp[first + a];
+    checkSpacing(path, "NRRD spacings", info.spacing);
   }
   // Data.
   std::string dataFile;
@@ -303,15 +378,17 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
   } else {
     layout.files = {besides(path, dataFile)};
   }
+  if (fields.count("line skip") && integerField(path, "line skip", fields["line skip"]) != 0) {
+    throw Error(fmt::format("{}: NRRD 'line skip' is not supported (only 0)", path));
+  }
   if (fields.count("byte skip")) {
-    const long long skip = std::atoll(fields["byte skip"].c_str());
-    if (skip < 0) {
+    const std::int64_t skip = integerField(path, "byte skip", fields["byte skip"]);
+    if (skip < -1) throw Error(fmt::format("{}: NRRD byte skip {} is negative (only -1 has a meaning)", path, skip));
+    if (skip == -1) {
       if (layout.compression != Compression::kNone || layout.files.size() != 1) {
         throw Error(fmt::format("{}: 'byte skip: -1' needs one raw data file", path));
       }
-      const auto bytes =
-          info.sliceVoxels() * info.dims[2] * static_cast<std::int64_t>(voxelSize(layout.type)) * layout.components;
-      layout.fileOffset = static_cast<std::int64_t>(fs::file_size(layout.files[0])) - bytes;
+      layout.fileOffset = dataFromEnd(path, layout.files[0], info.dims, layout);
     } else {
       layout.skipBytes = skip;
     }
@@ -386,7 +463,8 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
   if (dims.size() < 3 || (dims.size() == 4 && dims[3] != 1) || dims.size() > 4) {
     throw Error(fmt::format("{}: DimSize '{}' is not a 3-D volume", path, need("DimSize")));
   }
-  for (std::size_t a = 0; a < 3; ++a) info.dims[a] = static_cast<std::int64_t>(dims[a]);
+  for (std::size_t a = 0; a < 3; ++a)
+    info.dims[a] = wholeNumber(path, fmt::format("DimSize: axis {}", a), dims[a], 1, limits::kMaxAxisPoints);
   double components = 1;
   if (fields.count("ElementNumberOfChannels")) {
     const auto n = numbersIn(path, "ElementNumberOfChannels", fields["ElementNumberOfChannels"]);
@@ -399,8 +477,10 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
   layout.byteOrder = isTrue(msb) ? ByteOrder::kBig : ByteOrder::kLittle;
   if (fields.count("CompressedData") && isTrue(fields["CompressedData"])) layout.compression = Compression::kDeflate;
   std::array<Vec3, 3> axes{Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
+  std::string axesKey = "TransformMatrix";
   for (const char* key : {"TransformMatrix", "Rotation", "Orientation"}) {
     if (!fields.count(key)) continue;
+    axesKey = key;
     const auto m = numbersIn(path, key, fields[key]);
     if (m.size() != 9) throw Error(fmt::format("{}: {} needs 9 values", path, key));
     for (std::size_t a = 0; a < 3; ++a) axes[a] = {m[3 * a], m[3 * a + 1], m[3 * a + 2]};
@@ -412,20 +492,23 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
     const auto s = numbersIn(path, key, fields[key]);
     if (s.size() < 3) throw Error(fmt::format("{}: {} needs 3 values", path, key));
     spacing = {s[0], s[1], s[2]};
+    checkSpacing(path, key, spacing);
     break;
   }
   for (std::size_t a = 0; a < 3; ++a) {
     for (double& c : axes[a]) c *= spacing[a];
   }
   Vec3 origin{0, 0, 0};
+  std::string originKey = "Offset";
   for (const char* key : {"Offset", "Origin", "Position"}) {
     if (!fields.count(key)) continue;
     const auto o = numbersIn(path, key, fields[key]);
     if (o.size() < 3) throw Error(fmt::format("{}: {} needs 3 values", path, key));
     origin = {o[0], o[1], o[2]};
+    originKey = key;
     break;
   }
-  setGeometry(info, axes, origin);
+  setGeometry(info, axes, origin, axesKey, originKey);
   const std::string& dataFile = need("ElementDataFile");
   if (dataFile == "LOCAL") {
     layout.files = {path};
@@ -440,14 +523,21 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
     layout.files = {besides(path, dataFile)};
   }
   if (fields.count("HeaderSize")) {
-    const long long h = std::atoll(fields["HeaderSize"].c_str());
+    const std::int64_t h = integerField(path, "HeaderSize", fields["HeaderSize"]);
+    if (h < -1) throw Error(fmt::format("{}: HeaderSize {} is negative (only -1 has a meaning)", path, h));
     if (h == -1) {
       if (layout.compression != Compression::kNone || layout.perSlice)
         throw Error(fmt::format("{}: HeaderSize -1 needs one raw data file", path));
-      const auto bytes =
-          info.sliceVoxels() * info.dims[2] * static_cast<std::int64_t>(voxelSize(layout.type)) * layout.components;
-      layout.fileOffset = static_cast<std::int64_t>(fs::file_size(layout.files[0])) - bytes;
+      layout.fileOffset = dataFromEnd(path, layout.files[0], info.dims, layout);
     } else if (h > 0) {
+      // Within the data file (the first, for per-slice files), so that offsets cannot overflow.
+      std::error_code ec;
+      const auto size = static_cast<std::int64_t>(fs::file_size(layout.files[0], ec));
+      if (ec) throw Error(fmt::format("{}: cannot open: {}", layout.files[0], ec.message()));
+      if (h > size - layout.fileOffset) {
+        throw Error(
+            fmt::format("{}: HeaderSize {} is beyond the end of {} ({} bytes)", path, h, layout.files[0], size));
+      }
       layout.fileOffset += h;
     }
   }
@@ -531,8 +621,19 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
     gzFile f = gzopen(path.c_str(), "rb");
     if (f == nullptr) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(errno)));
     const int n = gzread(f, h.data(), 540);
+    int zerr = Z_OK;
+    const char* reason = gzerror(f, &zerr);
+    const bool compressed = gzdirect(f) == 0;
+    std::string what = reason != nullptr ? reason : "";
+    if (what.rfind(path + ": ", 0) == 0) what = what.substr(path.size() + 2);  // zlib names the file too
     gzclose(f);
     got = n < 0 ? 0 : n;
+    // A short header from a broken gzip stream is a corrupt file, not a short one.
+    if (got < 540 && compressed && zerr != Z_OK && zerr != Z_STREAM_END) {
+      if (got < 348 || zerr != Z_BUF_ERROR) {
+        throw Error(fmt::format("{}: corrupt gzip data: {}", path, what.empty() ? "inflate failed" : what));
+      }
+    }
   }
   if (got < 348) throw Error(fmt::format("{}: too short for a NIfTI header ({} bytes)", path, got));
   const auto size32 = get<std::int32_t>(h, 0, false);
@@ -555,6 +656,7 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
   std::array<std::int64_t, 8> dim{};
   std::array<double, 8> pixdim{};
   int datatype = 0;
+  int bitpix = 0;
   double voxOffset = 0, slope = 0, inter = 0;
   int qformCode = 0, sformCode = 0;
   double qb = 0, qc = 0, qd = 0;
@@ -566,6 +668,7 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
       pixdim[i] = get<float>(h, 76 + 4 * i, swap);
     }
     datatype = get<std::int16_t>(h, 70, swap);
+    bitpix = get<std::int16_t>(h, 72, swap);
     voxOffset = get<float>(h, 108, swap);
     slope = get<float>(h, 112, swap);
     inter = get<float>(h, 116, swap);
@@ -580,6 +683,7 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
     }
   } else {
     datatype = get<std::int16_t>(h, 12, swap);
+    bitpix = get<std::int16_t>(h, 14, swap);
     for (std::size_t i = 0; i < 8; ++i) {
       dim[i] = get<std::int64_t>(h, 16 + 8 * i, swap);
       pixdim[i] = get<double>(h, 104 + 8 * i, swap);
@@ -606,13 +710,28 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
   if (!type) throw Error(fmt::format("{}: NIfTI datatype {} is not supported", path, datatype));
   layout.type = *type;
   info.type = layout.type;
+  if (bitpix != static_cast<int>(8 * voxelSize(*type))) {
+    throw Error(fmt::format("{}: NIfTI bitpix {} does not match datatype {} ({} bits)", path, bitpix, datatype,
+                            8 * voxelSize(*type)));
+  }
   if (dim[0] < 3 || dim[0] > 7) throw Error(fmt::format("{}: NIfTI dim[0] is {}: not a 3-D volume", path, dim[0]));
-  for (std::size_t a = 0; a < 3; ++a) info.dims[a] = dim[a + 1];
-  std::int64_t volumes = 1;
-  for (std::size_t a = 4; a <= static_cast<std::size_t>(dim[0]); ++a) volumes *= std::max<std::int64_t>(1, dim[a]);
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (dim[a + 1] < 2 || dim[a + 1] > limits::kMaxAxisPoints) {
+      throw Error(fmt::format("{}: NIfTI dim[{}] is {}: an axis needs 2 to {} points", path, a + 1, dim[a + 1],
+                              limits::kMaxAxisPoints));
+    }
+    info.dims[a] = dim[a + 1];
+  }
+  double volumes = 1;  // a note only: a double cannot overflow here
+  for (std::size_t a = 4; a <= static_cast<std::size_t>(dim[0]); ++a)
+    volumes *= static_cast<double>(std::max<std::int64_t>(1, dim[a]));
   if (volumes > 1 && notes != nullptr)
     notes->push_back(fmt::format("{}: {}-D data; reading the first of {} volumes", path, dim[0], volumes));
-  if (slope != 0 && std::isfinite(slope) && std::isfinite(inter) && !(slope == 1 && inter == 0)) {
+  // scl_slope 0 means unscaled; any other slope, and its intercept, must be a number.
+  if (slope != 0 && (!std::isfinite(slope) || !std::isfinite(inter))) {
+    throw Error(fmt::format("{}: NIfTI scl_slope {} and scl_inter {} are not finite", path, slope, inter));
+  }
+  if (slope != 0 && !(slope == 1 && inter == 0)) {
     layout.slope = slope;
     layout.intercept = inter;
   }
@@ -628,6 +747,23 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
   const Vec3 sformOrigin{srow[0][3], srow[1][3], srow[2][3]};
   for (std::size_t a = 0; a < 3; ++a) sformAxes[a] = {srow[0][a], srow[1][a], srow[2][a]};
   std::array<Vec3, 3> qformAxes{};
+  const bool useSform = sformCode > 0 && xform != NiftiXform::kQform;
+  const bool useQform = !useSform && qformCode > 0;
+  if (useQform && (!std::isfinite(qb) || !std::isfinite(qc) || !std::isfinite(qd))) {
+    throw Error(fmt::format("{}: NIfTI qform quaternion ({},{},{}) is not finite", path, qb, qc, qd));
+  }
+  if (useSform) {
+    for (std::size_t r = 0; r < 3; ++r) {
+      for (std::size_t c = 0; c < 4; ++c) {
+        if (!std::isfinite(srow[r][c])) {
+          throw Error(fmt::format("{}: NIfTI sform srow_{}[{}] is {}: not finite", path, "xyz"[r], c, srow[r][c]));
+        }
+      }
+    }
+  }
+  if (!useSform) {  // the qform and the fallback take their spacing from pixdim
+    checkSpacing(path, "NIfTI pixdim", {pixdim[1], pixdim[2], pixdim[3]});
+  }
   {
     const double qfac = pixdim[0] < 0 ? -1.0 : 1.0;
     const double qa = std::sqrt(std::max(0.0, 1.0 - (qb * qb + qc * qc + qd * qd)));
@@ -637,32 +773,37 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
     const double scale[3] = {pixdim[1], pixdim[2], pixdim[3] * qfac};
     for (std::size_t a = 0; a < 3; ++a) qformAxes[a] = {R[0][a] * scale[a], R[1][a] * scale[a], R[2][a] * scale[a]};
   }
-  const bool useSform = sformCode > 0 && xform != NiftiXform::kQform;
   if (sformCode > 0 && qformCode > 0 && notes != nullptr) {
     const std::string problem = xformDisagreement(sformAxes, sformOrigin, qformAxes, qoffset, info.dims, useSform);
     if (!problem.empty()) notes->push_back(fmt::format("warning: {}: {}", path, problem));
   }
   std::array<Vec3, 3> axes{};
   Vec3 origin{};
+  std::string axesField = "NIfTI pixdim";
+  std::string originField = "NIfTI origin";
   if (useSform) {
+    axesField = "NIfTI sform (srow)";
+    originField = "NIfTI sform offset";
     axes = sformAxes;
     origin = sformOrigin;
     info.frame = "lps";
-  } else if (qformCode > 0) {
+  } else if (useQform) {
+    axesField = "NIfTI qform";
+    originField = "NIfTI qoffset";
     axes = qformAxes;
     origin = qoffset;
     info.frame = "lps";
   } else {
     for (std::size_t a = 0; a < 3; ++a) {
       axes[a] = {0, 0, 0};
-      axes[a][a] = pixdim[a + 1] > 0 ? pixdim[a + 1] : 1.0;
+      axes[a][a] = pixdim[a + 1];
     }
   }
   if (info.frame == "lps") {
     for (auto& v : axes) v = {-v[0], -v[1], v[2]};
     origin = {-origin[0], -origin[1], origin[2]};
   }
-  setGeometry(info, axes, origin);
+  setGeometry(info, axes, origin, axesField, originField);
   // Data: in the same file after vox_offset, or in the .img beside a .hdr.
   layout.compression = Compression::kAutoGzip;
   if (endsWith(path, ".hdr") || endsWith(path, ".hdr.gz")) {
@@ -671,6 +812,11 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
     layout.files = {img};
   } else {
     layout.files = {path};
+    // vox_offset is a float in NIfTI-1: a whole number of bytes, checked before any cast. The data
+    // must follow the header; an offset inside it (0, from some writers) means right after it.
+    if (!(voxOffset >= 0 && voxOffset == std::floor(voxOffset) && voxOffset < 0x1p62)) {
+      throw Error(fmt::format("{}: NIfTI vox_offset {} is not a byte offset", path, voxOffset));
+    }
     layout.skipBytes = static_cast<std::int64_t>(voxOffset);
     if (layout.skipBytes < (version == 1 ? 348 : 540)) layout.skipBytes = version == 1 ? 352 : 544;
   }

@@ -9,6 +9,7 @@ packages=(
   libdcmtk-dev libopenjp2-7-dev libdraco-dev libeigen3-dev draco
   python3-matplotlib libopenimageio-dev
   python3-vtk9
+  clang libclang-rt-14-dev
 )
 # Node.js runs the real glTF clients in the tests; use the machine's own when it has one.
 command -v node >/dev/null 2>&1 || packages+=(nodejs)

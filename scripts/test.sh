@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds with warnings as errors, and runs the whole test suite twice:
-# a Release build, then an AddressSanitizer + UndefinedBehaviorSanitizer build.
-# --fast runs the Release suite only.
+# a Release build, then an AddressSanitizer + UndefinedBehaviorSanitizer build; then runs every fuzz
+# target for 25 seconds (scripts/fuzz.sh). --fast runs the Release suite only.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -35,4 +35,6 @@ run_suite build -DCMAKE_BUILD_TYPE=Release
 if [ "${1:-}" != "--fast" ]; then
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
     run_suite build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DISOSLAB_SANITIZE=ON -DISOSLAB_BUILD_BENCH=OFF
+  # Every libFuzzer target for 25 seconds from its seed corpus (clang, ASan + UBSan, build-fuzz/).
+  bash scripts/fuzz.sh 25
 fi

@@ -2,6 +2,7 @@
 // folder, runs the command line on it, and checks the exit code (1 for input errors, 2 for usage
 // errors), that stderr is exactly one line "isoslab: error: ..." naming the file, and that no
 // output or temporary file is left in the folder. Add a case by adding a row to kCases.
+#include <OpenImageIO/imageio.h>
 #include <dcmtk/config/osconfig.h>
 #include <dcmtk/dcmdata/dcdeftag.h>
 #include <dcmtk/dcmdata/dcfilefo.h>
@@ -9,7 +10,9 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <zlib.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -68,6 +71,51 @@ std::string plyHeader(const std::string& format, const std::string& body) {
   return "ply\nformat " + format + " 1.0\n" + body + "end_header\n";
 }
 
+// --- NIfTI and compressed streams (helper 2) ---
+
+// Stores `v` at byte `at` of `bytes` (host order, little-endian here).
+template <typename T>
+void putAt(std::string& bytes, std::size_t at, T v) {
+  std::memcpy(bytes.data() + at, &v, sizeof v);
+}
+
+// A NIfTI-1 file of 4x4x4 uint8 voxels, pixdim 1, no transform; `edit` changes the header.
+std::string niftiOne(const std::function<void(std::string&)>& edit = {}) {
+  std::string h(352, '\0');
+  putAt<std::int32_t>(h, 0, 348);
+  const std::int16_t dim[8] = {3, 4, 4, 4, 1, 1, 1, 1};
+  for (std::size_t i = 0; i < 8; ++i) putAt<std::int16_t>(h, 40 + 2 * i, dim[i]);
+  putAt<std::int16_t>(h, 70, 2);  // DT_UINT8
+  putAt<std::int16_t>(h, 72, 8);
+  for (std::size_t i = 0; i < 4; ++i) putAt<float>(h, 76 + 4 * i, 1.0F);
+  putAt<float>(h, 108, 352.0F);
+  std::memcpy(h.data() + 344, "n+1", 4);
+  if (edit) edit(h);
+  return h + voxels(64);
+}
+
+// `bytes` deflated as a gzip (or zlib) stream.
+std::string deflated(const std::string& bytes, bool gzip = true) {
+  z_stream z{};
+  deflateInit2(&z, 6, Z_DEFLATED, gzip ? 31 : 15, 8, Z_DEFAULT_STRATEGY);
+  std::string out(deflateBound(&z, static_cast<uLong>(bytes.size())) + 32, '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
+  z.avail_in = static_cast<uInt>(bytes.size());
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = static_cast<uInt>(out.size());
+  deflate(&z, Z_FINISH);
+  out.resize(z.total_out);
+  deflateEnd(&z);
+  return out;
+}
+
+// A gzip stream with one byte of its trailer flipped: `fromEnd` 8 is in the CRC-32, 1 in ISIZE.
+std::string gzipWithBadTrailer(const std::string& bytes, std::size_t fromEnd) {
+  std::string z = deflated(bytes);
+  z[z.size() - fromEnd] = static_cast<char>(z[z.size() - fromEnd] ^ 0x5a);
+  return z;
+}
+
 // A 4x4 slice of 16-bit CT, with the geometry given as DICOM strings.
 void writeDicomSlice(const std::string& path, int k, const std::string& position, const std::string& orientation,
                      const std::string& frames = "", int nesting = 0,
@@ -111,6 +159,69 @@ std::string dicomSeries(const std::string& dir, const std::string& position, con
                     k == 1 ? orientation : "1\\0\\0\\0\\1\\0");
   }
   return dir + "/series/1.dcm";
+}
+
+// The series of dicomSeries, with `edit` applied to the middle slice (1.dcm), or to every slice
+// when `all`. Returns the middle slice.
+std::string dicomSeriesEdited(const std::string& dir, const std::function<void(DcmDataset*)>& edit, bool all = false) {
+  dicomSeries(dir, "0\\0\\1", "1\\0\\0\\0\\1\\0");
+  for (int k = 0; k < 3; ++k) {
+    if (!all && k != 1) continue;
+    const std::string path = fmt::format("{}/series/{}.dcm", dir, k);
+    DcmFileFormat ff;
+    ff.loadFile(path.c_str());
+    edit(ff.getDataset());
+    ff.saveFile(path.c_str(), EXS_LittleEndianExplicit);
+  }
+  return dir + (all ? "/series/0.dcm" : "/series/1.dcm");
+}
+
+// Sets one DICOM string element of a dataset (for dicomSeriesEdited).
+std::function<void(DcmDataset*)> setDicom(const DcmTagKey& tag, const std::string& value) {
+  return [tag, value](DcmDataset* d) { d->putAndInsertString(tag, value.c_str()); };
+}
+std::function<void(DcmDataset*)> setDicomU16(const DcmTagKey& tag, Uint16 value) {
+  return [tag, value](DcmDataset* d) { d->putAndInsertUint16(tag, value); };
+}
+
+// A w x h image (PNG or TIFF by the extension) of noise, so that it does not compress away.
+void writeImage(const std::string& path, int w, int h, int channels = 1, OIIO::TypeDesc type = OIIO::TypeDesc::UINT16) {
+  OIIO::ImageSpec spec(w, h, channels, type);
+  auto out = OIIO::ImageOutput::create(path);
+  ASSERT_TRUE(out && out->open(path, spec)) << OIIO::geterror();
+  std::vector<std::uint16_t> px(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) *
+                                static_cast<std::size_t>(channels));
+  std::uint32_t state = 12345;
+  for (auto& v : px) {
+    state = state * 1664525u + 1013904223u;
+    v = static_cast<std::uint16_t>(state >> 16);
+  }
+  ASSERT_TRUE(out->write_image(OIIO::TypeDesc::UINT16, px.data()));
+  out->close();
+}
+
+// Three 16-bit slices s0..s2 in `dir`/stack with extension `ext`.
+std::string imageStack(const std::string& dir, const std::string& ext, int w = 16, int h = 16) {
+  fs::create_directories(dir + "/stack");
+  for (int k = 0; k < 3; ++k) writeImage(fmt::format("{}/stack/s{}{}", dir, k, ext), w, h);
+  return dir + "/stack";
+}
+
+// A PNG that is only a header claiming w x h 8-bit grey pixels (and a few bytes of image data).
+std::string pngHeaderOnly(std::uint32_t w, std::uint32_t h) {
+  auto be32 = [](std::uint32_t v) {
+    const char b[4] = {static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8),
+                       static_cast<char>(v)};
+    return std::string(b, 4);
+  };
+  auto chunk = [&](const std::string& type, const std::string& data) {
+    const std::string body = type + data;
+    const auto crc = static_cast<std::uint32_t>(
+        crc32(0, reinterpret_cast<const Bytef*>(body.data()), static_cast<uInt>(body.size())));
+    return be32(static_cast<std::uint32_t>(data.size())) + body + be32(crc);
+  };
+  return std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", be32(w) + be32(h) + std::string("\x08\0\0\0\0", 5)) +
+         chunk("IDAT", std::string("\x78\x9c\x03\x00\x00\x00\x00\x01", 8)) + chunk("IEND", "");
 }
 
 struct Case {
@@ -515,10 +626,557 @@ const Case kCases[] = {
      },
      "extract {in} -o {dir}/out.ply"},
     // --- Silently wrong output: DICOM, image stacks and messages (helper 1) ---------------------
+    // DICOM slices are checked against each other: each one names the file that differs.
+    {"DicomMixedBitsAllocated",
+     [](const std::string& d) {
+       return dicomSeriesEdited(d, [](DcmDataset* s) {
+         s->putAndInsertUint16(DCM_BitsAllocated, 8);
+         s->putAndInsertUint16(DCM_BitsStored, 8);
+         s->putAndInsertUint16(DCM_HighBit, 7);
+       });
+     },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomMixedBitsStored",
+     [](const std::string& d) {
+       return dicomSeriesEdited(d, [](DcmDataset* s) {
+         s->putAndInsertUint16(DCM_BitsStored, 12);
+         s->putAndInsertUint16(DCM_HighBit, 11);
+       });
+     },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomMixedPixelRepresentation",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicomU16(DCM_PixelRepresentation, 1)); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomMixedPhotometricInterpretation",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicom(DCM_PhotometricInterpretation, "MONOCHROME1")); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomMixedPixelSpacing",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicom(DCM_PixelSpacing, "0.5\\0.5")); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomMixedSamplesPerPixel",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicomU16(DCM_SamplesPerPixel, 3)); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomMixedRows", [](const std::string& d) { return dicomSeriesEdited(d, setDicomU16(DCM_Rows, 2)); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    // BitsStored is validated before the pixel reader shifts by it (UBSan: shift exponent).
+    {"DicomBitsStoredZero",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicomU16(DCM_BitsStored, 0), true); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomBitsStoredOverBitsAllocated",
+     [](const std::string& d) {
+       return dicomSeriesEdited(
+           d,
+           [](DcmDataset* s) {
+             s->putAndInsertUint16(DCM_BitsStored, 40);
+             s->putAndInsertUint16(DCM_HighBit, 39);
+           },
+           true);
+     },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomHighBitDoesNotMatchBitsStored",
+     [](const std::string& d) {
+       return dicomSeriesEdited(
+           d,
+           [](DcmDataset* s) {
+             s->putAndInsertUint16(DCM_BitsStored, 12);
+             s->putAndInsertUint16(DCM_HighBit, 15);
+           },
+           true);
+     },
+     "info {dir}/series"},
+    {"DicomPositionMissingOnMiddleSlice",
+     [](const std::string& d) {
+       return dicomSeriesEdited(d, [](DcmDataset* s) { s->findAndDeleteElement(DCM_ImagePositionPatient); });
+     },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomRescaleSlopeNaN", [](const std::string& d) { return dicomSeriesEdited(d, setDicom(DCM_RescaleSlope, "nan")); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomRescaleSlopeText",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicom(DCM_RescaleSlope, "one")); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomRescaleInterceptInfinite",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicom(DCM_RescaleIntercept, "-1e999")); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomPixelSpacingZero",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicom(DCM_PixelSpacing, "0\\0"), true); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomPixelSpacingNegative",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicom(DCM_PixelSpacing, "-1\\1"), true); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomPixelSpacingNaN",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicom(DCM_PixelSpacing, "1\\nan"), true); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomPixelSpacingText",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicom(DCM_PixelSpacing, "wide\\tall"), true); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomOrientationZeroColumn", [](const std::string& d) { return dicomSeries(d, "0\\0\\1", "1\\0\\0\\0\\0\\0"); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomOrientationCollinear", [](const std::string& d) { return dicomSeries(d, "0\\0\\1", "1\\0\\0\\-1\\0\\0"); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomOneColumnWide",
+     [](const std::string& d) {
+       return dicomSeriesEdited(d, setDicomU16(DCM_Columns, 1), true);
+     },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomDeeplyNestedDeflated",
+     [](const std::string& d) {
+       writeDicomSlice(d + "/deep.dcm", 0, "0\\0\\0", "1\\0\\0\\0\\1\\0", "", 10000, EXS_DeflatedLittleEndianExplicit);
+       return d + "/deep.dcm";
+     },
+     "info {in}"},
+    {"DicomdirListsAFifo",
+     [](const std::string& d) {
+       DcmFileFormat ff;
+       DcmItem* record = nullptr;
+       ff.getDataset()->findOrCreateSequenceItem(DCM_DirectoryRecordSequence, record, 0);
+       record->putAndInsertString(DCM_DirectoryRecordType, "IMAGE");
+       record->putAndInsertString(DCM_ReferencedFileID, "IMG");
+       ff.saveFile((d + "/DICOMDIR").c_str(), EXS_LittleEndianExplicit);
+       ::mkfifo((d + "/IMG").c_str(), 0600);
+       return d + "/IMG";
+     },
+     "info {dir}/DICOMDIR"},
+    // Image stacks: one pixel type, every pixel read, at least 2x2, no gap in a pattern.
+    {"StackMixedBitDepths",
+     [](const std::string& d) {
+       const std::string stack = imageStack(d, ".png");
+       writeImage(stack + "/s3.png", 16, 16, 1, OIIO::TypeDesc::UINT8);
+       return stack + "/s3.png";
+     },
+     "extract {dir}/stack --iso 50 -o {dir}/out.ply"},
+    {"StackMixedChannelCounts",
+     [](const std::string& d) {
+       const std::string stack = imageStack(d, ".png");
+       writeImage(stack + "/s3.png", 16, 16, 3);
+       return stack + "/s3.png";
+     },
+     "extract {dir}/stack --iso 50 -o {dir}/out.ply"},
+    {"StackTruncatedTiff",
+     [](const std::string& d) {
+       const std::string stack = imageStack(d, ".tif", 64, 64);
+       fs::resize_file(stack + "/s1.tif", fs::file_size(stack + "/s1.tif") / 2);
+       return stack + "/s1.tif";
+     },
+     "extract {dir}/stack --iso 50 -q -o {dir}/out.ply"},
+    // libpng's own lines go into the one-line error (the test checks that stderr is one line).
+    {"StackTruncatedPngNoLibpngNoise",
+     [](const std::string& d) {
+       const std::string stack = imageStack(d, ".png", 64, 64);
+       fs::resize_file(stack + "/s1.png", fs::file_size(stack + "/s1.png") / 2);
+       return stack + "/s1.png";
+     },
+     "extract {dir}/stack --iso 50 -q -o {dir}/out.ply"},
+    {"StackOneByOne",
+     [](const std::string& d) {
+       imageStack(d, ".png", 1, 1);
+       return d + "/stack/s0.png";
+     },
+     "extract {dir}/stack --iso 50 -o {dir}/out.ply"},
+    {"StackHeaderOverSliceLimit",
+     [](const std::string& d) {
+       fs::create_directories(d + "/stack");
+       write(d + "/stack/s0.png", pngHeaderOnly(100000, 100000));
+       write(d + "/stack/s1.png", pngHeaderOnly(100000, 100000));
+       return d + "/stack/s0.png";
+     },
+     "extract {dir}/stack --iso 50 -o {dir}/out.ply"},
+    {"StackPatternGap",
+     [](const std::string& d) {
+       for (int k : {0, 1, 3, 4}) writeImage(fmt::format("{}/slice{:03d}.png", d, k), 8, 8);
+       return d + "/slice002.png";
+     },
+     "extract {dir}/slice%03d.png --iso 50 -o {dir}/out.ply"},
     // (end of helper 1 section)
     // --- Silently wrong output: NRRD, MetaImage, NIfTI, raw, gzip, --iso and meshes (helper 2) ---
+    {"NrrdZeroSpacing",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\nspacings: 1 1 0\n\n" + voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdNanSpacing",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\nspacings: nan 1 1\n\n" + voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdNanSpaceDirection",
+     [](const std::string& d) {
+       write(d + "/v.nrrd",
+             kNrrd + "dimension: 3\nsizes: 4 4 4\nspace directions: (nan,0,0) (0,1,0) (0,0,1)\n\n" + voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdCollinearDirections",
+     [](const std::string& d) {
+       write(d + "/v.nrrd",
+             kNrrd + "dimension: 3\nsizes: 4 4 4\nspace directions: (1,0,0) (2,0,0) (0,0,1)\n\n" + voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdInfiniteOrigin",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd +
+                                "dimension: 3\nsizes: 4 4 4\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n"
+                                "space origin: (inf,0,0)\n\n" +
+                                voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdFractionalSizes",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4.5 4 4\n\n" + voxels(80));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdSizesBeyond64Bits",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 1e30 4 4\n\n" + voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdUnknownEndian",
+     [](const std::string& d) {
+       write(d + "/v.nrrd",
+             "NRRD0004\ntype: uint16\nencoding: raw\ndimension: 3\nsizes: 4 4 4\nendian: middle\n\n" + voxels(128));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdByteSkipOverflow",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\nbyte skip: 9223372036854775807\n\n" + voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdByteSkipTrailingText",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\nbyte skip: 12abc\n\n" + voxels(76));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdLineSkip",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\nline skip: 2\n\n" + voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdDataFilePatternNearInt64Max",
+     [](const std::string& d) {
+       write(d + "/v.nhdr", kNrrd + "dimension: 3\nsizes: 4 4 4\n"
+                                    "data file: s%d.raw 9223372036854775800 9223372036854775807 4611686018427387904\n\n");
+       return d + "/v.nhdr";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdGzipBadCrc",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", "NRRD0004\ntype: uint8\nencoding: gzip\ndimension: 3\nsizes: 4 4 4\n\n" +
+                                gzipWithBadTrailer(voxels(64), 8));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdGzipBadLength",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", "NRRD0004\ntype: uint8\nencoding: gzip\ndimension: 3\nsizes: 4 4 4\n\n" +
+                                gzipWithBadTrailer(voxels(64), 1));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NrrdGzipTruncatedTrailer",
+     [](const std::string& d) {
+       const std::string z = deflated(voxels(64));
+       write(d + "/v.nrrd", "NRRD0004\ntype: uint8\nencoding: gzip\ndimension: 3\nsizes: 4 4 4\n\n" +
+                                z.substr(0, z.size() - 6));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"RawGzipBadCrc",
+     [](const std::string& d) {
+       write(d + "/v.raw.gz", gzipWithBadTrailer(voxels(64), 6));
+       return d + "/v.raw.gz";
+     },
+     "extract {in} --raw-dims 4,4,4 --iso 1 -o {dir}/out.ply"},
+    {"MetaImageZeroSpacing",
+     [](const std::string& d) {
+       write(d + "/v.mha", kMha + "ElementSpacing = 1 0 1\nElementDataFile = LOCAL\n" + voxels(64));
+       return d + "/v.mha";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"MetaImageNanOffset",
+     [](const std::string& d) {
+       write(d + "/v.mha", kMha + "Offset = nan 0 0\nElementDataFile = LOCAL\n" + voxels(64));
+       return d + "/v.mha";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"MetaImageNanTransform",
+     [](const std::string& d) {
+       write(d + "/v.mha", kMha + "TransformMatrix = 1 0 0 0 nan 0 0 0 1\nElementDataFile = LOCAL\n" + voxels(64));
+       return d + "/v.mha";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"MetaImageCoplanarTransform",
+     [](const std::string& d) {
+       write(d + "/v.mha", kMha + "TransformMatrix = 1 0 0 0 1 0 1 1 0\nElementDataFile = LOCAL\n" + voxels(64));
+       return d + "/v.mha";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"MetaImageFractionalDimSize",
+     [](const std::string& d) {
+       write(d + "/v.mha",
+             "ObjectType = Image\nNDims = 3\nDimSize = 4 4.5 4\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n" +
+                 voxels(80));
+       return d + "/v.mha";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"MetaImageHeaderSizeOverflow",
+     [](const std::string& d) {
+       write(d + "/v.raw", voxels(64));
+       write(d + "/v.mhd", kMha + "HeaderSize = 9223372036854775807\nElementDataFile = v.raw\n");
+       return d + "/v.mhd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"MetaImageHeaderSizeText",
+     [](const std::string& d) {
+       write(d + "/v.raw", voxels(64));
+       write(d + "/v.mhd", kMha + "HeaderSize = 99999999999999999999999\nElementDataFile = v.raw\n");
+       return d + "/v.mhd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"MetaImageCompressedBadChecksum",
+     [](const std::string& d) {
+       std::string z = deflated(voxels(64), false);
+       z.back() = static_cast<char>(z.back() ^ 0x5a);  // the Adler-32
+       write(d + "/v.mha", kMha + "CompressedData = True\nElementDataFile = LOCAL\n" + z);
+       return d + "/v.mha";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiNanPixdim",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) { putAt<float>(h, 84, std::nanf("")); }));
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiZeroPixdim",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) { putAt<float>(h, 88, 0.0F); }));
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiNanQuaternion",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) {
+               putAt<std::int16_t>(h, 252, 1);
+               putAt<float>(h, 256, std::nanf(""));
+             }));
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiInfiniteSform",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) {
+               putAt<std::int16_t>(h, 254, 1);
+               const float srow[12] = {1, 0, 0, 0, 0, INFINITY, 0, 0, 0, 0, 1, 0};
+               for (std::size_t i = 0; i < 12; ++i) putAt<float>(h, 280 + 4 * i, srow[i]);
+             }));
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiSingularSform",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) {
+               putAt<std::int16_t>(h, 254, 1);
+               const float srow[12] = {1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0};
+               for (std::size_t i = 0; i < 12; ++i) putAt<float>(h, 280 + 4 * i, srow[i]);
+             }));
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiNegativeDim",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) { putAt<std::int16_t>(h, 42, -32768); }));
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiDim0OutOfRange",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) { putAt<std::int16_t>(h, 40, 9); }));
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiBitpixMismatch",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) { putAt<std::int16_t>(h, 72, 16); }));
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiNanSlope",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) { putAt<float>(h, 112, std::nanf("")); }));
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiHugeVoxOffset",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) { putAt<float>(h, 108, 1e30F); }));
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiGzipBadCrc",
+     [](const std::string& d) {
+       write(d + "/v.nii.gz", gzipWithBadTrailer(niftiOne(), 7));
+       return d + "/v.nii.gz";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiGzipTruncatedInHeader",
+     [](const std::string& d) {
+       write(d + "/v.nii.gz", deflated(niftiOne()).substr(0, 24));
+       return d + "/v.nii.gz";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"ObjFractionalIndex",
+     [](const std::string& d) {
+       write(d + "/m.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1.5 2 3\n");
+       return d + "/m.obj";
+     },
+     "metrics {in}"},
+    {"ObjTextIndex",
+     [](const std::string& d) {
+       write(d + "/m.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf a b c\n");
+       return d + "/m.obj";
+     },
+     "metrics {in}"},
+    {"ObjNegativeIndexBeforeFirstVertex",
+     [](const std::string& d) {
+       write(d + "/m.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n");
+       return d + "/m.obj";
+     },
+     "metrics {in}"},
+    {"ObjBinaryGarbage",
+     [](const std::string& d) {
+       std::string bytes(256, '\0');
+       for (std::size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<char>(i * 37 + 11);
+       write(d + "/m.obj", bytes);
+       return d + "/m.obj";
+     },
+     "metrics {in}"},
+    {"ObjWithoutVerticesOrFaces",
+     [](const std::string& d) {
+       write(d + "/m.obj", "hello\nworld\n");
+       return d + "/m.obj";
+     },
+     "decode {in} -o {dir}/out.ply"},
+    {"PlyAsciiFractionalIndex",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii",
+                                     "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                     "element face 1\nproperty list uchar int vertex_indices\n") +
+                               "0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n");
+       return d + "/m.ply";
+     },
+     "metrics {in}"},
+    {"PlyAsciiTextIndex",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii",
+                                     "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                     "element face 1\nproperty list uchar int vertex_indices\n") +
+                               "0 0 0\n1 0 0\n0 1 0\n3 0 b 2\n");
+       return d + "/m.ply";
+     },
+     "metrics {in}"},
+    {"PlyNanVertex",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii",
+                                     "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                     "element face 1\nproperty list uchar int vertex_indices\n") +
+                               "0 0 nan\n1 0 0\n0 1 0\n3 0 1 2\n");
+       return d + "/m.ply";
+     },
+     "metrics {in}"},
+    {"StlAsciiNanCoordinates",
+     [](const std::string& d) {
+       write(d + "/m.stl",
+             "solid s\nfacet normal 0 0 1\nouter loop\nvertex nan 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\n"
+             "endfacet\nendsolid s\n");
+       return d + "/m.stl";
+     },
+     "metrics {in}"},
+    {"UsageIsoNan",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\n\n" + voxels(64));
+       return std::string("--iso: 'nan'");
+     },
+     "extract {dir}/v.nrrd --iso nan -o {dir}/out.ply", 2},
+    {"UsageIsoMinusInf",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\n\n" + voxels(64));
+       return std::string("--iso: '-inf'");
+     },
+     "extract {dir}/v.nrrd --iso -inf -o {dir}/out.ply", 2},
+    {"UsageIsoOverflow",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\n\n" + voxels(64));
+       return std::string("--iso: '1e400'");
+     },
+     "extract {dir}/v.nrrd --iso 1e400 -o {dir}/out.ply", 2},
+    {"UsageRawZeroSpacing",
+     [](const std::string& d) {
+       write(d + "/v.raw", voxels(64));
+       return std::string("--spacing: '1,0,1'");
+     },
+     "extract {dir}/v.raw --raw-dims 4,4,4 --spacing 1,0,1 --iso 1 -o {dir}/out.ply", 2},
+    {"UsageRawNegativeOffset",
+     [](const std::string& d) {
+       write(d + "/v.raw", voxels(64));
+       return std::string("--raw-offset: '-8'");
+     },
+     "extract {dir}/v.raw --raw-dims 4,4,4 --raw-offset -8 --iso 1 -o {dir}/out.ply", 2},
+    {"UsageThreadsTooMany",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\n\n" + voxels(64));
+       return std::string("--threads: '100000'");
+     },
+     "extract {dir}/v.nrrd --threads 100000 --iso 1 -o {dir}/out.ply", 2},
+    {"UsageChunkTrianglesZero",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\n\n" + voxels(64));
+       return std::string("--chunk-triangles: '0'");
+     },
+     "extract {dir}/v.nrrd --chunk-triangles 0 --iso 1 -o {dir}/out.glb", 2},
     // (end of helper 2 section)
     // --- Fuzz regressions ---------------------------------------------------------------------------
+    // tests/fuzz/fuzz_mesh: `decode` to Draco quantized a vertex outside the volume's box that the
+    // file's metadata states (volume_faces) on that box's grid, overflowing int (UBSan).
+    {"FuzzDecodeVertexOutsideStatedBoxToDrc",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii",
+                                     "comment volume_bounds 0 0 0 1 1 1\n"
+                                     "comment volume_faces -1 0 0 0 1 0 0 1 0 -1 0 0 0 1 0 1 0 0 -1 0 0 0 1 1\n"
+                                     "element vertex 3\nproperty float x\n"
+                                     "property float y\nproperty float z\nelement face 1\n"
+                                     "property list uchar int vertex_indices\n") +
+                               "0 0 0\n1e30 0 0\n0 1 0\n3 0 1 2\n");
+       return d + "/out.drc";
+     },
+     "decode {dir}/m.ply -o {in}"},
+    {"FuzzDecodeVertexOutsideStatedBoxToGlb",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii",
+                                     "comment volume_bounds 0 0 0 1 1 1\n"
+                                     "comment volume_faces -1 0 0 0 1 0 0 1 0 -1 0 0 0 1 0 1 0 0 -1 0 0 0 1 1\n"
+                                     "element vertex 3\nproperty float x\n"
+                                     "property float y\nproperty float z\nelement face 1\n"
+                                     "property list uchar int vertex_indices\n") +
+                               "0 0 0\n0 -4e9 0\n0 1 0\n3 0 1 2\n");
+       return d + "/out.glb";
+     },
+     "decode {dir}/m.ply -o {in}"},
+    // tests/fuzz/fuzz_dicom: --channel was checked only for colour images; on a grey series it
+    // indexed past the last pixel's sample (AddressSanitizer, heap-buffer-overflow in readSlice).
+    {"FuzzDicomChannelPastGreySamples",
+     [](const std::string& d) {
+       dicomSeries(d, "0\\0\\1", "1\\0\\0\\0\\1\\0");
+       return d + "/series/0.dcm";
+     },
+     "extract {dir}/series --channel 2 -o {dir}/out.ply"},
     // (end of fuzz section)
     // --- Usage errors ------------------------------------------------------------------------------
     {"UsageUnknownOption",
@@ -562,6 +1220,72 @@ TEST(BadInputLimits, NestingAtTheLimitIsRead) {
   EXPECT_EQ(r.exitCode, 0) << r.err;
   EXPECT_NE(r.out.find("0 files skipped"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("images         2"), std::string::npos) << r.out;
+}
+
+// Helper 1 (DICOM, image stacks, messages): inputs just inside the new rules still read.
+TEST(BadInputLimits, DicomSeriesThatAgreesReads) {
+  const std::string dir = tempDir();
+  // BitsStored 12 of 16, the same in every slice, with a rescale.
+  dicomSeriesEdited(
+      dir,
+      [](DcmDataset* s) {
+        s->putAndInsertUint16(DCM_BitsStored, 12);
+        s->putAndInsertUint16(DCM_HighBit, 11);
+        s->putAndInsertString(DCM_PixelSpacing, "0.5\\0.5");
+        s->putAndInsertString(DCM_RescaleSlope, "2");
+        s->putAndInsertString(DCM_RescaleIntercept, "-1024");
+      },
+      true);
+  const CliResult r = runCli("extract " + dir + "/series --iso -900 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir + "/out.ply"));
+}
+
+TEST(BadInputLimits, DeflatedDicomWithinTheNestingLimitIsRead) {
+  const std::string dir = tempDir();
+  writeDicomSlice(dir + "/a.dcm", 0, "0\\0\\0", "1\\0\\0\\0\\1\\0", "", 64, EXS_DeflatedLittleEndianExplicit);
+  writeDicomSlice(dir + "/b.dcm", 1, "0\\0\\1", "1\\0\\0\\0\\1\\0", "", 3, EXS_DeflatedLittleEndianExplicit);
+  const CliResult r = runCli("info " + dir);
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("0 files skipped"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("images         2"), std::string::npos) << r.out;
+}
+
+TEST(BadInputLimits, StacksJustInsideTheRulesRead) {
+  const std::string dir = tempDir();
+  // 2x2 8-bit slices, and a pattern whose gap is at the end (the end of the slices).
+  for (int k = 0; k < 3; ++k) writeImage(fmt::format("{}/s{:03d}.png", dir, k), 2, 2, 1, OIIO::TypeDesc::UINT8);
+  writeImage(dir + "/t0.tif", 16, 16);
+  writeImage(dir + "/t1.tif", 16, 16);
+  CliResult r = runCli("extract " + dir + "/s%03d.png --iso 100 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.err.find("image stack of 3 slices, 2x2"), std::string::npos) << r.err;
+  r = runCli("extract '" + dir + "/t*.tif' --iso 30000 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+}
+
+// Control characters in a file name or a header value are escaped in the message, which stays one
+// line (the catalogue compares the raw path, so this is its own test).
+TEST(BadInputMessages, ControlCharactersAreEscaped) {
+  const std::string dir = tempDir();
+  const std::string stack = imageStack(dir, ".png", 64, 64);
+  const std::string odd = stack + "/s\n1\t\x1b[31m.png";
+  fs::rename(stack + "/s1.png", odd);
+  fs::resize_file(odd, fs::file_size(odd) / 2);
+  CliResult r = runCli("extract " + stack + " --iso 50 -q -o " + dir + "/out.ply");
+  EXPECT_EQ(r.exitCode, 1) << r.err;
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err;
+  EXPECT_EQ(r.err.find('\x1b'), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(stack + "/s\\n1\\t\\x1b[31m.png"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir + "/out.ply"));
+
+  // A header value: PixelSpacing "1\n2\\1".
+  const std::string series = tempDir();
+  dicomSeriesEdited(series, setDicom(DCM_PixelSpacing, "1\n2\\1"));
+  r = runCli("info " + series + "/series");
+  EXPECT_EQ(r.exitCode, 1) << r.err;
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err;
+  EXPECT_NE(r.err.find("1\\n2"), std::string::npos) << r.err;
 }
 
 INSTANTIATE_TEST_SUITE_P(Catalogue, BadInput, ::testing::ValuesIn(kCases),

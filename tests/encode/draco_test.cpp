@@ -191,7 +191,8 @@ TEST(GlbDraco, FailuresLeaveNothingBehind) {
   EXPECT_EQ(testing::fileCount(dir), 1);  // only the captured stderr: no temporary output, no spool
   const auto bad = testing::runCli("decode " + dir + "/err -o " + dir + "/x.ply");
   EXPECT_EQ(bad.exitCode, 1);
-  EXPECT_EQ(bad.err, "isoslab: error: " + dir + "/err: unknown mesh format (PLY, binary STL, .glb or .drc expected)\n");
+  EXPECT_EQ(bad.err,
+            "isoslab: error: " + dir + "/err: unknown mesh format (PLY, binary STL, OBJ, .glb or .drc expected)\n");
 }
 
 TEST(GlbDraco, DecodeCommandWritesTheWeldedMesh) {

@@ -515,5 +515,52 @@ TEST(Normals, EveryNormalOfABrainIsUnitLength) {
   EXPECT_EQ(bad, 0u);
 }
 
+// Found by tests/fuzz/fuzz_extract: an infinite value at one end of a crossed edge, an infinite iso
+// value, or a NaN (outside) end left NaN in the interpolation, which gave NaN vertices and normals.
+TEST(FuzzRegressions, InfiniteAndNaNValuesGiveFiniteVerticesOnTheirEdges) {
+  const float inf = std::numeric_limits<float>::infinity();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  struct Volume {
+    float inside, outside, other;
+    double iso;
+  };
+  for (const Volume& v :
+       {Volume{inf, 0, -inf, 0.5}, Volume{inf, 1, 2, inf}, Volume{5, nan, 0, 1}, Volume{inf, -inf, nan, -inf}}) {
+    auto field = [&v](std::int64_t i, std::int64_t j, std::int64_t k) {
+      if (i == 2 && j == 2 && k == 2) return v.inside;
+      return (i + j + k) % 5 == 0 ? v.other : v.outside;
+    };
+    for (Method m : kAllMethods) {
+      testing::VectorSource source({5, 5, 5}, field);
+      const Extraction x = testing::extract(source, m, v.iso, true);
+      for (const Vec3f& p : x.mesh.positions) {
+        ASSERT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) << name(m) << " iso " << v.iso;
+        EXPECT_TRUE(p.x >= 0 && p.x <= 4 && p.y >= 0 && p.y <= 4 && p.z >= 0 && p.z <= 4) << name(m);
+      }
+      for (const Vec3f& n : x.mesh.normals) {
+        ASSERT_TRUE(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z)) << name(m) << " iso " << v.iso;
+      }
+      EXPECT_EQ(x.stats.nonManifoldEdges, 0u) << name(m);
+      EXPECT_EQ(x.stats.interiorBoundaryEdges, 0u) << name(m);
+    }
+  }
+}
+
+// Found by tests/fuzz/fuzz_extract: in a volume two points wide, bcc12 marched the one cell of each
+// interior row twice (as the row's first and as its last boundary cell): every triangle doubled.
+TEST(FuzzRegressions, Bcc12OnAVolumeTwoPointsWideIsClosed) {
+  auto block = [](std::int64_t, std::int64_t j, std::int64_t k) {
+    return j >= 2 && j <= 3 && k >= 2 && k <= 4 ? 1.0f : 0.0f;
+  };
+  for (Method m : kAllMethods) {
+    testing::VectorSource source({2, 7, 7}, block);
+    const Extraction x = testing::extract(source, m, 0.5);
+    EXPECT_GT(x.stats.triangles, 0u) << name(m);
+    EXPECT_EQ(x.stats.nonManifoldEdges, 0u) << name(m);
+    EXPECT_EQ(x.stats.inconsistentEdges, 0u) << name(m);
+    EXPECT_EQ(x.stats.interiorBoundaryEdges, 0u) << name(m);
+  }
+}
+
 }  // namespace
 }  // namespace isoslab

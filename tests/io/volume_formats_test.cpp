@@ -568,5 +568,62 @@ TEST(ImageStacks, RealPaletteTiffStackMatchesTheRawHead) {
   EXPECT_NEAR(a.stats.bounds[2], b.stats.bounds[2], 2.0 * 2);
 }
 
+// Compressed data is read to the end of its stream, where zlib checks the CRC-32 and the length:
+// valid .nrrd (gzip), .mha (zlib) and .nii.gz files read, and one flipped trailer byte is an error.
+TEST(VolumeFormats, CompressedStreamsAreCheckedAtTheirEnd) {
+  const std::string dir = testing::tempDir();
+  std::vector<char> data(4 * 4 * 4);
+  for (std::size_t i = 0; i < data.size(); ++i) data[i] = static_cast<char>(i);
+  const std::string nrrd = "NRRD0004\ntype: uint8\nencoding: gzip\ndimension: 3\nsizes: 4 4 4\n\n";
+  writeFile(dir + "/ok.nrrd", nrrd, gzipped(data));
+  std::vector<char> bad = gzipped(data);
+  bad[bad.size() - 8] = static_cast<char>(bad[bad.size() - 8] ^ 1);  // the CRC-32
+  writeFile(dir + "/bad.nrrd", nrrd, bad);
+  const std::string mha =
+      "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\n"
+      "CompressedData = True\nElementDataFile = LOCAL\n";
+  writeFile(dir + "/ok.mha", mha, gzipped(data, 15));
+  writeVolume(*PhantomSource::open("phantom:sphere?n=6,5,4"), dir + "/ok.nii.gz", VolumeWriteOptions{});
+  for (const char* name : {"/ok.nrrd", "/ok.mha", "/ok.nii.gz"}) {
+    auto source = openSource(dir + name, {});
+    std::vector<float> slice(static_cast<std::size_t>(source->info().sliceVoxels()));
+    int slices = 0;
+    while (source->readSlice(slice)) ++slices;
+    EXPECT_EQ(slices, source->info().dims[2]) << name;
+    if (std::string(name) == "/ok.nrrd") {
+      EXPECT_EQ(slice.back(), 63.0F);
+    }
+  }
+  auto source = openSource(dir + "/bad.nrrd", {});
+  std::vector<float> slice(16);
+  for (int k = 0; k < 3; ++k) EXPECT_TRUE(source->readSlice(slice));
+  try {
+    source->readSlice(slice);
+    ADD_FAILURE() << "a bad CRC was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), dir + "/bad.nrrd: corrupt gzip data: incorrect data check");
+  }
+}
+
+// The geometry check is shared by every source, and legitimate geometry passes it: a sheared but
+// non-singular frame, a left-handed one and tiny spacing.
+TEST(VolumeFormats, TheGeometryCheckAcceptsShearAndHandednessButNotDegeneracy) {
+  VolumeInfo info;
+  info.dims = {4, 4, 4};
+  info.spacing = {1e-3, 1, 5};
+  info.direction = {1, 0, 0.34, 0, -1, 0, 0, 0, 0.94};
+  EXPECT_NO_THROW(validateGeometry(info, "v"));
+  info.spacing[1] = std::nan("");
+  EXPECT_THROW(validateGeometry(info, "v"), Error);
+  try {
+    validateGeometry(info, "v");
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "v: spacing nan along axis 1 is not finite");
+  }
+  info.spacing[1] = 1;
+  info.direction = {1, 0, 1, 0, 1, 1, 0, 0, 0};  // columns in the plane z = 0
+  EXPECT_THROW(validateGeometry(info, "v"), Error);
+}
+
 }  // namespace
 }  // namespace isoslab

@@ -1,0 +1,76 @@
+// Mesh files as `isoslab metrics` and `isoslab decode` read them: readMesh() on a PLY, STL, OBJ,
+// GLB or DRC file, the metrics' measures, then the decode's rewrite into another format.
+//
+// Input: one selector byte, then the file.
+//   selector % 5: the input's extension .ply .stl .obj .glb .drc;
+//   selector / 5 % 6: decode to .ply .stl .obj .glb .drc, or no decode.
+#include <algorithm>
+#include <array>
+#include <limits>
+
+#include "encode/indexed_mesh.h"
+#include "encode/mesh_metadata.h"
+#include "encode/mesh_writer.h"
+#include "metrics/mesh_stats.h"
+#include "fuzz_support.h"
+#include "core/error.h"
+
+using namespace isoslab;
+
+namespace {
+
+const char* const kExtensions[] = {".ply", ".stl", ".obj", ".glb", ".drc"};
+
+// The metrics command's measures.
+void metrics(IndexedMesh mesh, const MeshMetadata& meta) {
+  if (meta.volumeFaces) mesh.boundary = volumeFaceFlags(mesh.positions, *meta.volumeFaces, meta.positionTolerance);
+  MeshStatsSink stats;
+  feedMesh(mesh, MeshHeader{}, stats);
+}
+
+// The decode command: the header from the file's metadata, then a writer for `output`.
+void decode(IndexedMesh mesh, const MeshMetadata& meta, const std::string& output) {
+  if (meta.volumeFaces) mesh.boundary = volumeFaceFlags(mesh.positions, *meta.volumeFaces, meta.positionTolerance);
+  MeshHeader header = headerFromMetadata(meta);
+  header.normals = !mesh.normals.empty();
+  if (!header.volumeFaces && !mesh.positions.empty()) {
+    std::array<double, 6> b{};
+    for (std::size_t a = 0; a < 3; ++a) {
+      b[a] = std::numeric_limits<double>::infinity();
+      b[a + 3] = -std::numeric_limits<double>::infinity();
+    }
+    for (const Vec3f& p : mesh.positions) {
+      const double c[3] = {p.x, p.y, p.z};
+      for (std::size_t a = 0; a < 3; ++a) {
+        b[a] = std::min(b[a], c[a]);
+        b[a + 3] = std::max(b[a + 3], c[a]);
+      }
+    }
+    header.volumeBounds = b;
+  }
+  WriterOptions options;
+  const auto& vb = header.volumeBounds;
+  options.voxelSize = 1e-3 * std::max({vb[3] - vb[0], vb[4] - vb[1], vb[5] - vb[2], 1e-30});
+  auto writer = makeMeshWriter(output, options);
+  feedMesh(mesh, header, *writer);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  fuzz::Bytes in(data, size);
+  const std::uint8_t selector = fuzz::takeByte(in);
+  const std::string dir = fuzz::freshDir();
+  const std::string input = dir + "/mesh" + kExtensions[selector % 5];
+  fuzz::writeFile(input, in);
+  const int output = selector / 5 % 6;
+  try {
+    MeshMetadata meta;
+    const IndexedMesh mesh = readMesh(input, &meta);
+    metrics(mesh, meta);
+    if (output < 5) decode(mesh, meta, dir + "/out" + kExtensions[output]);
+  } catch (const Error&) {
+    // A refused input is a normal outcome.
+  }
+  return 0;
+}

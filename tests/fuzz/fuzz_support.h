@@ -1,0 +1,49 @@
+// Helpers shared by the libFuzzer targets: a per-process scratch folder, writing the fuzz input to
+// files, splitting one input into several files, and running a source through the command line's
+// extraction path with sizes capped so that no iteration can legitimately need much memory.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "io/slice_source.h"
+
+namespace isoslab::fuzz {
+
+using Bytes = std::span<const std::uint8_t>;
+
+/// Separates the files of one fuzz input (a DICOM series, an image stack, a detached header and
+/// its data); scripts/make_fuzz_corpus.sh joins seed files with it.
+inline constexpr std::string_view kFileSeparator = "\n@@isoslab-fuzz-file@@\n";
+
+/// A fresh, empty folder for this iteration inside this process's scratch folder, which is
+/// removed when the process exits.
+std::string freshDir();
+
+/// Writes `bytes` to `path`.
+void writeFile(const std::string& path, Bytes bytes);
+
+/// Splits `bytes` at kFileSeparator into at most `maxParts` parts (the last keeps the rest).
+std::vector<Bytes> splitFiles(Bytes bytes, std::size_t maxParts);
+
+/// Takes the first byte off `bytes` (0 when empty).
+std::uint8_t takeByte(Bytes& bytes);
+
+/// Whether a volume of `info` is small enough to read in an iteration: dims are checked by the
+/// readers; this only keeps legitimate but large volumes (a gzip bomb, a compressed DICOM that
+/// claims 65535 x 65535) out of the fuzzer's memory limit.
+bool smallEnough(const VolumeInfo& info);
+
+/// Does what `isoslab extract` does with a source once it is open, with Marching Cubes and one
+/// thread, into a mesh statistics sink: reads every slice, then asks for the warnings. Returns
+/// without reading when the volume is not smallEnough(). Throws isoslab::Error like the readers.
+void extractAll(SliceSource& source);
+
+/// Aborts with `what` on stderr: a property the fuzzer checks does not hold.
+[[noreturn]] void fail(const std::string& what);
+
+}  // namespace isoslab::fuzz
