@@ -617,24 +617,7 @@ int runDecode(const std::string& input, const std::string& output) {
   MeshMetadata meta;
   IndexedMesh mesh = readMesh(input, &meta);
   if (meta.volumeFaces) mesh.boundary = volumeFaceFlags(mesh.positions, *meta.volumeFaces, meta.positionTolerance);
-  MeshHeader header = headerFromMetadata(meta);
-  header.normals = !mesh.normals.empty();
-  if (!header.volumeFaces && !mesh.positions.empty()) {
-    // Unknown volume: the mesh's own box, for a Draco grid.
-    std::array<double, 6> b{};
-    for (int a = 0; a < 3; ++a) {
-      b[static_cast<std::size_t>(a)] = std::numeric_limits<double>::infinity();
-      b[static_cast<std::size_t>(a + 3)] = -std::numeric_limits<double>::infinity();
-    }
-    for (const Vec3f& p : mesh.positions) {
-      const double c[3] = {p.x, p.y, p.z};
-      for (std::size_t a = 0; a < 3; ++a) {
-        b[a] = std::min(b[a], c[a]);
-        b[a + 3] = std::max(b[a + 3], c[a]);
-      }
-    }
-    header.volumeBounds = b;
-  }
+  const MeshHeader header = headerForDecodedMesh(meta, mesh.positions, !mesh.normals.empty());
   WriterOptions writerOptions;
   writerOptions.voxelSize =
       1e-3 * std::max({header.volumeBounds[3] - header.volumeBounds[0], header.volumeBounds[4] - header.volumeBounds[1],

@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace isoslab {
@@ -72,6 +74,28 @@ MeshHeader headerFromMetadata(const MeshMetadata& meta) {
     h.positionTolerance = meta.positionTolerance;
   }
   return h;
+}
+
+MeshHeader headerForDecodedMesh(const MeshMetadata& meta, const std::vector<Vec3f>& positions, bool normals) {
+  MeshHeader header = headerFromMetadata(meta);
+  header.normals = normals;
+  if (!header.volumeFaces && !positions.empty()) {
+    // Unknown volume: the mesh's own box, for a Draco grid.
+    std::array<double, 6> b{};
+    for (std::size_t a = 0; a < 3; ++a) {
+      b[a] = std::numeric_limits<double>::infinity();
+      b[a + 3] = -std::numeric_limits<double>::infinity();
+    }
+    for (const Vec3f& p : positions) {
+      const double c[3] = {p.x, p.y, p.z};
+      for (std::size_t a = 0; a < 3; ++a) {
+        b[a] = std::min(b[a], c[a]);
+        b[a + 3] = std::max(b[a + 3], c[a]);
+      }
+    }
+    header.volumeBounds = b;
+  }
+  return header;
 }
 
 }  // namespace isoslab

@@ -43,4 +43,9 @@ void parseMetadataLine(const std::string& line, MeshMetadata& meta);
 /// The header a writer needs to write `meta` back out (decode).
 MeshHeader headerFromMetadata(const MeshMetadata& meta);
 
+/// The header for re-encoding a mesh read from a file (`isoslab decode`): headerFromMetadata, with
+/// normals when the mesh has them and, when the file states no volume, the positions' own box as
+/// volumeBounds (the Draco grid).
+MeshHeader headerForDecodedMesh(const MeshMetadata& meta, const std::vector<Vec3f>& positions, bool normals);
+
 }  // namespace isoslab

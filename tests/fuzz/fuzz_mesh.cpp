@@ -31,23 +31,7 @@ void metrics(IndexedMesh mesh, const MeshMetadata& meta) {
 // The decode command: the header from the file's metadata, then a writer for `output`.
 void decode(IndexedMesh mesh, const MeshMetadata& meta, const std::string& output) {
   if (meta.volumeFaces) mesh.boundary = volumeFaceFlags(mesh.positions, *meta.volumeFaces, meta.positionTolerance);
-  MeshHeader header = headerFromMetadata(meta);
-  header.normals = !mesh.normals.empty();
-  if (!header.volumeFaces && !mesh.positions.empty()) {
-    std::array<double, 6> b{};
-    for (std::size_t a = 0; a < 3; ++a) {
-      b[a] = std::numeric_limits<double>::infinity();
-      b[a + 3] = -std::numeric_limits<double>::infinity();
-    }
-    for (const Vec3f& p : mesh.positions) {
-      const double c[3] = {p.x, p.y, p.z};
-      for (std::size_t a = 0; a < 3; ++a) {
-        b[a] = std::min(b[a], c[a]);
-        b[a + 3] = std::max(b[a + 3], c[a]);
-      }
-    }
-    header.volumeBounds = b;
-  }
+  const MeshHeader header = headerForDecodedMesh(meta, mesh.positions, !mesh.normals.empty());
   WriterOptions options;
   const auto& vb = header.volumeBounds;
   options.voxelSize = 1e-3 * std::max({vb[3] - vb[0], vb[4] - vb[1], vb[5] - vb[2], 1e-30});
