@@ -8,8 +8,8 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
-#include "encode/gltf.h"
 #include "core/error.h"
+#include "encode/gltf.h"
 
 namespace isoslab {
 namespace {

@@ -32,10 +32,10 @@
 #include <unordered_map>
 #include <vector>
 
+#include "core/atomic_file.h"
 #include "encode/draco_codec.h"
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_writer.h"
-#include "core/atomic_file.h"
 
 namespace isoslab {
 

@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <limits>
 
-#include "encode/mesh_metadata.h"
 #include "core/error.h"
+#include "encode/mesh_metadata.h"
 
 namespace isoslab {
 namespace {

@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "encode/mesh_writer.h"
 #include "core/atomic_file.h"
+#include "encode/mesh_writer.h"
 
 namespace isoslab {
 

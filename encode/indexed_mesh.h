@@ -47,20 +47,4 @@ class MemoryMeshSink final : public MeshSink {
 /// Sends `mesh` to `sink` as a single chunk: begin, consume, finish.
 void feedMesh(const IndexedMesh& mesh, const MeshHeader& header, MeshSink& sink);
 
-struct MeshMetadata;
-
-/// Reads a mesh file: a .glb (isoslab's Draco chunks, seams joined by their _ISOSLAB_SEAM keys, or
-/// plain accessors), a .drc, binary or ASCII PLY (vertex x, y, z as float or double, optional nx,
-/// ny, nz; faces as a list of int/uint indices, polygons fanned into triangles), OBJ, or binary STL
-/// (corners welded by exact position). Positions are those of the buffers: a .glb's node transform
-/// to glTF's frame is not applied. Fills `metadata` when given, from what the file says (see
-/// mesh_metadata.h). Throws isoslab::Error naming the file and the problem.
-IndexedMesh readMesh(const std::string& path, MeshMetadata* metadata = nullptr);
-
-/// Per position, the BoundaryFace bits of the volume faces it lies on (within a rounding
-/// tolerance of the plane, plus `tolerance` for stored positions that were quantized), as extraction
-/// marks them; for measuring a mesh read from a file.
-std::vector<std::uint8_t> volumeFaceFlags(const std::vector<Vec3f>& positions, const VolumeFaces& faces,
-                                          double tolerance = 0);
-
 }  // namespace isoslab

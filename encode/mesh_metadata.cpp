@@ -98,4 +98,22 @@ MeshHeader headerForDecodedMesh(const MeshMetadata& meta, const std::vector<Vec3
   return header;
 }
 
+std::vector<std::uint8_t> volumeFaceFlags(const std::vector<Vec3f>& positions, const VolumeFaces& faces, double extra) {
+  // The tolerance of float positions a few roundings away from a plane: relative to the volume's
+  // distance from the origin and its size.
+  double scale = 0;
+  for (const FacePlane& f : faces) scale = std::max(scale, std::abs(f[3]));
+  const double tolerance = 4e-6 * scale + 1e-9 + extra;
+  std::vector<std::uint8_t> flags(positions.size(), 0);
+  for (std::size_t v = 0; v < positions.size(); ++v) {
+    const Vec3f& p = positions[v];
+    for (std::size_t k = 0; k < 6; ++k) {
+      const FacePlane& f = faces[k];
+      const double d = f[0] * p.x + f[1] * p.y + f[2] * p.z - f[3];
+      if (std::abs(d) <= tolerance) flags[v] |= static_cast<std::uint8_t>(1u << k);
+    }
+  }
+  return flags;
+}
+
 }  // namespace isoslab

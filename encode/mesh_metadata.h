@@ -48,4 +48,10 @@ MeshHeader headerFromMetadata(const MeshMetadata& meta);
 /// volumeBounds (the Draco grid).
 MeshHeader headerForDecodedMesh(const MeshMetadata& meta, const std::vector<Vec3f>& positions, bool normals);
 
+/// Per position, the BoundaryFace bits of the volume faces it lies on (within a rounding
+/// tolerance of the plane, plus `tolerance` for stored positions that were quantized), as extraction
+/// marks them; for measuring a mesh read from a file.
+std::vector<std::uint8_t> volumeFaceFlags(const std::vector<Vec3f>& positions, const VolumeFaces& faces,
+                                          double tolerance = 0);
+
 }  // namespace isoslab

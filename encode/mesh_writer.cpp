@@ -6,12 +6,12 @@
 #include <cctype>
 #include <filesystem>
 
+#include "core/error.h"
 #include "encode/draco_writers.h"
 #include "encode/gltf.h"
 #include "encode/obj_writer.h"
 #include "encode/ply_writer.h"
 #include "encode/stl_writer.h"
-#include "core/error.h"
 
 namespace isoslab {
 

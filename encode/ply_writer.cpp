@@ -6,9 +6,9 @@
 #include <cstring>
 #include <filesystem>
 
+#include "core/error.h"
 #include "encode/binary_buffer.h"
 #include "encode/mesh_metadata.h"
-#include "core/error.h"
 
 namespace isoslab {
 namespace {

@@ -6,8 +6,8 @@
 #include <memory>
 #include <string>
 
-#include "encode/mesh_writer.h"
 #include "core/atomic_file.h"
+#include "encode/mesh_writer.h"
 
 namespace isoslab {
 

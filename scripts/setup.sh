@@ -4,7 +4,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config git
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libtinyobjloader-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev
   libdcmtk-dev libopenjp2-7-dev libdraco-dev libeigen3-dev draco
   python3-matplotlib libopenimageio-dev

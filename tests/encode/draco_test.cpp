@@ -11,6 +11,7 @@
 #include "encode/draco_codec.h"
 #include "encode/draco_writers.h"
 #include "encode/indexed_mesh.h"
+#include "encode/mesh_reader.h"
 #include "encode/mesh_writer.h"
 #include "extract/frame.h"
 #include "io/open_source.h"
@@ -134,15 +135,6 @@ TEST(DrcWriter, OneDracoMeshThatDracoDecoderReads) {
   const IndexedMesh theirs = readMesh(dir + "/back.ply");
   EXPECT_EQ(theirs.triangles.size(), w.mesh.triangles.size());
   EXPECT_EQ(theirs.positions.size(), w.mesh.positions.size());
-}
-
-TEST(ObjWriter, RoundTripsExactly) {
-  const std::string dir = testing::tempDir();
-  const Written w = writeMesh("phantom:sphere?n=32&r=10", 900, dir + "/s.obj", {}, true);
-  const IndexedMesh back = readMesh(dir + "/s.obj");
-  EXPECT_EQ(back.positions, w.mesh.positions);
-  EXPECT_EQ(back.normals, w.mesh.normals);
-  EXPECT_EQ(back.triangles, w.mesh.triangles);
 }
 
 TEST(GlbDraco, RealClientsLoadIt) {

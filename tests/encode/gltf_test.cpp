@@ -11,6 +11,7 @@
 
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_metadata.h"
+#include "encode/mesh_reader.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;

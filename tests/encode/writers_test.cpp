@@ -6,11 +6,13 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/error.h"
 #include "encode/indexed_mesh.h"
+#include "encode/mesh_reader.h"
 #include "encode/mesh_writer.h"
+#include "encode/obj_writer.h"
 #include "encode/ply_writer.h"
 #include "encode/stl_writer.h"
-#include "core/error.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -92,6 +94,17 @@ TEST(StlWriter, RoundTripsTheWeldedMesh) {
   EXPECT_EQ(back.positions.size(), x.mesh.positions.size());
 }
 
+TEST(ObjWriter, RoundTripsExactly) {
+  const testing::Extraction x = testing::extract("phantom:sphere?n=32&r=10", Method::kMarchingCubes, 900, true);
+  const std::string dir = testing::tempDir();
+  ObjWriter w(dir + "/s.obj");
+  stream(x.mesh, w, true);
+  const IndexedMesh back = readMesh(dir + "/s.obj");
+  EXPECT_EQ(back.positions, x.mesh.positions);
+  EXPECT_EQ(back.normals, x.mesh.normals);
+  EXPECT_EQ(back.triangles, x.mesh.triangles);
+}
+
 TEST(Writers, AnAbandonedWriterLeavesNothing) {
   const std::string dir = testing::tempDir();
   for (const char* name : {"a.ply", "a.stl"}) {
@@ -139,51 +152,6 @@ TEST(Writers, OutputsGetTheUsualPermissions) {
   ::umask(mask);
   const auto perms = fs::status(dir + "/p.ply").permissions();
   EXPECT_EQ(static_cast<unsigned>(perms) & 0777u, 0666u & ~static_cast<unsigned>(mask));
-}
-
-// A binary STL is told from ASCII by its size (84 + 50 n bytes), even when its header begins with
-// "solid", as some exporters write it.
-TEST(MeshReader, BinaryStlWhoseHeaderSaysSolid) {
-  const std::string dir = testing::tempDir();
-  std::string bytes = "solid exported by a CAD tool";
-  bytes.resize(80, ' ');
-  const std::uint32_t count = 2;
-  bytes.append(reinterpret_cast<const char*>(&count), 4);
-  const float tris[2][12] = {{0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 0}};
-  for (const auto& t : tris) {
-    bytes.append(reinterpret_cast<const char*>(t), sizeof t);
-    bytes.append(2, '\0');
-  }
-  std::ofstream(dir + "/m.stl", std::ios::binary) << bytes;
-  const IndexedMesh mesh = readMesh(dir + "/m.stl");
-  EXPECT_EQ(mesh.triangles.size(), 2u);
-  EXPECT_EQ(mesh.positions.size(), 4u);
-}
-
-// OBJ indices count from 1, or back from the latest vertex when negative.
-TEST(MeshReader, ObjNegativeIndicesAreRelative) {
-  const std::string dir = testing::tempDir();
-  std::ofstream(dir + "/m.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 1 1 0\nf 2/1 -1//1 3\n";
-  const IndexedMesh mesh = readMesh(dir + "/m.obj");
-  ASSERT_EQ(mesh.triangles.size(), 2u);
-  EXPECT_EQ(mesh.triangles[0], (Triangle{0, 1, 2}));
-  EXPECT_EQ(mesh.triangles[1], (Triangle{1, 3, 2}));
-}
-
-// An OBJ that isoslab wrote for an empty surface (only its metadata comments) is an empty mesh.
-TEST(MeshReader, EmptyObjFromIsoslabReads) {
-  const std::string dir = testing::tempDir();
-  {
-    auto writer = makeMeshWriter(dir + "/e.obj", WriterOptions{});
-    MeshHeader h;
-    h.method = "mc";
-    h.iso = 5;
-    h.space = "voxel";
-    writer->begin(h);
-    writer->finish();
-  }
-  const IndexedMesh mesh = readMesh(dir + "/e.obj");
-  EXPECT_TRUE(mesh.triangles.empty());
 }
 
 }  // namespace

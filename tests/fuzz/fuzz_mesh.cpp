@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "encode/indexed_mesh.h"
+#include "encode/mesh_reader.h"
 #include "encode/mesh_metadata.h"
 #include "encode/mesh_writer.h"
 #include "metrics/mesh_stats.h"

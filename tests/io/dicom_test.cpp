@@ -27,9 +27,9 @@
 #include <optional>
 #include <random>
 
+#include "core/error.h"
 #include "extract/frame.h"
 #include "io/dicom_series.h"
-#include "core/error.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
 #include "stream/pipeline.h"

@@ -11,8 +11,8 @@
 #include <fstream>
 #include <numbers>
 
-#include "extract/frame.h"
 #include "core/error.h"
+#include "extract/frame.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
 #include "io/volume_writer.h"

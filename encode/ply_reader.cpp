@@ -1,0 +1,247 @@
+// PLY (binary little-endian and ASCII) into an IndexedMesh: the header's elements and properties,
+// their counts checked against the data's size before anything is allocated, then the data.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+#include "core/error.h"
+#include "encode/format_readers.h"
+
+namespace isoslab::format {
+namespace {
+
+struct Property {
+  std::string name;
+  std::string type;       // scalar type, or the item type of a list
+  std::string countType;  // set for lists
+};
+
+struct Element {
+  std::string name;
+  std::uint64_t count = 0;
+  std::vector<Property> properties;
+};
+
+struct Header {
+  bool ascii = false;
+  std::vector<Element> elements;
+};
+
+std::size_t typeSize(const std::string& t) {
+  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+  if (t == "double" || t == "float64") return 8;
+  return 0;
+}
+
+double decode(const char* p, const std::string& t) {
+  auto get = [p]<typename T>(T) {
+    T v;
+    std::memcpy(&v, p, sizeof v);
+    return static_cast<double>(v);
+  };
+  if (t == "char" || t == "int8") return get(std::int8_t{});
+  if (t == "uchar" || t == "uint8") return get(std::uint8_t{});
+  if (t == "short" || t == "int16") return get(std::int16_t{});
+  if (t == "ushort" || t == "uint16") return get(std::uint16_t{});
+  if (t == "int" || t == "int32") return get(std::int32_t{});
+  if (t == "uint" || t == "uint32") return get(std::uint32_t{});
+  if (t == "float" || t == "float32") return get(float{});
+  return get(double{});
+}
+
+class Input {
+ public:
+  Input(const std::string& path, std::string data) : path_(path), data_(std::move(data)) {}
+  const char* take(std::size_t n) {
+    if (pos_ + n > data_.size()) throw Error(fmt::format("{}: the file is truncated", path_));
+    const char* p = data_.data() + pos_;
+    pos_ += n;
+    return p;
+  }
+  std::string line() {
+    const std::size_t end = data_.find('\n', pos_);
+    if (end == std::string::npos) throw Error(fmt::format("{}: the PLY header is not terminated", path_));
+    std::string l = data_.substr(pos_, end - pos_);
+    pos_ = end + 1;
+    if (!l.empty() && l.back() == '\r') l.pop_back();
+    return l;
+  }
+  std::string rest() const { return data_.substr(pos_); }
+  std::size_t remaining() const { return data_.size() - pos_; }
+
+ private:
+  std::string path_;
+  std::string data_;
+  std::size_t pos_ = 0;
+};
+
+Property parseProperty(std::istringstream& s, const std::string& line, const std::string& path) {
+  Property p;
+  std::string t;
+  s >> t;
+  if (t == "list") {
+    s >> p.countType >> p.type >> p.name;
+  } else {
+    p.type = t;
+    s >> p.name;
+  }
+  if (typeSize(p.type) == 0 || (!p.countType.empty() && typeSize(p.countType) == 0)) {
+    throw Error(fmt::format("{}: unknown PLY property type in '{}'", path, line));
+  }
+  return p;
+}
+
+Header parseHeader(Input& in, const std::string& path, MeshMetadata& meta) {
+  if (in.line() != "ply") throw Error(fmt::format("{}: not a PLY file", path));
+  std::string format;
+  Header header;
+  for (std::string l = in.line(); l != "end_header"; l = in.line()) {
+    std::istringstream s(l);
+    std::string word;
+    s >> word;
+    if (word == "format") {
+      s >> format;
+    } else if (word == "comment" || word == "obj_info") {
+      const std::size_t text = l.find_first_not_of(' ', word.size());
+      if (text != std::string::npos) parseMetadataLine(l.substr(text), meta);
+    } else if (word == "element") {
+      Element e;
+      s >> e.name >> e.count;
+      header.elements.push_back(e);
+    } else if (word == "property") {
+      if (header.elements.empty()) throw Error(fmt::format("{}: a PLY property precedes every element", path));
+      header.elements.back().properties.push_back(parseProperty(s, l, path));
+    }
+  }
+  if (format != "binary_little_endian" && format != "ascii") {
+    throw Error(fmt::format("{}: PLY format '{}' is not supported (binary_little_endian or ascii)", path, format));
+  }
+  header.ascii = format == "ascii";
+  return header;
+}
+
+// Every element takes at least one byte per property (two in ASCII, with its separator), so the
+// counts are checked against the data's size before anything is read or allocated.
+void checkCounts(const Header& header, std::uint64_t have, const std::string& path) {
+  std::uint64_t need = 0;
+  for (const Element& e : header.elements) {
+    if (e.count == 0) continue;
+    if (e.properties.empty()) {
+      throw Error(fmt::format("{}: PLY element '{}' claims {} items but has no properties", path, e.name, e.count));
+    }
+    std::uint64_t least = 0;
+    for (const Property& p : e.properties)
+      least += header.ascii ? 2 : (p.countType.empty() ? typeSize(p.type) : typeSize(p.countType));
+    if (header.ascii) --least;
+    if (e.count > (have - std::min(have, need)) / least) {
+      throw Error(fmt::format("{}: PLY element '{}' claims {} items, more than its {} data bytes hold", path, e.name,
+                              e.count, have));
+    }
+    need += e.count * least;
+  }
+}
+
+// The data after the header, one scalar at a time, in the header's format.
+class Body {
+ public:
+  Body(Input& in, bool ascii, const std::string& path)
+      : in_(in), ascii_(ascii), path_(path), text_(ascii ? in.rest() : std::string()) {
+    textSize_ = ascii ? text_.str().size() : 0;
+  }
+
+  double scalar(const std::string& type) {
+    if (!ascii_) return decode(in_.take(typeSize(type)), type);
+    std::string word;
+    if (!(text_ >> word)) throw Error(fmt::format("{}: the PLY data is truncated", path_));
+    char* end = nullptr;
+    const double v = std::strtod(word.c_str(), &end);
+    if (end != word.c_str() + word.size()) {
+      throw Error(fmt::format("{}: the PLY data holds '{}', not a number", path_, word.substr(0, 40)));
+    }
+    return v;
+  }
+
+  // A list property: its items when they are a face's vertex indices, else read and dropped.
+  std::vector<std::uint64_t> list(const Property& p, bool indices) {
+    const double claimed = scalar(p.countType);
+    if (!(claimed >= 0 && claimed <= static_cast<double>(ascii_ ? textSize_ : in_.remaining()))) {
+      throw Error(fmt::format("{}: a PLY list claims {} items, more than the file holds", path_, claimed));
+    }
+    if (claimed != std::floor(claimed)) {
+      throw Error(fmt::format("{}: a PLY list claims {} items, not a whole number", path_, claimed));
+    }
+    const auto count = static_cast<std::uint64_t>(claimed);
+    std::vector<std::uint64_t> items;
+    for (std::uint64_t k = 0; k < count; ++k) {
+      const double v = scalar(p.type);
+      // A vertex index is a whole number from 0; a cast would truncate 1.5 and wrap -1.
+      if (indices && !(v >= 0 && v == std::floor(v) && v < 18446744073709551616.0)) {
+        throw Error(fmt::format("{}: a PLY face has the vertex index {}, not a whole number from 0", path_, v));
+      }
+      if (indices) items.push_back(static_cast<std::uint64_t>(v));
+    }
+    return items;
+  }
+
+ private:
+  Input& in_;
+  bool ascii_;
+  const std::string& path_;
+  std::istringstream text_;
+  std::size_t textSize_ = 0;
+};
+
+// One item of element `e`: a vertex's position and normal, or a face's polygon, into `mesh`.
+void readItem(const Element& e, Body& body, IndexedMesh& mesh, const std::string& path) {
+  static const char* kNames[6] = {"x", "y", "z", "nx", "ny", "nz"};
+  double xyz[6] = {0, 0, 0, 0, 0, 0};
+  bool hasNormal = false;
+  std::vector<std::uint64_t> poly;
+  for (const Property& p : e.properties) {
+    if (!p.countType.empty()) {
+      const bool indices = e.name == "face" && (p.name == "vertex_indices" || p.name == "vertex_index");
+      std::vector<std::uint64_t> items = body.list(p, indices);
+      if (indices) poly = std::move(items);
+      continue;
+    }
+    const double v = body.scalar(p.type);
+    for (int k = 0; k < 6; ++k) {
+      if (p.name == kNames[k]) {
+        xyz[k] = v;
+        if (k >= 3) hasNormal = true;
+      }
+    }
+  }
+  if (e.name == "vertex") {
+    mesh.positions.push_back({static_cast<float>(xyz[0]), static_cast<float>(xyz[1]), static_cast<float>(xyz[2])});
+    if (hasNormal)
+      mesh.normals.push_back({static_cast<float>(xyz[3]), static_cast<float>(xyz[4]), static_cast<float>(xyz[5])});
+  } else if (e.name == "face") {
+    addPolygon(mesh, poly, path);
+  }
+}
+
+}  // namespace
+
+IndexedMesh readPly(const std::string& path, std::string data, MeshMetadata& meta) {
+  Input in(path, std::move(data));
+  const Header header = parseHeader(in, path, meta);
+  checkCounts(header, in.remaining(), path);
+  IndexedMesh mesh;
+  Body body(in, header.ascii, path);
+  for (const Element& e : header.elements) {
+    for (std::uint64_t n = 0; n < e.count; ++n) readItem(e, body, mesh, path);
+  }
+  if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) {
+    throw Error(fmt::format("{}: the PLY file has {} normals for {} vertices", path, mesh.normals.size(),
+                            mesh.positions.size()));
+  }
+  return mesh;
+}
+
+}  // namespace isoslab::format
