@@ -3,6 +3,8 @@
 // their appendix cubes.
 #include "cli/compare.h"
 
+#include "cli/arguments.h"
+
 #include <fmt/format.h>
 
 #include <chrono>
@@ -13,9 +15,9 @@
 #include <numbers>
 #include <sstream>
 
-#include "extract/extractor.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "extract/extractor.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
 #include "metrics/measure.h"
@@ -24,21 +26,6 @@ namespace fs = std::filesystem;
 
 namespace isoslab {
 namespace {
-
-std::vector<double> numbers(const std::string& text, const std::string& option) {
-  std::vector<double> v;
-  std::stringstream s(text);
-  std::string item;
-  while (std::getline(s, item, ',')) {
-    char* end = nullptr;
-    const double x = std::strtod(item.c_str(), &end);
-    if (item.empty() || end != item.c_str() + item.size()) {
-      throw Error(fmt::format("{}: '{}' is not a comma-separated list of numbers", option, text));
-    }
-    v.push_back(x);
-  }
-  return v;
-}
 
 std::vector<Method> methodsOf(const std::string& text) {
   std::vector<Method> methods;
@@ -85,11 +72,11 @@ int runSpheres(const CompareArgs& args) {
   if (args.radii.empty()) {
     for (int k = 0; k <= 50; ++k) radii.push_back((1.0 + 10.0 * k) / 10.0);
   } else {
-    radii = numbers(args.radii, "--radii");
+    radii = cli::parseList(args.radii, "--radii");
   }
   std::array<double, 3> offset{0.5, 0.5, 0.5};
   if (!args.centre.empty()) {
-    const auto c = numbers(args.centre, "--centre");
+    const auto c = cli::parseList(args.centre, "--centre");
     if (c.size() != 3) throw Error(fmt::format("--centre: '{}' needs three values", args.centre));
     offset = {c[0], c[1], c[2]};
   }

@@ -17,116 +17,45 @@
 #include <thread>
 #include <vector>
 
+#include "cli/arguments.h"
 #include "cli/compare.h"
-#include "metrics/report.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_metadata.h"
+#include "encode/mesh_reader.h"
 #include "encode/mesh_writer.h"
 #include "encode/ply_writer.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
-#include "metrics/mesh_stats.h"
-#include "metrics/sphere_metrics.h"
-#include "core/atomic_file.h"
 #include "io/dicom_series.h"
-#include "core/error.h"
 #include "io/interrupt.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
 #include "io/volume_formats.h"
 #include "io/volume_writer.h"
 #include "metrics/measure.h"
+#include "metrics/mesh_stats.h"
+#include "metrics/report.h"
+#include "metrics/sphere_metrics.h"
 #include "stream/pipeline.h"
 #include "stream/progress.h"
 
 namespace isoslab {
 namespace {
 
+using cli::alternatives;
+using cli::editDistance;
+using cli::finiteNumber;
+using cli::integerIn;
+using cli::numberList;
+using cli::oneOf;
+using cli::parseList;
+using cli::UsageError;
+
 constexpr const char* kVersion = ISOSLAB_VERSION;
 /// --threads: more would fail to start (EAGAIN) long before it helped.
 constexpr std::int64_t kMaxThreads = 256;
-
-// A command line that cannot work whatever the input holds (a malformed list, an unknown name,
-// a missing value): one line on stderr and exit status 2.
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-// "a, b, c or d".
-std::string alternatives(const std::vector<std::string>& names) {
-  std::string text;
-  for (std::size_t n = 0; n < names.size(); ++n) {
-    text += (n == 0 ? "" : n + 1 == names.size() ? " or " : ", ") + names[n];
-  }
-  return text;
-}
-
-// A CLI11 transform (a check that may rewrite the value) that takes one of `names` in any case and
-// hands the option the name as listed; otherwise the error says "unknown WHAT 'value' (use a, b
-// or c)".
-CLI::Validator oneOf(const std::string& what, const std::vector<std::string>& names) {
-  return CLI::Validator(
-      [what, names](std::string& value) -> std::string {
-        const std::string lower = CLI::detail::to_lower(value);
-        for (const std::string& name : names) {
-          if (name == lower) {
-            value = name;
-            return {};
-          }
-        }
-        return fmt::format("unknown {} '{}' (use {})", what, value, alternatives(names));
-      },
-      "");
-}
-
-// A CLI11 check for a floating-point option: a number must be finite ("nan", "inf" and "1e400"
-// are refused, so that no option yields an empty or NaN mesh). Other text is CLI11's to refuse.
-CLI::Validator finiteNumber() {
-  return CLI::Validator(
-      [](std::string& value) -> std::string {
-        errno = 0;
-        char* end = nullptr;
-        const double v = std::strtod(value.c_str(), &end);
-        const bool number = !value.empty() && end == value.c_str() + value.size();
-        if (number && (!std::isfinite(v) || (errno == ERANGE && std::abs(v) > 1))) {
-          return fmt::format("'{}' is not a finite number", value);
-        }
-        return {};
-      },
-      "");
-}
-
-// A CLI11 check for an integer option: the whole text, within [lo, hi].
-CLI::Validator integerIn(std::int64_t lo, std::int64_t hi, const std::string& meaning = "") {
-  return CLI::Validator(
-      [lo, hi, meaning](std::string& value) -> std::string {
-        errno = 0;
-        char* end = nullptr;
-        const long long v = std::strtoll(value.c_str(), &end, 10);
-        if (value.empty() || end != value.c_str() + value.size() || errno == ERANGE || v < lo || v > hi) {
-          return fmt::format("'{}' is not a whole number from {} to {}{}", value, lo, hi, meaning);
-        }
-        return {};
-      },
-      "");
-}
-
-// Levenshtein distance, for "did you mean".
-std::size_t editDistance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
 
 struct RawArgs {
   std::string series;
@@ -159,8 +88,22 @@ void addRawOptions(CLI::App* cmd, RawArgs& raw) {
       ->check(CLI::IsMember({"sform", "qform"}))
       ->group("DICOM input");
   cmd->add_option("--raw-dims", raw.dims, "Raw input: lattice points X,Y,Z (Z may be left out for per-slice files)")
+      ->check(numberList([](const std::vector<double>& dims) -> std::string {
+        if (dims.size() != 2 && dims.size() != 3) return "needs X,Y or X,Y,Z";
+        for (double d : dims) {
+          if (d != std::floor(d) || d < -9.0e18 || d > 9.0e18) return "must hold whole numbers";
+        }
+        return {};
+      }))
       ->group("Raw input");
   cmd->add_option("--raw-type", raw.type, "Raw input: voxel type u8 i8 u16 i16 u32 i32 f32 f64")
+      ->check(CLI::Validator(
+          [](std::string& value) -> std::string {
+            return parseVoxelType(value)
+                       ? std::string()
+                       : fmt::format("unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", value);
+          },
+          ""))
       ->group("Raw input")
       ->capture_default_str();
   cmd->add_option("--raw-endian", raw.endian, "Raw input: byte order, little or big")
@@ -172,27 +115,14 @@ void addRawOptions(CLI::App* cmd, RawArgs& raw) {
       ->group("Raw input")
       ->capture_default_str();
   cmd->add_option("--spacing", raw.spacing, "Voxel spacing sx,sy,sz (raw input and image stacks; default 1,1,1)")
+      ->check(numberList([](const std::vector<double>& s) -> std::string {
+        if (s.size() != 3) return "needs three values";
+        return s[0] > 0 && s[1] > 0 && s[2] > 0 ? "" : "needs three positive values";
+      }))
       ->group("Raw input");
 }
 
-std::vector<double> parseList(const std::string& text, const std::string& option) {
-  std::vector<double> values;
-  std::size_t start = 0;
-  while (start <= text.size()) {
-    const std::size_t comma = text.find(',', start);
-    const std::string item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    char* end = nullptr;
-    const double v = std::strtod(item.c_str(), &end);
-    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(v)) {
-      throw UsageError(fmt::format("{}: '{}' is not a comma-separated list of numbers", option, text));
-    }
-    values.push_back(v);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  return values;
-}
-
+// The options' values, which their validators (addRawOptions) have checked while parsing.
 SourceOptions sourceOptions(const RawArgs& raw) {
   SourceOptions options;
   options.dicom.series = raw.series;
@@ -201,45 +131,22 @@ SourceOptions sourceOptions(const RawArgs& raw) {
   options.dicom.channel = raw.channel;
   if (raw.niftiXform == "sform") options.niftiXform = NiftiXform::kSform;
   if (raw.niftiXform == "qform") options.niftiXform = NiftiXform::kQform;
+  std::optional<std::array<double, 3>> spacing;
+  if (!raw.spacing.empty()) {
+    const auto s = parseList(raw.spacing, "--spacing");
+    spacing = std::array<double, 3>{s.at(0), s.at(1), s.at(2)};
+  }
   if (raw.dims.empty()) {
-    if (!raw.spacing.empty()) {
-      const auto sp = parseList(raw.spacing, "--spacing");
-      if (sp.size() != 3 || !(sp[0] > 0 && sp[1] > 0 && sp[2] > 0)) {
-        throw UsageError(fmt::format("--spacing: '{}' needs three positive values", raw.spacing));
-      }
-      options.spacing = std::array<double, 3>{sp[0], sp[1], sp[2]};
-    }
+    options.spacing = spacing;
     return options;
   }
   RawOptions r;
   const auto dims = parseList(raw.dims, "--raw-dims");
-  if (dims.size() != 2 && dims.size() != 3)
-    throw UsageError(fmt::format("--raw-dims: '{}' needs X,Y or X,Y,Z", raw.dims));
-  for (std::size_t a = 0; a < dims.size(); ++a) {
-    if (dims[a] != std::floor(dims[a]) || dims[a] < -9.0e18 || dims[a] > 9.0e18) {
-      throw UsageError(fmt::format("--raw-dims: '{}' must hold whole numbers", raw.dims));
-    }
-    r.dims[a] = static_cast<std::int64_t>(dims[a]);
-  }
-  const auto type = parseVoxelType(raw.type);
-  if (!type)
-    throw UsageError(fmt::format("--raw-type: unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", raw.type));
-  r.type = *type;
-  if (raw.endian == "little") {
-    r.byteOrder = ByteOrder::kLittle;
-  } else if (raw.endian == "big") {
-    r.byteOrder = ByteOrder::kBig;
-  } else {
-    throw UsageError(fmt::format("--raw-endian: '{}' must be 'little' or 'big'", raw.endian));
-  }
+  for (std::size_t a = 0; a < dims.size() && a < 3; ++a) r.dims[a] = static_cast<std::int64_t>(dims[a]);
+  r.type = parseVoxelType(raw.type).value();
+  r.byteOrder = raw.endian == "big" ? ByteOrder::kBig : ByteOrder::kLittle;
   r.headerBytes = raw.offset;
-  if (!raw.spacing.empty()) {
-    const auto s = parseList(raw.spacing, "--spacing");
-    if (s.size() != 3) throw UsageError(fmt::format("--spacing: '{}' needs three values", raw.spacing));
-    if (!(s[0] > 0 && s[1] > 0 && s[2] > 0))
-      throw UsageError(fmt::format("--spacing: '{}' needs three positive values", raw.spacing));
-    r.spacing = {s[0], s[1], s[2]};
-  }
+  if (spacing) r.spacing = *spacing;
   options.raw = r;
   return options;
 }
@@ -254,10 +161,16 @@ void writeText(const std::string& path, const std::string& text) {
   f.commit();
 }
 
+// --sphere cx,cy,cz,r, for extract and metrics.
+CLI::Validator sphereList() {
+  return numberList([](const std::vector<double>& v) -> std::string {
+    return v.size() == 4 && v[3] > 0 ? "" : "needs cx,cy,cz,r with r > 0";
+  });
+}
+
 Sphere parseSphere(const std::string& text) {
   const auto v = parseList(text, "--sphere");
-  if (v.size() != 4 || !(v[3] > 0)) throw UsageError(fmt::format("--sphere: '{}' needs cx,cy,cz,r with r > 0", text));
-  return Sphere{{v[0], v[1], v[2]}, v[3]};
+  return Sphere{{v.at(0), v.at(1), v.at(2)}, v.at(3)};
 }
 
 struct ExtractArgs {
@@ -769,10 +682,11 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->group("glTF output");
 
-  extract->add_option(
-      "--sphere", ex.sphere,
-      "Measure the mesh against the sphere cx,cy,cz,r (output coordinates); phantom spheres are measured "
-      "by themselves");
+  extract
+      ->add_option("--sphere", ex.sphere,
+                   "Measure the mesh against the sphere cx,cy,cz,r (output coordinates); phantom spheres are measured "
+                   "by themselves")
+      ->check(sphereList());
 
   std::string metricsInput;
   std::string metricsSphere;
@@ -780,18 +694,26 @@ int main(int argc, char** argv) {
   auto* metrics =
       app.add_subcommand("metrics", "Measure a mesh file (.ply, .stl, .obj, .glb, .drc), optionally against a sphere");
   metrics->add_option("MESH", metricsInput, "Mesh file")->required();
-  metrics->add_option("--sphere", metricsSphere, "cx,cy,cz,r: add the paper's radius, area and volume errors");
+  metrics->add_option("--sphere", metricsSphere, "cx,cy,cz,r: add the paper's radius, area and volume errors")
+      ->check(sphereList());
   metrics->add_option("--report", metricsReport, "Write the JSON here instead of stdout");
 
   CompareArgs cmp;
   auto* compare =
       app.add_subcommand("compare", "Run the paper's experiments: spheres51, paper (Tables 2 and 3) or cubes");
-  compare->add_option("--suite", cmp.suite, "spheres51, paper or cubes")->capture_default_str();
+  compare->add_option("--suite", cmp.suite, "spheres51, paper or cubes")
+      ->transform(oneOf("suite", {"spheres51", "paper", "cubes"}))
+      ->capture_default_str();
   compare->add_option("--out", cmp.out, "Output folder")->capture_default_str();
-  compare->add_option("--radii", cmp.radii,
-                      "spheres51: radii to run, e.g. 5,10,20 (default: the 51 radii 0.1 .. 50.1)");
-  compare->add_option("--centre", cmp.centre, "spheres51: centre offset from a grid point (default 0.5,0.5,0.5)");
-  compare->add_option("--methods", cmp.methods, "Methods to compare")->capture_default_str();
+  compare->add_option("--radii", cmp.radii, "spheres51: radii to run, e.g. 5,10,20 (default: the 51 radii 0.1 .. 50.1)")
+      ->check(numberList([](const std::vector<double>& radii) -> std::string {
+        return std::all_of(radii.begin(), radii.end(), [](double r) { return r > 0; }) ? "" : "needs radii above 0";
+      }));
+  compare->add_option("--centre", cmp.centre, "spheres51: centre offset from a grid point (default 0.5,0.5,0.5)")
+      ->check(numberList([](const std::vector<double>& c) { return c.size() == 3 ? "" : "needs three values"; }));
+  compare->add_option("--methods", cmp.methods, "Methods to compare")
+      ->transform(cli::listOf("method", {"mc", "mt5", "mt6", "bcc12"}))
+      ->capture_default_str();
   compare->add_option("--engine", cmp.engine, "paper: the engine CT (raw 256x256x128 u8, gzip allowed)");
   compare->add_option("--cthead", cmp.cthead, "paper: the CThead slices folder (u16 big-endian)");
   compare->add_flag("!--no-charts", cmp.charts, "spheres51: skip the PNG charts");

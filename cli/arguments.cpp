@@ -1,0 +1,139 @@
+#include "cli/arguments.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <optional>
+
+namespace isoslab::cli {
+namespace {
+
+std::optional<std::vector<double>> numbersOf(const std::string& text) {
+  std::vector<double> values;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = text.find(',', start);
+    const std::string item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    char* end = nullptr;
+    const double v = std::strtod(item.c_str(), &end);
+    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(v)) return std::nullopt;
+    values.push_back(v);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return values;
+}
+
+const std::string* findName(const std::vector<std::string>& names, const std::string& value) {
+  const std::string lower = CLI::detail::to_lower(value);
+  const auto it = std::find(names.begin(), names.end(), lower);
+  return it == names.end() ? nullptr : &*it;
+}
+
+}  // namespace
+
+std::string alternatives(const std::vector<std::string>& names) {
+  std::string text;
+  for (std::size_t n = 0; n < names.size(); ++n) {
+    text += (n == 0 ? "" : n + 1 == names.size() ? " or " : ", ") + names[n];
+  }
+  return text;
+}
+
+CLI::Validator oneOf(const std::string& what, const std::vector<std::string>& names) {
+  return CLI::Validator(
+      [what, names](std::string& value) -> std::string {
+        if (const std::string* name = findName(names, value)) {
+          value = *name;
+          return {};
+        }
+        return fmt::format("unknown {} '{}' (use {})", what, value, alternatives(names));
+      },
+      "");
+}
+
+CLI::Validator listOf(const std::string& what, const std::vector<std::string>& names) {
+  return CLI::Validator(
+      [what, names](std::string& value) -> std::string {
+        std::string rewritten;
+        std::size_t start = 0;
+        while (start <= value.size()) {
+          const std::size_t comma = value.find(',', start);
+          const std::string item = value.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+          const std::string* name = findName(names, item);
+          if (name == nullptr) return fmt::format("unknown {} '{}' (use {})", what, item, alternatives(names));
+          rewritten += (rewritten.empty() ? "" : ",") + *name;
+          if (comma == std::string::npos) break;
+          start = comma + 1;
+        }
+        value = rewritten;
+        return {};
+      },
+      "");
+}
+
+CLI::Validator finiteNumber() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        errno = 0;
+        char* end = nullptr;
+        const double v = std::strtod(value.c_str(), &end);
+        const bool number = !value.empty() && end == value.c_str() + value.size();
+        if (number && (!std::isfinite(v) || (errno == ERANGE && std::abs(v) > 1))) {
+          return fmt::format("'{}' is not a finite number", value);
+        }
+        return {};
+      },
+      "");
+}
+
+CLI::Validator integerIn(std::int64_t lo, std::int64_t hi, const std::string& meaning) {
+  return CLI::Validator(
+      [lo, hi, meaning](std::string& value) -> std::string {
+        errno = 0;
+        char* end = nullptr;
+        const long long v = std::strtoll(value.c_str(), &end, 10);
+        if (value.empty() || end != value.c_str() + value.size() || errno == ERANGE || v < lo || v > hi) {
+          return fmt::format("'{}' is not a whole number from {} to {}{}", value, lo, hi, meaning);
+        }
+        return {};
+      },
+      "");
+}
+
+CLI::Validator numberList(std::function<std::string(const std::vector<double>&)> check) {
+  return CLI::Validator(
+      [check](std::string& value) -> std::string {
+        const auto values = numbersOf(value);
+        if (!values) return fmt::format("'{}' is not a comma-separated list of numbers", value);
+        const std::string problem = check(*values);
+        return problem.empty() ? std::string() : fmt::format("'{}' {}", value, problem);
+      },
+      "");
+}
+
+std::vector<double> parseList(const std::string& text, const std::string& option) {
+  auto values = numbersOf(text);
+  if (!values) throw UsageError(fmt::format("{}: '{}' is not a comma-separated list of numbers", option, text));
+  return *std::move(values);
+}
+
+std::size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace isoslab::cli

@@ -1,0 +1,53 @@
+// The command line's vocabulary: usage errors, and the CLI11 validators every command uses, so that
+// a malformed option is refused while parsing, with one line naming the option, before any input
+// is opened.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace isoslab::cli {
+
+/// A command line that cannot work whatever the input holds (a malformed list, an unknown name, a
+/// missing value): one line on stderr and exit status 2.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// "a, b, c or d".
+std::string alternatives(const std::vector<std::string>& names);
+
+/// A transform that takes one of `names` in any case and hands the option the name as listed;
+/// otherwise "unknown WHAT 'value' (use a, b or c)".
+CLI::Validator oneOf(const std::string& what, const std::vector<std::string>& names);
+
+/// A comma-separated list of `names` (each in any case, rewritten as listed); otherwise "unknown
+/// WHAT 'item' (use a, b or c)".
+CLI::Validator listOf(const std::string& what, const std::vector<std::string>& names);
+
+/// A floating-point option whose number must be finite ("nan", "inf" and "1e400" are refused).
+/// Other text is CLI11's to refuse.
+CLI::Validator finiteNumber();
+
+/// An integer option: the whole text, within [lo, hi]; `meaning` follows the range in the message.
+CLI::Validator integerIn(std::int64_t lo, std::int64_t hi, const std::string& meaning = "");
+
+/// A comma-separated list of finite numbers ("'TEXT' is not a comma-separated list of numbers"),
+/// which `check` then judges: it returns "" or the rest of the message after "'TEXT' ", e.g.
+/// "needs three values".
+CLI::Validator numberList(std::function<std::string(const std::vector<double>&)> check);
+
+/// The numbers of a list; throws UsageError naming `option` when the text is not one (numberList()
+/// has already refused such text on the command line).
+std::vector<double> parseList(const std::string& text, const std::string& option);
+
+/// Levenshtein distance, for "did you mean".
+std::size_t editDistance(const std::string& a, const std::string& b);
+
+}  // namespace isoslab::cli
