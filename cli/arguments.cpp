@@ -121,6 +121,34 @@ std::vector<double> parseList(const std::string& text, const std::string& option
   return *std::move(values);
 }
 
+std::string withFlags(const std::string& text) {
+  // The settings of SourceOptions and WriterOptions that have an option of the same name.
+  static const char* const kSettings[] = {"series",      "strict",     "skip_bad",       "channel",    "nifti_xform",
+                                          "raw_dims",    "raw_type",   "raw_endian",     "raw_offset", "spacing",
+                                          "draco_level", "quant_bits", "chunk_triangles"};
+  std::string out;
+  std::size_t at = 0;
+  while (at < text.size()) {
+    const std::size_t open = text.find('`', at);
+    const std::size_t close = open == std::string::npos ? open : text.find('`', open + 1);
+    if (close == std::string::npos) break;
+    const std::string name = text.substr(open + 1, close - open - 1);
+    const bool known =
+        std::any_of(std::begin(kSettings), std::end(kSettings), [&](const char* s) { return name == s; });
+    out += text.substr(at, open - at);
+    if (known) {
+      std::string flag = "--" + name;
+      std::replace(flag.begin(), flag.end(), '_', '-');
+      out += flag;
+      at = close + 1;
+    } else {
+      out += '`';
+      at = open + 1;
+    }
+  }
+  return out + text.substr(std::min(at, text.size()));
+}
+
 std::size_t editDistance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> row(b.size() + 1);
   for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;

@@ -47,6 +47,10 @@ CLI::Validator numberList(std::function<std::string(const std::vector<double>&)>
 /// has already refused such text on the command line).
 std::vector<double> parseList(const std::string& text, const std::string& option);
 
+/// Library text with the settings it names (core/error.h: `channel`, `raw_dims`, ...) spelled as
+/// this program's options (--channel, --raw-dims). Other text, backticks included, is kept.
+std::string withFlags(const std::string& text);
+
 /// Levenshtein distance, for "did you mean".
 std::size_t editDistance(const std::string& a, const std::string& b);
 

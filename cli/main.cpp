@@ -239,7 +239,7 @@ std::optional<std::string> emptySurfaceWarning(double iso, bool isoGiven,
 }
 
 void printWarning(const std::string& warning) {
-  std::fprintf(stderr, "isoslab: warning: %s\n", warning.c_str());
+  std::fprintf(stderr, "isoslab: warning: %s\n", cli::withFlags(warning).c_str());
 }
 
 // Whether two output paths name one file: the same spelling after normalisation, or (when the file
@@ -272,7 +272,8 @@ int runExtract(const ExtractArgs& args) {
   auto source = openSource(args.inputs, sourceOptions(args.raw), &notes);
   // Readers' notes that are warnings print even with --quiet and go to the report.
   std::vector<std::string> warnings;
-  for (const std::string& n : notes) {
+  for (std::string& n : notes) {
+    n = cli::withFlags(n);
     if (n.rfind("warning: ", 0) == 0) {
       warnings.push_back(n.substr(9));
       printWarning(warnings.back());
@@ -422,11 +423,12 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
     printGeometry(source->info());
     const auto range = valueRange(*source);
     std::printf("range      %g .. %g\n", range[0], range[1]);
-    for (const std::string& n : notes) {
+    for (std::string& n : notes) {
+      n = cli::withFlags(n);
       const bool warning = n.rfind("warning: ", 0) == 0;
       std::printf("%s%s\n", warning ? "warning    " : "note       ", n.c_str() + (warning ? 9 : 0));
     }
-    for (const std::string& w : source->warnings()) std::printf("warning    %s\n", w.c_str());
+    for (const std::string& w : source->warnings()) std::printf("warning    %s\n", cli::withFlags(w).c_str());
     if (source->info().suggestedIso) std::printf("iso        %g (suggested)\n", *source->info().suggestedIso);
     return 0;
   }
@@ -583,7 +585,7 @@ extern "C" void onStopSignal(int signal) {
 // drive the terminal.
 static void printError(const std::string& message) {
   std::string line;
-  for (const char c : message) {
+  for (const char c : isoslab::cli::withFlags(message)) {
     const auto u = static_cast<unsigned char>(c);
     if (u == '\n') {
       line += "\\n";

@@ -1,0 +1,65 @@
+// cli/arguments: the validators, parsed through a real CLI11 app, and the spelling of library
+// settings as options.
+#include "cli/arguments.h"
+
+#include <gtest/gtest.h>
+
+namespace isoslab::cli {
+namespace {
+
+// Parses `args` for one option --x with `validator`; returns CLI11's message, or "ok: VALUE".
+std::string parse(const CLI::Validator& validator, const std::vector<std::string>& args) {
+  CLI::App app;
+  std::string value;
+  app.add_option("--x", value)->transform(validator);
+  std::vector<std::string> reversed(args.rbegin(), args.rend());
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    return e.what();
+  }
+  return "ok: " + value;
+}
+
+TEST(Arguments, OneOfAndListOfTakeAnyCaseAndRewriteTheNames) {
+  EXPECT_EQ(parse(oneOf("space", {"lps", "ras"}), {"--x", "RaS"}), "ok: ras");
+  EXPECT_EQ(parse(oneOf("space", {"lps", "ras"}), {"--x", "xyz"}), "--x: unknown space 'xyz' (use lps or ras)");
+  EXPECT_EQ(parse(listOf("method", {"mc", "mt5", "bcc12"}), {"--x", "MC,bcc12"}), "ok: mc,bcc12");
+  EXPECT_EQ(parse(listOf("method", {"mc", "mt5", "bcc12"}), {"--x", "mc,,mt5"}),
+            "--x: unknown method '' (use mc, mt5 or bcc12)");
+}
+
+TEST(Arguments, NumberListRefusesNonFiniteItemsThenAsksItsCheck) {
+  const CLI::Validator three =
+      numberList([](const std::vector<double>& v) -> std::string { return v.size() == 3 ? "" : "needs three values"; });
+  EXPECT_EQ(parse(three, {"--x", "1,2.5,-3"}), "ok: 1,2.5,-3");
+  EXPECT_EQ(parse(three, {"--x", "1,2"}), "--x: '1,2' needs three values");
+  for (const std::string bad : {"1,nan,3", "1,,3", "1,2,", "1,2,3x", "1e400,2,3", ""}) {
+    EXPECT_EQ(parse(three, {"--x", bad}), "--x: '" + bad + "' is not a comma-separated list of numbers") << bad;
+  }
+  EXPECT_EQ(parseList("4,-0.5,1e3", "--x"), (std::vector<double>{4, -0.5, 1000}));
+  EXPECT_THROW(parseList("4,inf", "--x"), UsageError);
+}
+
+TEST(Arguments, IntegersAndFiniteNumbers) {
+  EXPECT_EQ(parse(integerIn(1, 8), {"--x", "8"}), "ok: 8");
+  EXPECT_EQ(parse(integerIn(1, 8), {"--x", "9"}), "--x: '9' is not a whole number from 1 to 8");
+  EXPECT_EQ(parse(integerIn(1, 8), {"--x", "2.0"}), "--x: '2.0' is not a whole number from 1 to 8");
+  EXPECT_EQ(parse(finiteNumber(), {"--x", "-1e3"}), "ok: -1e3");
+  EXPECT_EQ(parse(finiteNumber(), {"--x", "-inf"}), "--x: '-inf' is not a finite number");
+  EXPECT_EQ(parse(finiteNumber(), {"--x", "1e999"}), "--x: '1e999' is not a finite number");
+}
+
+// Library messages name settings in backticks (core/error.h); the program spells them as options.
+TEST(Arguments, WithFlagsSpellsKnownSettingsAsOptions) {
+  EXPECT_EQ(withFlags("`channel`: a.dcm has 3 samples; choose one with `channel` 0..2"),
+            "--channel: a.dcm has 3 samples; choose one with --channel 0..2");
+  EXPECT_EQ(withFlags("give `raw_dims` X,Y[,Z] and `raw_type`"), "give --raw-dims X,Y[,Z] and --raw-type");
+  // A file name with backticks, or an unknown word between them, is left alone.
+  EXPECT_EQ(withFlags("/tmp/`x`/a`b: `colour` `"), "/tmp/`x`/a`b: `colour` `");
+  EXPECT_EQ(withFlags("`series``strict`"), "--series--strict");
+  EXPECT_EQ(withFlags(""), "");
+}
+
+}  // namespace
+}  // namespace isoslab::cli
