@@ -19,11 +19,6 @@ namespace fs = std::filesystem;
 namespace isoslab {
 namespace {
 
-std::string folderOf(const std::string& path) {
-  const fs::path parent = fs::path(path).parent_path();
-  return parent.empty() ? std::string(".") : parent.string();
-}
-
 std::FILE* makeTemp(const std::string& folder, const std::string& stem, std::string& tempPath) {
   std::string name = (fs::path(folder) / ("." + stem + ".tmp.XXXXXX")).string();
   std::vector<char> buf(name.begin(), name.end());
@@ -56,6 +51,11 @@ std::mutex gGroupMutex;
 CommitGroup* gActiveGroup = nullptr;
 
 }  // namespace
+
+std::string folderOf(const std::string& path) {
+  const fs::path parent = fs::path(path).parent_path();
+  return parent.empty() ? std::string(".") : parent.string();
+}
 
 AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), target_(followLinks(path_)) {
   // Something that is not a regular file cannot be replaced by a rename without destroying it
@@ -190,8 +190,8 @@ void CommitGroup::commit() {
     if (std::rename(staged[n].tempPath.c_str(), staged[n].target.c_str()) != 0) {
       const int err = errno;
       for (std::size_t m = n; m < staged.size(); ++m) ::unlink(staged[m].tempPath.c_str());
-      throw Error(
-          std::string(staged[n].path) + ": cannot rename the finished output into place: " + std::strerror(err));
+      throw Error(std::string(staged[n].path) +
+                  ": cannot rename the finished output into place: " + std::strerror(err));
     }
   }
 }

@@ -12,6 +12,10 @@ namespace isoslab {
 
 class CommitGroup;
 
+/// The folder that holds `path` (its parent path), or "." when `path` names none: where an
+/// output's temporary and spool files go.
+std::string folderOf(const std::string& path);
+
 /// A file written under a temporary name in the destination's folder and renamed to the
 /// destination by commit(). If it is destroyed without commit() (an error, an exception), the
 /// temporary file is removed and the destination is left as it was. Move-only; every failure

@@ -4,10 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <limits>
 #include <nlohmann/json.hpp>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "encode/gltf.h"
 
@@ -16,11 +16,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr VertexId kNone = std::numeric_limits<VertexId>::max();
-
-std::string folderOf(const std::string& path) {
-  const std::string f = std::filesystem::path(path).parent_path().string();
-  return f.empty() ? "." : f;
-}
 
 // The largest distance between a position and its quantized value.
 double quantizationError(const IndexedMesh& mesh, const DracoSettings& s) {

@@ -4,9 +4,9 @@
 
 #include <algorithm>
 #include <cstring>
-#include <filesystem>
 #include <limits>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "encode/mesh_metadata.h"
 
@@ -17,11 +17,6 @@ std::string unitsOf(const std::string& space) {
   if (space == "lps" || space == "ras") return "millimetre";
   if (space == "voxel") return "voxel";
   return "input units";
-}
-
-std::string folderOf(const std::string& path) {
-  const std::string f = std::filesystem::path(path).parent_path().string();
-  return f.empty() ? "." : f;
 }
 
 }  // namespace

@@ -28,21 +28,21 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <numbers>
 #include <numeric>
 #include <set>
 
 #include "core/error.h"
-#include "io/file_list.h"
 #include "core/limits.h"
+#include "core/vec3.h"
+#include "io/file_list.h"
 
 namespace fs = std::filesystem;
 
 namespace isoslab {
 namespace {
-
-using Vec3 = std::array<double, 3>;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -55,13 +55,6 @@ void initDcmtk() {
     DJDecoderRegistration::registerCodecs();
     DJLSDecoderRegistration::registerCodecs();
   });
-}
-
-Vec3 cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-double dot(const Vec3& a, const Vec3& b) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
 std::string getString(DcmItem* item, const DcmTagKey& tag) {
@@ -136,7 +129,7 @@ std::optional<std::array<double, 6>> getDecimals(DcmItem* item, const DcmTagKey&
 // of these is an error naming `path`, as are a PixelSpacing that is not positive and an
 // ImageOrientationPatient whose row and column directions are zero or parallel.
 struct FrameGeometry {
-  std::optional<Vec3> position;
+  std::optional<Vec3d> position;
   std::optional<std::array<double, 6>> orientation;
   std::optional<std::array<double, 2>> spacing;
   std::optional<double> thickness;
@@ -146,8 +139,8 @@ struct FrameGeometry {
 
 FrameGeometry frameGeometry(DcmItem* plain, DcmItem* perFrame, DcmItem* shared, const std::string& path) {
   FrameGeometry g;
-  auto position = [&](DcmItem* item) -> std::optional<Vec3> {
-    if (auto v = getDecimals(item, DCM_ImagePositionPatient, 3, path)) return Vec3{(*v)[0], (*v)[1], (*v)[2]};
+  auto position = [&](DcmItem* item) -> std::optional<Vec3d> {
+    if (auto v = getDecimals(item, DCM_ImagePositionPatient, 3, path)) return Vec3d{(*v)[0], (*v)[1], (*v)[2]};
     return std::nullopt;
   };
   auto spacing = [&](DcmItem* item) -> std::optional<std::array<double, 2>> {
@@ -180,13 +173,13 @@ FrameGeometry frameGeometry(DcmItem* plain, DcmItem* perFrame, DcmItem* shared, 
   }
   if (g.orientation) {
     const auto& o = *g.orientation;
-    const Vec3 row{o[0], o[1], o[2]};
-    const Vec3 col{o[3], o[4], o[5]};
-    const double rowLength = std::sqrt(dot(row, row));
-    const double colLength = std::sqrt(dot(col, col));
-    const Vec3 n = cross(row, col);
+    const Vec3d row{o[0], o[1], o[2]};
+    const Vec3d col{o[3], o[4], o[5]};
+    const double rowLength = norm(row);
+    const double colLength = norm(col);
+    const Vec3d n = cross(row, col);
     // The sine of the angle between the directions: 1 for a proper orientation.
-    const double sine = rowLength > 0 && colLength > 0 ? std::sqrt(dot(n, n)) / (rowLength * colLength) : 0;
+    const double sine = rowLength > 0 && colLength > 0 ? norm(n) / (rowLength * colLength) : 0;
     if (!(rowLength > 1e-6) || !(colLength > 1e-6) || !(sine > 1e-3)) {
       throw Error(fmt::format("{}: ImageOrientationPatient {:g}\\{:g}\\{:g}\\{:g}\\{:g}\\{:g} is degenerate: {}", path,
                               o[0], o[1], o[2], o[3], o[4], o[5],
@@ -458,6 +451,14 @@ std::string seriesLabel(const DicomSeries& s) {
   return fmt::format("series {}", s.uid);
 }
 
+// Whether two ImageOrientationPatient values are the same: each direction cosine within 1e-4.
+bool sameOrientation(const std::array<double, 6>& a, const std::array<double, 6>& b) {
+  for (std::size_t k = 0; k < 6; ++k) {
+    if (std::abs(a[k] - b[k]) > 1e-4) return false;
+  }
+  return true;
+}
+
 // Whether two PixelSpacing values are the same to the precision DICOM writes them with.
 bool sameSpacing(const std::array<double, 2>& a, const std::array<double, 2>& b) {
   for (std::size_t i = 0; i < 2; ++i) {
@@ -631,16 +632,11 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
         if (g.orientation) into.orientation = *g.orientation;
         if (g.spacing) into.pixelSpacing = *g.spacing;
       } else {
-        if (g.orientation) {
-          for (int k = 0; k < 6; ++k) {
-            if (std::abs((*g.orientation)[static_cast<std::size_t>(k)] -
-                         into.orientation[static_cast<std::size_t>(k)]) > 1e-4) {
-              throw Error(
-                  fmt::format("{}: frames of one stack have different orientations; "
-                              "choose a single-orientation export of this series",
-                              path));
-            }
-          }
+        if (g.orientation && !sameOrientation(*g.orientation, into.orientation)) {
+          throw Error(
+              fmt::format("{}: frames of one stack have different orientations; "
+                          "choose a single-orientation export of this series",
+                          path));
         }
         if (g.spacing && !sameSpacing(*g.spacing, into.pixelSpacing)) {
           throw Error(fmt::format("{}: frame {} has PixelSpacing {:g}\\{:g} but frame 1 has {:g}\\{:g}", path, f + 1,
@@ -678,12 +674,9 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
       throw Error(fmt::format("{}: {} has {}x{} pixels but {} has {}x{} (mixed sizes in one series)", seriesLabel(into),
                               path, s.columns, s.rows, first, into.columns, into.rows));
     }
-    for (int k = 0; k < 6; ++k) {
-      if (std::abs(s.orientation[static_cast<std::size_t>(k)] - into.orientation[static_cast<std::size_t>(k)]) > 1e-4) {
-        throw Error(
-            fmt::format("{}: {} and {} have different ImageOrientationPatient (mixed orientations in one series)",
-                        seriesLabel(into), path, first));
-      }
+    if (!sameOrientation(s.orientation, into.orientation)) {
+      throw Error(fmt::format("{}: {} and {} have different ImageOrientationPatient (mixed orientations in one series)",
+                              seriesLabel(into), path, first));
     }
     // Every image must agree with the first, so all agree with each other: the volume has one
     // pixel type and one in-plane spacing.
@@ -709,9 +702,9 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
 
   // 4. Sort each series, drop duplicates, find gaps.
   for (DicomSeries& s : series) {
-    const Vec3 row{s.orientation[0], s.orientation[1], s.orientation[2]};
-    const Vec3 col{s.orientation[3], s.orientation[4], s.orientation[5]};
-    const Vec3 normal = cross(row, col);
+    const Vec3d row{s.orientation[0], s.orientation[1], s.orientation[2]};
+    const Vec3d col{s.orientation[3], s.orientation[4], s.orientation[5]};
+    const Vec3d normal = cross(row, col);
     const bool positioned =
         std::all_of(s.slices.begin(), s.slices.end(), [](const DicomSlice& d) { return d.position.has_value(); });
     if (!positioned) {
@@ -837,10 +830,10 @@ std::optional<double> geometricTilt(const DicomSeries& series) {
     return std::nullopt;
   }
   const auto& o = series.orientation;
-  const Vec3 normal = cross({o[0], o[1], o[2]}, {o[3], o[4], o[5]});
-  const Vec3& a = *series.slices.front().position;
-  const Vec3& b = *series.slices.back().position;
-  const Vec3 step{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const Vec3d normal = cross({o[0], o[1], o[2]}, {o[3], o[4], o[5]});
+  const Vec3d& a = *series.slices.front().position;
+  const Vec3d& b = *series.slices.back().position;
+  const Vec3d step{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
   const double lengths = std::sqrt(dot(normal, normal) * dot(step, step));
   if (!(lengths > 0)) return std::nullopt;
   // Slices are sorted along the normal, so the angle is below 90 degrees; the clamp guards acos
@@ -930,24 +923,41 @@ OPJ_BOOL j2kSeek(OPJ_OFF_T n, void* user) {
   return OPJ_TRUE;
 }
 
+// Owners of OpenJPEG's handles.
+struct OpjCodecDeleter {
+  void operator()(opj_codec_t* codec) const noexcept { opj_destroy_codec(codec); }
+};
+struct OpjStreamDeleter {
+  void operator()(opj_stream_t* stream) const noexcept { opj_stream_destroy(stream); }
+};
+struct OpjImageDeleter {
+  void operator()(opj_image_t* image) const noexcept { opj_image_destroy(image); }
+};
+using OpjCodec = std::unique_ptr<opj_codec_t, OpjCodecDeleter>;
+using OpjStream = std::unique_ptr<opj_stream_t, OpjStreamDeleter>;
+using OpjImage = std::unique_ptr<opj_image_t, OpjImageDeleter>;
+
 // Decodes one JPEG 2000 frame into 32-bit samples, component `channel`.
 std::vector<std::int32_t> decodeJpeg2000(const std::string& path, const std::vector<std::uint8_t>& code, int channel,
                                          std::uint32_t columns, std::uint32_t rows) {
   const bool jp2 = code.size() > 12 && code[4] == 'j' && code[5] == 'P';
-  opj_codec_t* codec = opj_create_decompress(jp2 ? OPJ_CODEC_JP2 : OPJ_CODEC_J2K);
+  // Declared in this order, the handles are released image first, then stream, then codec.
+  const OpjCodec codec(opj_create_decompress(jp2 ? OPJ_CODEC_JP2 : OPJ_CODEC_J2K));
   opj_dparameters_t params;
   opj_set_default_decoder_parameters(&params);
-  opj_setup_decoder(codec, &params);
+  opj_setup_decoder(codec.get(), &params);
   MemoryStream mem{code.data(), code.size(), 0};
-  opj_stream_t* stream = opj_stream_default_create(OPJ_TRUE);
-  opj_stream_set_user_data(stream, &mem, nullptr);
-  opj_stream_set_user_data_length(stream, code.size());
-  opj_stream_set_read_function(stream, j2kRead);
-  opj_stream_set_skip_function(stream, j2kSkip);
-  opj_stream_set_seek_function(stream, j2kSeek);
-  opj_image_t* image = nullptr;
+  const OpjStream stream(opj_stream_default_create(OPJ_TRUE));
+  opj_stream_set_user_data(stream.get(), &mem, nullptr);
+  opj_stream_set_user_data_length(stream.get(), code.size());
+  opj_stream_set_read_function(stream.get(), j2kRead);
+  opj_stream_set_skip_function(stream.get(), j2kSkip);
+  opj_stream_set_seek_function(stream.get(), j2kSeek);
+  opj_image_t* header = nullptr;
+  const bool headerRead = opj_read_header(stream.get(), codec.get(), &header);
+  const OpjImage image(header);
   const bool ok =
-      opj_read_header(stream, codec, &image) && opj_decode(codec, stream, image) && opj_end_decompress(codec, stream);
+      headerRead && opj_decode(codec.get(), stream.get(), image.get()) && opj_end_decompress(codec.get(), stream.get());
   std::vector<std::int32_t> out;
   std::string problem;
   if (!ok || image == nullptr) {
@@ -962,9 +972,6 @@ std::vector<std::int32_t> decodeJpeg2000(const std::string& path, const std::vec
       out.assign(comp.data, comp.data + static_cast<std::size_t>(columns) * rows);
     }
   }
-  if (image != nullptr) opj_image_destroy(image);
-  opj_stream_destroy(stream);
-  opj_destroy_codec(codec);
   if (!problem.empty()) throw Error(fmt::format("{}: {}", path, problem));
   return out;
 }
@@ -1026,9 +1033,9 @@ class DicomSource final : public SliceSource {
       }
     }
     const auto& o = series.orientation;
-    const Vec3 row{o[0], o[1], o[2]};
-    const Vec3 col{o[3], o[4], o[5]};
-    const Vec3 normal = cross(row, col);
+    const Vec3d row{o[0], o[1], o[2]};
+    const Vec3d col{o[3], o[4], o[5]};
+    const Vec3d normal = cross(row, col);
     VolumeInfo& info = info_;
     info.dims = {series.columns, series.rows, static_cast<std::int64_t>(series.slices.size())};
     validateDims(info.dims, first);  // a 1-pixel-wide image has no cell, as in every other reader
@@ -1037,13 +1044,13 @@ class DicomSource final : public SliceSource {
     info.frame = "lps";
     info.modality = series.modality;
     const bool positioned = series.slices.front().position.has_value();
-    Vec3 kdir = normal;
+    Vec3d kdir = normal;
     double kspacing = 1;
     if (positioned) {
-      const Vec3& a = *series.slices.front().position;
-      const Vec3& b = *series.slices.back().position;
-      const Vec3 d{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-      const double len = std::sqrt(dot(d, d));
+      const Vec3d& a = *series.slices.front().position;
+      const Vec3d& b = *series.slices.back().position;
+      const Vec3d d{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+      const double len = norm(d);
       if (len > 0) {
         kdir = {d[0] / len, d[1] / len, d[2] / len};
         kspacing = len / static_cast<double>(series.slices.size() - 1);

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 
 #include "core/error.h"
 #include "core/limits.h"
@@ -15,31 +16,47 @@
 namespace fs = std::filesystem;
 
 namespace isoslab {
+
+bool startsWithGzipMagic(std::FILE* file) {
+  unsigned char magic[2] = {0, 0};
+  return std::fread(magic, 1, 2, file) == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
+}
+
 namespace {
+
+struct FileCloser {
+  void operator()(std::FILE* f) const noexcept { std::fclose(f); }
+};
+using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
 
 // A file's bytes from an offset, plain or inflated as they are read.
 class ByteStream {
  public:
   ByteStream(const std::string& path, std::int64_t offset, Compression compression) : path_(path) {
-    file_ = std::fopen(path.c_str(), "rb");
+    // file_ owns the FILE*, so a throw below closes it; the inflater is ended by the destructor,
+    // or here if the constructor throws after starting it.
+    file_.reset(std::fopen(path.c_str(), "rb"));
     if (file_ == nullptr) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(errno)));
-    if (std::fseek(file_, static_cast<long>(offset), SEEK_SET) != 0) {
+    if (std::fseek(file_.get(), static_cast<long>(offset), SEEK_SET) != 0) {
       throw Error(fmt::format("{}: cannot seek to byte {}: {}", path, offset, std::strerror(errno)));
     }
-    unsigned char magic[2] = {0, 0};
-    const bool gzip = std::fread(magic, 1, 2, file_) == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
-    std::fseek(file_, static_cast<long>(offset), SEEK_SET);
+    const bool gzip = startsWithGzipMagic(file_.get());
+    std::fseek(file_.get(), static_cast<long>(offset), SEEK_SET);
     inflating_ = compression == Compression::kDeflate || (compression == Compression::kAutoGzip && gzip);
     kind_ = gzip ? "gzip" : "zlib";
     if (inflating_) {
       std::memset(&z_, 0, sizeof z_);
       if (inflateInit2(&z_, 15 + 32) != Z_OK) throw Error(fmt::format("{}: cannot start inflating", path));
-      input_.resize(1 << 18);
+      try {
+        input_.resize(1 << 18);
+      } catch (...) {
+        inflateEnd(&z_);
+        throw;
+      }
     }
   }
   ~ByteStream() {
     if (inflating_) inflateEnd(&z_);
-    if (file_ != nullptr) std::fclose(file_);
   }
   ByteStream(const ByteStream&) = delete;
   ByteStream& operator=(const ByteStream&) = delete;
@@ -54,18 +71,18 @@ class ByteStream {
       const std::int64_t want = n - got;
       std::int64_t r = 0;
       if (!inflating_) {
-        r = static_cast<std::int64_t>(std::fread(out + got, 1, static_cast<std::size_t>(want), file_));
+        r = static_cast<std::int64_t>(std::fread(out + got, 1, static_cast<std::size_t>(want), file_.get()));
         if (r == 0) {
-          if (std::ferror(file_)) throw Error(fmt::format("{}: cannot read: {}", path_, std::strerror(errno)));
+          if (std::ferror(file_.get())) throw Error(fmt::format("{}: cannot read: {}", path_, std::strerror(errno)));
           short_(got, expected);
         }
       } else {
         if (ended_) short_(got, expected);
         if (z_.avail_in == 0) {
-          z_.avail_in = static_cast<uInt>(std::fread(input_.data(), 1, input_.size(), file_));
+          z_.avail_in = static_cast<uInt>(std::fread(input_.data(), 1, input_.size(), file_.get()));
           z_.next_in = input_.data();
           if (z_.avail_in == 0) {
-            if (std::ferror(file_)) throw Error(fmt::format("{}: cannot read: {}", path_, std::strerror(errno)));
+            if (std::ferror(file_.get())) throw Error(fmt::format("{}: cannot read: {}", path_, std::strerror(errno)));
             throw Error(fmt::format("{}: the compressed data is truncated after {} of {} bytes", path_, position_ + got,
                                     expected));
           }
@@ -90,10 +107,10 @@ class ByteStream {
     std::int64_t rest = 0;
     while (inflating_ && !ended_) {
       if (z_.avail_in == 0) {
-        z_.avail_in = static_cast<uInt>(std::fread(input_.data(), 1, input_.size(), file_));
+        z_.avail_in = static_cast<uInt>(std::fread(input_.data(), 1, input_.size(), file_.get()));
         z_.next_in = input_.data();
         if (z_.avail_in == 0) {
-          if (std::ferror(file_)) throw Error(fmt::format("{}: cannot read: {}", path_, std::strerror(errno)));
+          if (std::ferror(file_.get())) throw Error(fmt::format("{}: cannot read: {}", path_, std::strerror(errno)));
           throw Error(fmt::format("{}: corrupt {} data: the stream is truncated (its end and checksum are missing)",
                                   path_, kind_));
         }
@@ -127,7 +144,7 @@ class ByteStream {
   }
 
   std::string path_;
-  std::FILE* file_ = nullptr;
+  FilePtr file_;
   const char* kind_ = "gzip";
   bool inflating_ = false;
   bool ended_ = false;
@@ -137,12 +154,9 @@ class ByteStream {
 };
 
 bool startsWithGzip(const std::string& path, std::int64_t offset) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
+  const FilePtr f(std::fopen(path.c_str(), "rb"));
   if (f == nullptr) return false;
-  unsigned char magic[2] = {0, 0};
-  const bool ok = std::fseek(f, static_cast<long>(offset), SEEK_SET) == 0 && std::fread(magic, 1, 2, f) == 2;
-  std::fclose(f);
-  return ok && magic[0] == 0x1f && magic[1] == 0x8b;
+  return std::fseek(f.get(), static_cast<long>(offset), SEEK_SET) == 0 && startsWithGzipMagic(f.get());
 }
 
 std::string dimsText(const std::array<std::int64_t, 3>& d) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -38,6 +39,10 @@ struct VolumeFileLayout {
   /// (compressed per-slice files are not checked). Only for components == 1.
   bool warnExtraBytes = false;
 };
+
+/// Whether the next two bytes of `file` are gzip's magic bytes (0x1f 0x8b). Reads them (the
+/// position moves on by up to two bytes); a file with fewer left is not gzip.
+bool startsWithGzipMagic(std::FILE* file);
 
 /// Opens the data described by `layout` for a volume of `info`. Plain files are checked for length
 /// up front; compressed streams when they end. Errors name the file.

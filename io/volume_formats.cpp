@@ -13,19 +13,19 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "core/error.h"
-#include "io/file_list.h"
 #include "core/limits.h"
+#include "core/vec3.h"
+#include "io/file_list.h"
 #include "io/volume_file.h"
 
 namespace fs = std::filesystem;
 
 namespace isoslab {
 namespace {
-
-using Vec3 = std::array<double, 3>;
 
 std::string lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -131,7 +131,7 @@ std::vector<std::string> patternFiles(const std::string& header, const std::stri
 
 // Axes (direction times spacing) and origin from the header fields `axesField` and `originField`.
 // Non-finite or zero axes are named here, by their field; validateGeometry() checks the rest.
-void setGeometry(VolumeInfo& info, const std::array<Vec3, 3>& axes, const Vec3& origin, const std::string& axesField,
+void setGeometry(VolumeInfo& info, const std::array<Vec3d, 3>& axes, const Vec3d& origin, const std::string& axesField,
                  const std::string& originField) {
   for (const double o : origin) {
     if (!std::isfinite(o)) {
@@ -140,7 +140,7 @@ void setGeometry(VolumeInfo& info, const std::array<Vec3, 3>& axes, const Vec3& 
     }
   }
   for (int a = 0; a < 3; ++a) {
-    const Vec3& v = axes[static_cast<std::size_t>(a)];
+    const Vec3d& v = axes[static_cast<std::size_t>(a)];
     if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) {
       throw Error(
           fmt::format("{}: {} for axis {} is ({},{},{}): not finite", info.source, axesField, a, v[0], v[1], v[2]));
@@ -185,6 +185,42 @@ std::int64_t dataFromEnd(const std::string& path, const std::string& file, const
                             dims[2], voxelTypeName(layout.type)));
   }
   return size - bytes;
+}
+
+// The data files a header names in `dataFile` (NRRD "data file", MetaImage "ElementDataFile"):
+// the header's own file from `localOffset` when `local`, the listed names for "LIST", the files of
+// a "pattern min max step", or one file beside the header.
+void setDataFiles(VolumeFileLayout& layout, const std::string& path, const std::string& dataFile, bool local,
+                  std::int64_t localOffset, const std::vector<std::string>& listed) {
+  if (local) {
+    layout.files = {path};
+    layout.fileOffset = localOffset;
+  } else if (dataFile.rfind("LIST", 0) == 0) {
+    layout.files = listed;
+    layout.perSlice = true;
+  } else if (dataFile.find(' ') != std::string::npos) {
+    layout.files = patternFiles(path, dataFile);
+    layout.perSlice = true;
+  } else {
+    layout.files = {besides(path, dataFile)};
+  }
+}
+
+// A header's count of bytes before the data (NRRD "byte skip", MetaImage "HeaderSize", named
+// `field` in messages): the count, or nothing for -1, where the data ends the file and
+// layout.fileOffset is set to where it starts. -1 needs one raw data file (`oneFile`, and no
+// compression); "<path>: <minusOne> needs one raw data file" otherwise.
+std::optional<std::int64_t> headerSkip(VolumeFileLayout& layout, const std::string& path, const std::string& key,
+                                       const std::string& value, const std::string& field, const std::string& minusOne,
+                                       bool oneFile, const std::array<std::int64_t, 3>& dims) {
+  const std::int64_t skip = integerField(path, key, value);
+  if (skip < -1) throw Error(fmt::format("{}: {} {} is negative (only -1 has a meaning)", path, field, skip));
+  if (skip != -1) return skip;
+  if (layout.compression != Compression::kNone || !oneFile) {
+    throw Error(fmt::format("{}: {} needs one raw data file", path, minusOne));
+  }
+  layout.fileOffset = dataFromEnd(path, layout.files[0], dims, layout);
+  return std::nullopt;
 }
 
 // --- NRRD ---------------------------------------------------------------------------------------
@@ -342,7 +378,7 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
       axes.push_back({v[0], v[1], v[2]});
     }
     if (axes.size() < 3) throw Error(fmt::format("{}: NRRD space directions name fewer than 3 axes", path));
-    Vec3 origin{0, 0, 0};
+    Vec3d origin{0, 0, 0};
     if (fields.count("space origin")) {
       const auto o = numbersIn(path, "space origin", fields["space origin"]);
       if (o.size() != 3) throw Error(fmt::format("{}: NRRD space origin must be a 3-vector", path));
@@ -366,32 +402,14 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
   std::string dataFile;
   if (fields.count("data file")) dataFile = fields["data file"];
   if (fields.count("datafile")) dataFile = fields["datafile"];
-  if (dataFile.empty()) {
-    layout.files = {path};
-    layout.fileOffset = headerEnd;
-  } else if (dataFile.rfind("LIST", 0) == 0) {
-    layout.files = listed;
-    layout.perSlice = true;
-  } else if (dataFile.find(' ') != std::string::npos) {
-    layout.files = patternFiles(path, dataFile);
-    layout.perSlice = true;
-  } else {
-    layout.files = {besides(path, dataFile)};
-  }
+  setDataFiles(layout, path, dataFile, dataFile.empty(), headerEnd, listed);
   if (fields.count("line skip") && integerField(path, "line skip", fields["line skip"]) != 0) {
     throw Error(fmt::format("{}: NRRD 'line skip' is not supported (only 0)", path));
   }
   if (fields.count("byte skip")) {
-    const std::int64_t skip = integerField(path, "byte skip", fields["byte skip"]);
-    if (skip < -1) throw Error(fmt::format("{}: NRRD byte skip {} is negative (only -1 has a meaning)", path, skip));
-    if (skip == -1) {
-      if (layout.compression != Compression::kNone || layout.files.size() != 1) {
-        throw Error(fmt::format("{}: 'byte skip: -1' needs one raw data file", path));
-      }
-      layout.fileOffset = dataFromEnd(path, layout.files[0], info.dims, layout);
-    } else {
-      layout.skipBytes = skip;
-    }
+    const auto skip = headerSkip(layout, path, "byte skip", fields["byte skip"], "NRRD byte skip", "'byte skip: -1'",
+                                 layout.files.size() == 1, info.dims);
+    if (skip) layout.skipBytes = *skip;
   }
   return openVolumeFile(info, layout);
 }
@@ -476,7 +494,7 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
                                                                    : "False";
   layout.byteOrder = isTrue(msb) ? ByteOrder::kBig : ByteOrder::kLittle;
   if (fields.count("CompressedData") && isTrue(fields["CompressedData"])) layout.compression = Compression::kDeflate;
-  std::array<Vec3, 3> axes{Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
+  std::array<Vec3d, 3> axes{Vec3d{1, 0, 0}, Vec3d{0, 1, 0}, Vec3d{0, 0, 1}};
   std::string axesKey = "TransformMatrix";
   for (const char* key : {"TransformMatrix", "Rotation", "Orientation"}) {
     if (!fields.count(key)) continue;
@@ -498,7 +516,7 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
   for (std::size_t a = 0; a < 3; ++a) {
     for (double& c : axes[a]) c *= spacing[a];
   }
-  Vec3 origin{0, 0, 0};
+  Vec3d origin{0, 0, 0};
   std::string originKey = "Offset";
   for (const char* key : {"Offset", "Origin", "Position"}) {
     if (!fields.count(key)) continue;
@@ -510,26 +528,11 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
   }
   setGeometry(info, axes, origin, axesKey, originKey);
   const std::string& dataFile = need("ElementDataFile");
-  if (dataFile == "LOCAL") {
-    layout.files = {path};
-    layout.fileOffset = dataStart;
-  } else if (dataFile.rfind("LIST", 0) == 0) {
-    layout.files = listed;
-    layout.perSlice = true;
-  } else if (dataFile.find(' ') != std::string::npos) {
-    layout.files = patternFiles(path, dataFile);
-    layout.perSlice = true;
-  } else {
-    layout.files = {besides(path, dataFile)};
-  }
+  setDataFiles(layout, path, dataFile, dataFile == "LOCAL", dataStart, listed);
   if (fields.count("HeaderSize")) {
-    const std::int64_t h = integerField(path, "HeaderSize", fields["HeaderSize"]);
-    if (h < -1) throw Error(fmt::format("{}: HeaderSize {} is negative (only -1 has a meaning)", path, h));
-    if (h == -1) {
-      if (layout.compression != Compression::kNone || layout.perSlice)
-        throw Error(fmt::format("{}: HeaderSize -1 needs one raw data file", path));
-      layout.fileOffset = dataFromEnd(path, layout.files[0], info.dims, layout);
-    } else if (h > 0) {
+    const auto skip = headerSkip(layout, path, "HeaderSize", fields["HeaderSize"], "HeaderSize", "HeaderSize -1",
+                                 !layout.perSlice, info.dims);
+    if (const std::int64_t h = skip.value_or(0); h > 0) {
       // Within the data file (the first, for per-slice files), so that offsets cannot overflow.
       std::error_code ec;
       const auto size = static_cast<std::int64_t>(fs::file_size(layout.files[0], ec));
@@ -560,29 +563,28 @@ T get(const std::vector<unsigned char>& h, std::size_t at, bool swap) {
 // index), or empty when they agree: the sform's shear (the largest departure of an angle between
 // its axes from 90 degrees) and the largest distance between the two maps over the volume's eight
 // corner voxels. The text ends by saying which one isoslab uses and how.
-std::string xformDisagreement(const std::array<Vec3, 3>& sformAxes, const Vec3& sformOrigin,
-                              const std::array<Vec3, 3>& qformAxes, const Vec3& qformOrigin,
+std::string xformDisagreement(const std::array<Vec3d, 3>& sformAxes, const Vec3d& sformOrigin,
+                              const std::array<Vec3d, 3>& qformAxes, const Vec3d& qformOrigin,
                               const std::array<std::int64_t, 3>& dims, bool useSform) {
   // Float32 srow values are good to about 1e-7: a cosine of 1e-4 (0.006 degrees) is a real shear,
   // and 0.01 mm a real disagreement, well below any voxel.
   constexpr double kCosineTolerance = 1e-4;
   constexpr double kDistanceTolerance = 0.01;
-  auto dotProduct = [](const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
   double shear = 0;  // degrees
   bool sheared = false;
   for (std::size_t a = 0; a < 3; ++a) {
     for (std::size_t b = a + 1; b < 3; ++b) {
-      const double lengths = std::sqrt(dotProduct(sformAxes[a], sformAxes[a]) * dotProduct(sformAxes[b], sformAxes[b]));
+      const double lengths = std::sqrt(dot(sformAxes[a], sformAxes[a]) * dot(sformAxes[b], sformAxes[b]));
       if (!(lengths > 0)) continue;
-      const double cosine = std::clamp(dotProduct(sformAxes[a], sformAxes[b]) / lengths, -1.0, 1.0);
+      const double cosine = std::clamp(dot(sformAxes[a], sformAxes[b]) / lengths, -1.0, 1.0);
       sheared = sheared || std::abs(cosine) > kCosineTolerance;
       shear = std::max(shear, std::abs(90.0 - std::acos(cosine) * 180.0 / std::numbers::pi));
     }
   }
   double apart = 0;  // mm
   for (int corner = 0; corner < 8; ++corner) {
-    Vec3 s = sformOrigin;
-    Vec3 q = qformOrigin;
+    Vec3d s = sformOrigin;
+    Vec3d q = qformOrigin;
     for (std::size_t a = 0; a < 3; ++a) {
       const double index = (corner >> a) & 1 ? static_cast<double>(std::max<std::int64_t>(dims[a] - 1, 0)) : 0.0;
       for (std::size_t r = 0; r < 3; ++r) {
@@ -590,8 +592,8 @@ std::string xformDisagreement(const std::array<Vec3, 3>& sformAxes, const Vec3& 
         q[r] += index * qformAxes[a][r];
       }
     }
-    const Vec3 d{s[0] - q[0], s[1] - q[1], s[2] - q[2]};
-    apart = std::max(apart, std::sqrt(dotProduct(d, d)));
+    const Vec3d d{s[0] - q[0], s[1] - q[1], s[2] - q[2]};
+    apart = std::max(apart, norm(d));
   }
   const bool disagree = apart > kDistanceTolerance;
   if (!sheared && !disagree) return {};
@@ -660,7 +662,7 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
   double voxOffset = 0, slope = 0, inter = 0;
   int qformCode = 0, sformCode = 0;
   double qb = 0, qc = 0, qd = 0;
-  Vec3 qoffset{};
+  Vec3d qoffset{};
   std::array<std::array<double, 4>, 3> srow{};
   if (version == 1) {
     for (std::size_t i = 0; i < 8; ++i) {
@@ -743,10 +745,10 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
   if (xform == NiftiXform::kQform && qformCode <= 0) {
     throw Error(fmt::format("{}: --nifti-xform qform: the file has no qform (qform_code is {})", path, qformCode));
   }
-  std::array<Vec3, 3> sformAxes{};
-  const Vec3 sformOrigin{srow[0][3], srow[1][3], srow[2][3]};
+  std::array<Vec3d, 3> sformAxes{};
+  const Vec3d sformOrigin{srow[0][3], srow[1][3], srow[2][3]};
   for (std::size_t a = 0; a < 3; ++a) sformAxes[a] = {srow[0][a], srow[1][a], srow[2][a]};
-  std::array<Vec3, 3> qformAxes{};
+  std::array<Vec3d, 3> qformAxes{};
   const bool useSform = sformCode > 0 && xform != NiftiXform::kQform;
   const bool useQform = !useSform && qformCode > 0;
   if (useQform && (!std::isfinite(qb) || !std::isfinite(qc) || !std::isfinite(qd))) {
@@ -777,8 +779,8 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
     const std::string problem = xformDisagreement(sformAxes, sformOrigin, qformAxes, qoffset, info.dims, useSform);
     if (!problem.empty()) notes->push_back(fmt::format("warning: {}: {}", path, problem));
   }
-  std::array<Vec3, 3> axes{};
-  Vec3 origin{};
+  std::array<Vec3d, 3> axes{};
+  Vec3d origin{};
   std::string axesField = "NIfTI pixdim";
   std::string originField = "NIfTI origin";
   if (useSform) {
