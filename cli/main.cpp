@@ -19,6 +19,7 @@
 
 #include "cli/arguments.h"
 #include "cli/compare.h"
+#include "cli/render.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "encode/indexed_mesh.h"
@@ -29,6 +30,7 @@
 #include "extract/extractor.h"
 #include "extract/frame.h"
 #include "io/dicom_series.h"
+#include "io/image_writer.h"
 #include "io/interrupt.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
@@ -189,6 +191,8 @@ struct ExtractArgs {
   std::int64_t chunkTriangles = 1 << 19;
   std::string draco = "on";
   std::string gltfFrame = "gltf";
+  std::string preview;  // a PNG rendered as the triangles stream past
+  cli::ImageArgs previewImage;
   RawArgs raw;
 };
 
@@ -268,6 +272,10 @@ int runExtract(const ExtractArgs& args) {
   if (!args.report.empty() && sameFile(args.report, args.output)) {
     throw UsageError(fmt::format("--report '{}' names the same file as -o '{}'", args.report, args.output));
   }
+  if (!args.preview.empty() &&
+      (sameFile(args.preview, args.output) || (!args.report.empty() && sameFile(args.preview, args.report)))) {
+    throw UsageError(fmt::format("--preview '{}' names the same file as another output", args.preview));
+  }
   std::vector<std::string> notes;
   auto source = openSource(args.inputs, sourceOptions(args.raw), &notes);
   // Readers' notes that are warnings print even with --quiet and go to the report.
@@ -329,11 +337,22 @@ int runExtract(const ExtractArgs& args) {
     sphereErrors.emplace(*sphere);
     sinks.push_back(&*sphereErrors);
   }
+  // The preview keeps the image and two slabs' vertices, never the mesh.
+  std::optional<render::RenderSink> preview;
+  if (!args.preview.empty()) {
+    const auto [width, height] = cli::sizeOf(args.previewImage);
+    preview.emplace(cli::viewOf(args.previewImage), width, height, cli::styleOf(args.previewImage, args.normals));
+    sinks.push_back(&*preview);
+  }
   TeeSink tee(sinks);
   PipelineOptions pipelineOptions;
   pipelineOptions.progress = !args.quiet;
   pipelineOptions.threads = threads;
   const PipelineResult run = runPipeline(*source, *extractor, tee, header, pipelineOptions);
+  if (preview) {
+    const render::Image image = preview->image();
+    writePng(args.preview, image.width, image.height, image.rgb);
+  }
   const MeshStats& s = stats.stats();
   const std::size_t readerWarnings = warnings.size();
   for (std::string& w : source->warnings()) warnings.push_back(std::move(w));
@@ -690,6 +709,20 @@ int main(int argc, char** argv) {
                    "by themselves")
       ->check(sphereList());
 
+  extract->add_option("--preview", ex.preview, "Also render the mesh to this PNG as it streams (memory: the image)")
+      ->group("Preview");
+  cli::addImageOptions(extract, ex.previewImage, "preview-", "Preview");
+
+  std::string renderInput;
+  std::string renderOutput;
+  cli::ImageArgs renderImage;
+  auto* renderCmd = app.add_subcommand("render", "Render a mesh file (.ply, .stl, .obj, .glb, .drc) to a PNG image");
+  renderCmd->add_option("MESH", renderInput, "Mesh file")->required();
+  renderCmd->add_option("-o,--output", renderOutput, "Output image (.png)")->required();
+  cli::addImageOptions(renderCmd, renderImage, "", "Image");
+  renderCmd->add_flag("--chunk-colours", renderImage.chunkColours, ".glb: a colour per chunk, to show the seams")
+      ->group("Image");
+
   std::string metricsInput;
   std::string metricsSphere;
   std::string metricsReport;
@@ -800,6 +833,7 @@ int main(int argc, char** argv) {
     if (*info) return runInfo(infoInputs, infoRaw);
     if (*phantom) return runPhantom(phantomSpec, phantomOut, phantomCompress);
     if (*decode) return runDecode(decodeInput, decodeOutput);
+    if (*renderCmd) return cli::runRender(renderInput, renderOutput, renderImage);
     if (*metrics) return runMetrics(metricsInput, metricsSphere, metricsReport);
     if (*compare) return runCompare(cmp);
   } catch (const UsageError& e) {

@@ -257,6 +257,7 @@ class GlbReader {
     keys_ = std::move(keysNext);
     ++primitives_;
     for (const Triangle& t : part.triangles) mesh_.triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
+    mesh_.partEnds.push_back(mesh_.triangles.size());
   }
 
   struct PositionKey {

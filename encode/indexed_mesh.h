@@ -18,6 +18,8 @@ struct IndexedMesh {
   /// (its global vertex id + 1), so that decoders join seams by identity, not by position.
   std::vector<std::uint32_t> seamKeys;
   double cellVolume = 0;
+  /// A .glb read back: the end of each primitive's (chunk's) triangles, in order; else empty.
+  std::vector<std::size_t> partEnds;
   friend bool operator==(const IndexedMesh&, const IndexedMesh&) = default;
 };
 

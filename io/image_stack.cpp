@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 #include <fnmatch.h>
 
-#include <dlfcn.h>
 #include <unistd.h>
 #include <algorithm>
 #include <cctype>
@@ -12,6 +11,7 @@
 
 #include "core/error.h"
 #include "io/file_list.h"
+#include "io/oiio_module.h"
 
 namespace fs = std::filesystem;
 
@@ -70,39 +70,6 @@ std::vector<std::string> stackFiles(const std::vector<std::string>& inputs) {
 using OpenFunction = SliceSource* (*)(const std::vector<std::string>*, const ImageStackOptions*,
                                       std::vector<std::string>*, std::string*);
 
-// Finds and loads the OpenImageIO module: $ISOSLAB_OIIO_MODULE, then ../lib/isoslab/ beside the
-// executable (an installed tree), then the build tree.
-OpenFunction loadModule() {
-  static OpenFunction open = nullptr;
-  static std::string failure;
-  static bool tried = false;
-  if (tried) {
-    if (open == nullptr) throw Error(failure);
-    return open;
-  }
-  tried = true;
-  std::vector<std::string> candidates;
-  if (const char* env = std::getenv("ISOSLAB_OIIO_MODULE")) candidates.emplace_back(env);
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec) candidates.push_back((exe.parent_path() / ".." / "lib" / "isoslab" / "libisoslab_oiio.so").string());
-  candidates.emplace_back(ISOSLAB_OIIO_MODULE_BUILD_PATH);
-  std::string errors;
-  for (const std::string& path : candidates) {
-    if (!fs::exists(path, ec)) continue;
-    void* handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (handle == nullptr) {
-      errors = ::dlerror();
-      continue;
-    }
-    open = reinterpret_cast<OpenFunction>(::dlsym(handle, "isoslab_open_image_stack"));
-    if (open != nullptr) return open;
-  }
-  failure = "image stacks need the OpenImageIO module libisoslab_oiio.so, which was not found" +
-            (errors.empty() ? std::string() : ": " + errors);
-  throw Error(failure);
-}
-
 }  // namespace
 
 bool isImageFile(const std::string& path) {
@@ -133,7 +100,8 @@ std::unique_ptr<SliceSource> openImageStack(const std::vector<std::string>& inpu
   const auto files = stackFiles(inputs);
   if (files.empty()) throw Error(fmt::format("{}: no image file found", inputs.front()));
   std::string error;
-  SliceSource* source = loadModule()(&files, &options, notes, &error);
+  const auto open = reinterpret_cast<OpenFunction>(oiioSymbol("isoslab_open_image_stack", "image stacks"));
+  SliceSource* source = open(&files, &options, notes, &error);
   if (source == nullptr) throw Error(error);
   return std::unique_ptr<SliceSource>(source);
 }

@@ -1,0 +1,54 @@
+#include "io/oiio_module.h"
+
+#include <dlfcn.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+
+namespace fs = std::filesystem;
+
+namespace isoslab {
+namespace {
+
+struct Module {
+  void* handle = nullptr;
+  std::string errors;
+};
+
+const Module& module() {
+  static const Module loaded = [] {
+    Module m;
+    std::vector<std::string> candidates;
+    if (const char* env = std::getenv("ISOSLAB_OIIO_MODULE")) candidates.emplace_back(env);
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec) candidates.push_back((exe.parent_path() / ".." / "lib" / "isoslab" / "libisoslab_oiio.so").string());
+    candidates.emplace_back(ISOSLAB_OIIO_MODULE_BUILD_PATH);
+    for (const std::string& path : candidates) {
+      if (!fs::exists(path, ec)) continue;
+      m.handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+      if (m.handle != nullptr) return m;
+      m.errors = ::dlerror();
+    }
+    return m;
+  }();
+  return loaded;
+}
+
+}  // namespace
+
+void* oiioSymbol(const char* symbol, const char* what) {
+  const Module& m = module();
+  void* address = m.handle != nullptr ? ::dlsym(m.handle, symbol) : nullptr;
+  if (address == nullptr) {
+    throw Error(std::string(what) + " need the OpenImageIO module libisoslab_oiio.so, which was not found" +
+                (m.errors.empty() ? std::string() : ": " + m.errors));
+  }
+  return address;
+}
+
+}  // namespace isoslab

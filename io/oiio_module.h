@@ -1,0 +1,13 @@
+// The OpenImageIO module (libisoslab_oiio.so), loaded on first use: image stacks read through it
+// and PNG images are encoded by it. It is a separate module so that programs that read no image
+// pay nothing for OpenImageIO's start-up and its dependencies (see image_stack_oiio.cpp).
+#pragma once
+
+namespace isoslab {
+
+/// The address of `symbol` in the module: $ISOSLAB_OIIO_MODULE, then ../lib/isoslab/ beside the
+/// executable (an installed tree), then the build tree. Throws isoslab::Error saying that `what`
+/// needs the module when it cannot be loaded.
+void* oiioSymbol(const char* symbol, const char* what);
+
+}  // namespace isoslab
