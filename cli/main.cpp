@@ -713,16 +713,6 @@ int main(int argc, char** argv) {
       ->group("Preview");
   cli::addImageOptions(extract, ex.previewImage, "preview-", "Preview");
 
-  std::string renderInput;
-  std::string renderOutput;
-  cli::ImageArgs renderImage;
-  auto* renderCmd = app.add_subcommand("render", "Render a mesh file (.ply, .stl, .obj, .glb, .drc) to a PNG image");
-  renderCmd->add_option("MESH", renderInput, "Mesh file")->required();
-  renderCmd->add_option("-o,--output", renderOutput, "Output image (.png)")->required();
-  cli::addImageOptions(renderCmd, renderImage, "", "Image");
-  renderCmd->add_flag("--chunk-colours", renderImage.chunkColours, ".glb: a colour per chunk, to show the seams")
-      ->group("Image");
-
   std::string metricsInput;
   std::string metricsSphere;
   std::string metricsReport;
@@ -759,6 +749,16 @@ int main(int argc, char** argv) {
   auto* decode = app.add_subcommand("decode", "Decode a .glb or .drc mesh (welding chunk seams) to .ply, .stl or .obj");
   decode->add_option("INPUT", decodeInput, "A .glb written by isoslab (Draco chunks) or a .drc")->required();
   decode->add_option("-o,--output", decodeOutput, "Output mesh: .ply, .stl or .obj")->required();
+  std::string renderInput;
+  std::string renderOutput;
+  cli::ImageArgs renderImage;
+  auto* renderCmd = app.add_subcommand("render", "Render a mesh file (.ply, .stl, .obj, .glb, .drc) to a PNG image");
+  renderCmd->add_option("MESH", renderInput, "Mesh file")->required();
+  renderCmd->add_option("-o,--output", renderOutput, "Output image (.png)")->required();
+  cli::addImageOptions(renderCmd, renderImage, "", "Image");
+  renderCmd->add_flag("--chunk-colours", renderImage.chunkColours, ".glb: a colour per chunk, to show the seams")
+      ->group("Image");
+
   addRawOptions(extract, ex.raw);
 
   std::vector<std::string> infoInputs;

@@ -51,10 +51,10 @@ void checkOnGrid(const std::vector<Vec3f>& positions, const DracoSettings& s, co
 
 void checkOptions(const WriterOptions& options) {
   if (options.dracoLevel < 0 || options.dracoLevel > 10) {
-    throw Error(fmt::format("--draco-level: {} is not in 0..10", options.dracoLevel));
+    throw Error(fmt::format("`draco_level`: {} is not in 0..10", options.dracoLevel));
   }
   if (options.quantBits < 0 || options.quantBits > 30) {
-    throw Error(fmt::format("--quant-bits: {} is not in 1..30", options.quantBits));
+    throw Error(fmt::format("`quant_bits`: {} is not in 1..30", options.quantBits));
   }
 }
 
@@ -89,7 +89,7 @@ GlbDracoWriter::GlbDracoWriter(std::string path, const WriterOptions& options)
     : path_(std::move(path)), options_(options) {
   checkOptions(options);
   if (options.chunkTriangles < 1)
-    throw Error(fmt::format("--chunk-triangles: {} must be positive", options.chunkTriangles));
+    throw Error(fmt::format("`chunk_triangles`: {} must be positive", options.chunkTriangles));
 }
 
 GlbDracoWriter::~GlbDracoWriter() = default;

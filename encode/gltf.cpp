@@ -78,7 +78,7 @@ std::int64_t writeGlbFile(const std::string& path, const nlohmann::ordered_json&
   if (total > std::int64_t{std::numeric_limits<std::uint32_t>::max()}) {
     throw Error(
         fmt::format("{}: the mesh needs {} bytes, over the 4 GiB limit of a .glb; write .ply or .drc, or "
-                    "lower --quant-bits",
+                    "lower `quant_bits`",
                     path, total));
   }
   AtomicFile out(path);

@@ -818,7 +818,7 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
       }
     }
     if (options.strict && !s.warnings.empty()) {
-      throw Error(fmt::format("{}: {} (--strict)", seriesLabel(s), s.warnings.front()));
+      throw Error(fmt::format("{}: {} (`strict`)", seriesLabel(s), s.warnings.front()));
     }
   }
   scan.series = std::move(series);
@@ -877,7 +877,7 @@ const DicomSeries& chooseSeries(const DicomScan& scan, const DicomOptions& optio
         static_cast<std::size_t>(index) < scan.series.size()) {
       return scan.series[static_cast<std::size_t>(index)];
     }
-    throw Error(fmt::format("--series: no series '{}' (give a SeriesInstanceUID or an index 0..{}; see isoslab info)",
+    throw Error(fmt::format("`series`: no series '{}' (give a SeriesInstanceUID or an index 0..{}; see isoslab info)",
                             options.series, scan.series.size() - 1));
   }
   std::size_t best = 0;
@@ -886,7 +886,7 @@ const DicomSeries& chooseSeries(const DicomScan& scan, const DicomOptions& optio
   }
   if (chosenNote != nullptr && scan.series.size() > 1) {
     const std::size_t images = scan.series[best].slices.size();
-    *chosenNote = fmt::format("{} series found; using series {} ({}, {} image{}), the largest; choose with --series",
+    *chosenNote = fmt::format("{} series found; using series {} ({}, {} image{}), the largest; choose with `series`",
                               scan.series.size(), best, scan.series[best].uid, images, images == 1 ? "" : "s");
   }
   return scan.series[best];
@@ -1008,13 +1008,13 @@ class DicomSource final : public SliceSource {
     }
     if (series.samplesPerPixel > 1) {
       if (options.channel < 0) {
-        throw Error(fmt::format("{}: colour images ({}, {} samples per pixel); choose a channel with --channel 0..{}",
+        throw Error(fmt::format("{}: colour images ({}, {} samples per pixel); choose a channel with `channel` 0..{}",
                                 first, series.photometric, series.samplesPerPixel, series.samplesPerPixel - 1));
       }
     }
     // Also for grey images: a channel past the samples would index past every pixel's.
     if (options.channel >= series.samplesPerPixel) {
-      throw Error(fmt::format("--channel: {} has {} sample{} per pixel", first, series.samplesPerPixel,
+      throw Error(fmt::format("`channel`: {} has {} sample{} per pixel", first, series.samplesPerPixel,
                               series.samplesPerPixel == 1 ? "" : "s"));
     }
     if (series.bitsAllocated != 8 && series.bitsAllocated != 16 && series.bitsAllocated != 32) {

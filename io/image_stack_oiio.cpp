@@ -237,7 +237,7 @@ class ImageStackSource final : public SliceSource {
     }
     if (pages_.size() < 2)
       throw Error(fmt::format("{}: an image stack needs at least 2 slices, found {}", files.front(), pages_.size()));
-    if (options.channel >= channels_) throw Error(fmt::format("--channel: {} has {} channels", firstPath_, channels_));
+    if (options.channel >= channels_) throw Error(fmt::format("`channel`: {} has {} channels", firstPath_, channels_));
     info_.dims = {width_, height_, static_cast<std::int64_t>(pages_.size())};
     validateDims(info_.dims, firstPath_);
     info_.reader = "image stack";
@@ -245,13 +245,13 @@ class ImageStackSource final : public SliceSource {
     std::string spacingNote;
     if (options.spacing) {
       info_.spacing = *options.spacing;
-      spacingNote = "from --spacing";
+      spacingNote = "from `spacing`";
     } else if (resolution) {
       info_.spacing = {(*resolution)[0], (*resolution)[1], 1.0};
-      spacingNote = fmt::format("x, y {:g} {:g} mm from the resolution tags, z 1 (give --spacing for z)",
+      spacingNote = fmt::format("x, y {:g} {:g} mm from the resolution tags, z 1 (give `spacing` for z)",
                                 (*resolution)[0], (*resolution)[1]);
     } else {
-      spacingNote = "1 1 1 (no resolution tags; give --spacing)";
+      spacingNote = "1 1 1 (no resolution tags; give `spacing`)";
     }
     if (notes != nullptr) {
       notes->push_back(fmt::format("image stack of {} slices, {}x{}, {} channel{}; spacing {}", pages_.size(), width_,

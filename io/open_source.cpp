@@ -77,7 +77,7 @@ std::unique_ptr<SliceSource> openUnchecked(const std::vector<std::string>& input
     }
     return openDicomSeries(series, options.dicom);
   }
-  throw Error(fmt::format("{}: unrecognised input format; for raw data give --raw-dims X,Y[,Z] and --raw-type", input));
+  throw Error(fmt::format("{}: unrecognised input format; for raw data give `raw_dims` X,Y[,Z] and `raw_type`", input));
 }
 
 }  // namespace

@@ -164,8 +164,8 @@ void pickComponent(VolumeFileLayout& layout, double components, int channel, con
   const int count = layout.components;
   if (count > 1) {
     if (channel < 0)
-      throw Error(fmt::format("{}: {} components per voxel; choose one with --channel 0..{}", path, count, count - 1));
-    if (channel >= count) throw Error(fmt::format("--channel: {} has {} components per voxel", path, count));
+      throw Error(fmt::format("{}: {} components per voxel; choose one with `channel` 0..{}", path, count, count - 1));
+    if (channel >= count) throw Error(fmt::format("`channel`: {} has {} components per voxel", path, count));
     layout.component = channel;
   }
 }
@@ -608,11 +608,11 @@ std::string xformDisagreement(const std::array<Vec3d, 3>& sformAxes, const Vec3d
     what =
         fmt::format("the sform and the qform disagree: they place the volume's corners up to {:.3g} mm apart", apart);
   }
-  if (!useSform) return what + "; isoslab uses the qform, as --nifti-xform asks";
+  if (!useSform) return what + "; isoslab uses the qform, as `nifti_xform` asks";
   if (sheared) {
-    return what + "; isoslab applies the sform as it is, shear included (--nifti-xform qform takes the rigid qform)";
+    return what + "; isoslab applies the sform as it is, shear included (`nifti_xform` qform takes the rigid qform)";
   }
-  return what + "; isoslab uses the sform (--nifti-xform qform takes the qform)";
+  return what + "; isoslab uses the sform (`nifti_xform` qform takes the qform)";
 }
 
 std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std::string>* notes, NiftiXform xform) {
@@ -740,10 +740,10 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
   // World frame: sform, then qform, then pixdim (or the one --nifti-xform names); NIfTI's RAS
   // world becomes LPS. Both transforms are affine maps of the voxel index (i, j, k), in RAS.
   if (xform == NiftiXform::kSform && sformCode <= 0) {
-    throw Error(fmt::format("{}: --nifti-xform sform: the file has no sform (sform_code is {})", path, sformCode));
+    throw Error(fmt::format("{}: `nifti_xform` sform: the file has no sform (sform_code is {})", path, sformCode));
   }
   if (xform == NiftiXform::kQform && qformCode <= 0) {
-    throw Error(fmt::format("{}: --nifti-xform qform: the file has no qform (qform_code is {})", path, qformCode));
+    throw Error(fmt::format("{}: `nifti_xform` qform: the file has no qform (qform_code is {})", path, qformCode));
   }
   std::array<Vec3d, 3> sformAxes{};
   const Vec3d sformOrigin{srow[0][3], srow[1][3], srow[2][3]};

@@ -378,7 +378,7 @@ TEST(Dicom, ShuffledNamesAndInterleavedSeriesGiveThePhantomsMesh) {
   const DicomSeries& chosen = chooseSeries(scan, {}, &note);
   EXPECT_EQ(chosen.uid, main.uid);
   EXPECT_EQ(note,
-            fmt::format("2 series found; using series 0 ({}, 30 images), the largest; choose with --series", main.uid));
+            fmt::format("2 series found; using series 0 ({}, 30 images), the largest; choose with `series`", main.uid));
   checkSeries(main, dir);
   DicomOptions pick;
   pick.series = "1";
@@ -390,7 +390,7 @@ TEST(Dicom, ShuffledNamesAndInterleavedSeriesGiveThePhantomsMesh) {
     chooseSeries(scan, pick, nullptr);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_STREQ(e.what(), "--series: no series '7' (give a SeriesInstanceUID or an index 0..1; see isoslab info)");
+    EXPECT_STREQ(e.what(), "`series`: no series '7' (give a SeriesInstanceUID or an index 0..1; see isoslab info)");
   }
   // A list of files is an input too.
   std::vector<std::string> some;
@@ -458,7 +458,7 @@ TEST(Dicom, ColourImagesNeedAChannel) {
     FAIL();
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()),
-              dir + "/s000.dcm: colour images (RGB, 3 samples per pixel); choose a channel with --channel 0..2");
+              dir + "/s000.dcm: colour images (RGB, 3 samples per pixel); choose a channel with `channel` 0..2");
   }
   DicomOptions green;
   green.channel = 1;
@@ -608,7 +608,7 @@ TEST(Dicom, BadInputsNameTheFileAndTheProblem) {
     DicomOptions strict;
     strict.strict = true;
     EXPECT_EQ(openError(dir, strict),
-              fmt::format("series {}: {} (--strict)", gap.uid, scan.series.front().warnings.front()));
+              fmt::format("series {}: {} (`strict`)", gap.uid, scan.series.front().warnings.front()));
   }
 }
 
@@ -669,7 +669,7 @@ TEST(Dicom, GapsTheSliceThicknessCoversAreNotesAndOthersWarnings) {
     EXPECT_EQ(s.warnings.front(), fmt::format("gap of 6 mm between {0}/s002.dcm and {0}/s003.dcm (median spacing 2 "
                                               "mm, slice thickness 2 mm): a slice may be missing",
                                               dir));
-    EXPECT_EQ(openError(dir, strict), fmt::format("series {}: {} (--strict)", missing.uid, s.warnings.front()));
+    EXPECT_EQ(openError(dir, strict), fmt::format("series {}: {} (`strict`)", missing.uid, s.warnings.front()));
   }
   {
     // Two wide gaps in a row, between slices of different thickness.

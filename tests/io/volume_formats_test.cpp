@@ -327,7 +327,7 @@ TEST(VolumeFormats, NiftiShearedSformWarnsAndQformGivesTheRigidGeometry) {
     auto source = openSource(path, {}, &notes);
     ASSERT_EQ(notes.size(), 1u);
     EXPECT_EQ(notes.front(), "warning: " + what +
-                                 "; isoslab applies the sform as it is, shear included (--nifti-xform qform takes "
+                                 "; isoslab applies the sform as it is, shear included (`nifti_xform` qform takes "
                                  "the rigid qform)");
     expectGeometry(source->info(), sheared, "sform");
     // The direction keeps the shear: unit columns, 70 degrees apart.
@@ -341,7 +341,7 @@ TEST(VolumeFormats, NiftiShearedSformWarnsAndQformGivesTheRigidGeometry) {
     std::vector<std::string> notes;
     auto source = openSource(path, qform, &notes);
     ASSERT_EQ(notes.size(), 1u);
-    EXPECT_EQ(notes.front(), "warning: " + what + "; isoslab uses the qform, as --nifti-xform asks");
+    EXPECT_EQ(notes.front(), "warning: " + what + "; isoslab uses the qform, as `nifti_xform` asks");
     expectGeometry(source->info(), kQform, "qform");
     const VolumeInfo& info = source->info();
     // By hand, in LPS: origin (5, -7, 11); columns (-1, 0, 0), (0, -cos30, sin30), (0, -sin30, -cos30).
@@ -379,7 +379,7 @@ TEST(VolumeFormats, NiftiSformAndQformThatDisagreeWarnAndAMissingTransformIsAnEr
   auto source = openSource(dir + "/moved.nii", {}, &notes);
   EXPECT_EQ(notes, std::vector<std::string>{"warning: " + dir +
                                             "/moved.nii: the sform and the qform disagree: they place the volume's "
-                                            "corners up to 5 mm apart; isoslab uses the sform (--nifti-xform qform "
+                                            "corners up to 5 mm apart; isoslab uses the sform (`nifti_xform` qform "
                                             "takes the qform)"});
   expectGeometry(source->info(), moved, "moved sform");
   // Agreeing transforms (float32 rounding apart) say nothing.
@@ -403,9 +403,9 @@ TEST(VolumeFormats, NiftiSformAndQformThatDisagreeWarnAndAMissingTransformIsAnEr
     return std::string();
   };
   EXPECT_EQ(errorOf(dir + "/sonly.nii", qform),
-            dir + "/sonly.nii: --nifti-xform qform: the file has no qform (qform_code is 0)");
+            dir + "/sonly.nii: `nifti_xform` qform: the file has no qform (qform_code is 0)");
   EXPECT_EQ(errorOf(dir + "/qonly.nii", sform),
-            dir + "/qonly.nii: --nifti-xform sform: the file has no sform (sform_code is 0)");
+            dir + "/qonly.nii: `nifti_xform` sform: the file has no sform (sform_code is 0)");
   expectGeometry(openSource(dir + "/qonly.nii", {})->info(), kQform, "qform by default");
   const auto r = testing::runCli("info " + dir + "/sonly.nii --nifti-xform qform");
   EXPECT_EQ(r.exitCode, 1);
