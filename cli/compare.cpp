@@ -317,7 +317,8 @@ int runCompare(const CompareArgs& args) {
   if (args.suite == "spheres51") return runSpheres(args);
   if (args.suite == "paper") return runPaper(args);
   if (args.suite == "cubes") return runCubes(args);
-  throw Error(fmt::format("--suite: unknown suite '{}' (use spheres51, paper or cubes)", args.suite));
+  if (args.suite == "figures") return runFigures(args, methodsOf(args.methods));
+  throw Error(fmt::format("--suite: unknown suite '{}' (use spheres51, paper, cubes or figures)", args.suite));
 }
 
 }  // namespace isoslab

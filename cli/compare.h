@@ -2,6 +2,7 @@
 // summary and charts.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -21,5 +22,9 @@ struct CompareArgs {
 };
 
 int runCompare(const CompareArgs& args);
+
+enum class Method : std::uint8_t;
+/// The figures suite (compare_figures.cpp).
+int runFigures(const CompareArgs& args, const std::vector<Method>& methods);
 
 }  // namespace isoslab

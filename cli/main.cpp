@@ -20,6 +20,7 @@
 #include "cli/arguments.h"
 #include "cli/compare.h"
 #include "cli/render.h"
+#include "cli/view.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "encode/indexed_mesh.h"
@@ -724,10 +725,10 @@ int main(int argc, char** argv) {
   metrics->add_option("--report", metricsReport, "Write the JSON here instead of stdout");
 
   CompareArgs cmp;
-  auto* compare =
-      app.add_subcommand("compare", "Run the paper's experiments: spheres51, paper (Tables 2 and 3) or cubes");
-  compare->add_option("--suite", cmp.suite, "spheres51, paper or cubes")
-      ->transform(oneOf("suite", {"spheres51", "paper", "cubes"}))
+  auto* compare = app.add_subcommand(
+      "compare", "Run the paper's experiments: spheres51, paper (Tables 2 and 3), cubes or figures (its images)");
+  compare->add_option("--suite", cmp.suite, "spheres51, paper, cubes or figures")
+      ->transform(oneOf("suite", {"spheres51", "paper", "cubes", "figures"}))
       ->capture_default_str();
   compare->add_option("--out", cmp.out, "Output folder")->capture_default_str();
   compare->add_option("--radii", cmp.radii, "spheres51: radii to run, e.g. 5,10,20 (default: the 51 radii 0.1 .. 50.1)")
@@ -758,6 +759,15 @@ int main(int argc, char** argv) {
   cli::addImageOptions(renderCmd, renderImage, "", "Image");
   renderCmd->add_flag("--chunk-colours", renderImage.chunkColours, ".glb: a colour per chunk, to show the seams")
       ->group("Image");
+
+  std::string viewInput;
+  std::string viewReport;
+  std::string viewPage;
+  auto* viewCmd =
+      app.add_subcommand("view", "Write a self-contained HTML viewer page for a .glb (three.js, works from file://)");
+  viewCmd->add_option("GLB", viewInput, "A .glb written by isoslab")->required();
+  viewCmd->add_option("--report", viewReport, "The extraction's JSON report, whose numbers the page shows");
+  viewCmd->add_option("-o,--output", viewPage, "The page (default: the .glb's path with .html)");
 
   addRawOptions(extract, ex.raw);
 
@@ -834,6 +844,7 @@ int main(int argc, char** argv) {
     if (*phantom) return runPhantom(phantomSpec, phantomOut, phantomCompress);
     if (*decode) return runDecode(decodeInput, decodeOutput);
     if (*renderCmd) return cli::runRender(renderInput, renderOutput, renderImage);
+    if (*viewCmd) return cli::runView(viewInput, viewReport, viewPage);
     if (*metrics) return runMetrics(metricsInput, metricsSphere, metricsReport);
     if (*compare) return runCompare(cmp);
   } catch (const UsageError& e) {

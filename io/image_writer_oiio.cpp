@@ -1,34 +1,28 @@
-// PNG encoding through OpenImageIO, into memory (an IOProxy), inside the OpenImageIO module; the
-// caller writes the bytes with AtomicFile, so that an image is complete or absent like every output.
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
+// Text on images through OpenImageIO's FreeType rendering, inside the OpenImageIO module: the
+// labels of the figures suite. The pixels themselves are encoded by libpng (image_writer.cpp).
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
-extern "C" __attribute__((visibility("default"))) bool isoslab_encode_png(int width, int height,
-                                                                          const std::uint8_t* rgb,
-                                                                          std::vector<unsigned char>* out,
-                                                                          std::string* error) {
+#include "io/image_writer.h"
+
+extern "C" __attribute__((visibility("default"))) bool isoslab_draw_labels(
+    int width, int height, std::uint8_t* rgb, const std::vector<isoslab::ImageLabel>* labels, std::string* error) {
   try {
-    OIIO::Filesystem::IOVecOutput proxy(*out);
-    auto png = OIIO::ImageOutput::create("png");
-    if (!png) {
-      *error = "OpenImageIO has no PNG writer: " + OIIO::geterror();
-      return false;
-    }
-    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
-    spec.attribute("Software", "isoslab");
-    OIIO::Filesystem::IOProxy* pointer = &proxy;
-    spec.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &pointer);
-    if (!png->open("image.png", spec) || !png->write_image(OIIO::TypeDesc::UINT8, rgb) || !png->close()) {
-      *error = "OpenImageIO could not encode the PNG: " + png->geterror();
-      return false;
+    OIIO::ImageBuf buffer(OIIO::ImageSpec(width, height, 3, OIIO::TypeDesc::UINT8), rgb);
+    const float black[3] = {0, 0, 0};
+    for (const isoslab::ImageLabel& label : *labels) {
+      if (!OIIO::ImageBufAlgo::render_text(buffer, label.x, label.y, label.text, label.size, "DejaVuSans", black)) {
+        *error = "cannot draw the label '" + label.text + "' (is fonts-dejavu-core installed?): " + buffer.geterror();
+        return false;
+      }
     }
     return true;
   } catch (const std::exception& e) {
-    *error = std::string("OpenImageIO could not encode the PNG: ") + e.what();
+    *error = std::string("cannot draw the labels: ") + e.what();
   }
   return false;
 }

@@ -59,8 +59,11 @@ Camera Camera::fit(const std::array<double, 6>& bounds, const View& view, bool r
   // (turned by the azimuth), as on an axial slice: the top view shows the nose at the top.
   const Vec3d facing = plus(scaled(anterior, std::cos(az)), scaled(left, std::sin(az)));
   const Vec3d upWish = std::abs(std::cos(el)) < 1e-9 ? facing : superior;
-  c.right_ = unit(cross(c.forward_, upWish));
-  c.up_ = cross(c.right_, c.forward_);
+  const Vec3d right = unit(cross(c.forward_, upWish));
+  const Vec3d up = cross(right, c.forward_);
+  const double roll = view.roll * std::numbers::pi / 180;
+  c.right_ = plus(scaled(right, std::cos(roll)), scaled(up, -std::sin(roll)));
+  c.up_ = plus(scaled(up, std::cos(roll)), scaled(right, std::sin(roll)));
   c.centre_ = {0.5 * (bounds[0] + bounds[3]), 0.5 * (bounds[1] + bounds[4]), 0.5 * (bounds[2] + bounds[5])};
   c.width_ = width;
   c.height_ = height;

@@ -20,6 +20,9 @@ namespace isoslab::render {
 struct View {
   double azimuth = 0;    // degrees
   double elevation = 0;  // degrees, -90 .. 90
+  /// Degrees the image turns clockwise about the view axis (180 turns a volume whose slices run
+  /// from the top of the head down the right way up).
+  double roll = 0;
 };
 
 /// front, back, left, right, top, bottom, iso (azimuth 45, elevation 30: front-left, from above).

@@ -5,9 +5,9 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config git
   libgtest-dev libgmock-dev libbenchmark-dev libtinyobjloader-dev
-  libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev
+  libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev libpng-dev
   libdcmtk-dev libopenjp2-7-dev libdraco-dev libeigen3-dev draco
-  python3-matplotlib libopenimageio-dev
+  python3-matplotlib libopenimageio-dev fonts-dejavu-core
   python3-vtk9
   clang libclang-rt-14-dev
 )

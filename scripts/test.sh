@@ -26,7 +26,7 @@ bash scripts/check_layers.sh
 # The kernels build and pass with only a compiler, CMake and GoogleTest: every other package is
 # hidden from CMake.
 hide=()
-for p in fmt nlohmann_json CLI11 ZLIB DCMTK draco PkgConfig benchmark; do hide+=("-DCMAKE_DISABLE_FIND_PACKAGE_$p=ON"); done
+for p in fmt nlohmann_json CLI11 ZLIB PNG DCMTK draco PkgConfig benchmark tinyobjloader; do hide+=("-DCMAKE_DISABLE_FIND_PACKAGE_$p=ON"); done
 cmake -S . -B build-kernels -G Ninja -DISOSLAB_WERROR=ON -DISOSLAB_KERNELS_ONLY=ON "${hide[@]}" >/dev/null
 cmake --build build-kernels -j "$jobs"
 (cd build-kernels && ctest --output-on-failure -j "$jobs")

@@ -133,15 +133,14 @@ TEST(Cli, UsageErrorsExitWithTwoAndOneLine) {
       {"phantom 'sphere?n=8' -o " + dir + "/p.raw", "sphere?n=8: not a phantom spec (phantom:NAME?key=value&...)"},
       {"extrct 'phantom:sphere?n=16'" + out, "unknown command 'extrct'; did you mean 'extract'?"},
       {"inf x", "unknown command 'inf'; did you mean 'info'?"},
-      {"frobnicate", "unknown command 'frobnicate' (use extract, metrics, compare, decode, render, info or phantom)"},
+      {"frobnicate", "unknown command 'frobnicate' (use extract, metrics, compare, decode, render, view, info or phantom)"},
       {"--bogus", "A subcommand is required (see isoslab --help)"},
       {"info " + dir + "/v.raw --raw-dims 4,4,4 --spacing 1,nan,1",
        "--spacing: '1,nan,1' is not a comma-separated "
        "list of numbers"},
       {"metrics " + dir + "/v.raw --sphere 1,2,3,0", "--sphere: '1,2,3,0' needs cx,cy,cz,r with r > 0"},
       {"compare --suite spheres52 --out " + dir + "/c",
-       "--suite: unknown suite 'spheres52' (use spheres51, paper "
-       "or cubes)"},
+       "--suite: unknown suite 'spheres52' (use spheres51, paper, cubes or figures)"},
       {"compare --methods mc,mt7 --out " + dir + "/c", "--methods: unknown method 'mt7' (use mc, mt5, mt6 or bcc12)"},
       {"compare --radii 5,inf --out " + dir + "/c", "--radii: '5,inf' is not a comma-separated list of numbers"},
       {"compare --radii 5,0 --out " + dir + "/c", "--radii: '5,0' needs radii above 0"},
