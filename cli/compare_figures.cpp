@@ -2,6 +2,7 @@
 // A.5 and Figure 3.6), one PNG per case with every method side by side and labelled.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "cli/compare.h"
@@ -40,12 +41,12 @@ std::unique_ptr<SliceSource> openCase(const FigureCase& c) {
 }
 
 // Renders the case for every method into one image, labelled with the method and its triangles.
-std::string drawCase(const FigureCase& c, const std::string& out, bool quiet) {
+std::string drawCase(const FigureCase& c, const std::vector<Method>& suite, const std::string& out, bool quiet) {
   const int width = kPanel * static_cast<int>(c.methods.size());
   const int height = kPanel + kStrip;
   std::vector<std::uint8_t> rgb(3 * static_cast<std::size_t>(width) * static_cast<std::size_t>(height), 255);
   std::vector<ImageLabel> labels;
-  std::string row = fmt::format("| {} |", c.title);
+  std::vector<std::string> cells(suite.size(), "-");
   for (std::size_t m = 0; m < c.methods.size(); ++m) {
     auto source = openCase(c);
     ExtractOptions options;
@@ -62,7 +63,9 @@ std::string drawCase(const FigureCase& c, const std::string& out, bool quiet) {
     }
     labels.push_back({kPanel * static_cast<int>(m) + 10, 21,
                       fmt::format("{}: {} triangles", methodName(c.methods[m]), x.stats.triangles), 16});
-    row += fmt::format(" {} |", x.stats.triangles);
+    const auto column = std::find(suite.begin(), suite.end(), c.methods[m]);
+    if (column != suite.end())
+      cells[static_cast<std::size_t>(column - suite.begin())] = std::to_string(x.stats.triangles);
   }
   // Thin grey rules between the panels.
   for (std::size_t m = 1; m < c.methods.size(); ++m) {
@@ -71,6 +74,8 @@ std::string drawCase(const FigureCase& c, const std::string& out, bool quiet) {
       rgb[at] = rgb[at + 1] = rgb[at + 2] = 160;
     }
   }
+  std::string row = fmt::format("| {} |", c.title);
+  for (const std::string& cell : cells) row += " " + cell + " |";
   const std::string path = out + "/" + c.file + ".png";
   writePng(path, width, height, rgb, labels);
   if (!quiet) std::fprintf(stderr, "isoslab: figures: %s -> %s\n", c.title.c_str(), path.c_str());
@@ -131,7 +136,9 @@ std::vector<FigureCase> figureCases(const CompareArgs& args, const std::vector<M
   ear.crop = args.cthead.empty() ? std::array<std::array<std::int64_t, 3>, 2>{{{0, 100, 30}, {60, 170, 70}}}
                                  : std::array<std::array<std::int64_t, 3>, 2>{{{5, 90, 40}, {55, 160, 85}}};
   ear.methods.clear();
-  for (Method m : {Method::kTetra5, Method::kTetra6, Method::kBcc12}) ear.methods.push_back(m);
+  for (Method m : {Method::kTetra5, Method::kTetra6, Method::kBcc12}) {
+    if (std::find(methods.begin(), methods.end(), m) != methods.end()) ear.methods.push_back(m);
+  }
   cases.push_back(ear);
   return cases;
 }
@@ -148,7 +155,8 @@ int runFigures(const CompareArgs& args, const std::vector<Method>& methods) {
   for (std::size_t m = 0; m < methods.size(); ++m) md += "---|";
   md += "\n";
   for (const FigureCase& c : figureCases(args, methods)) {
-    std::string row = drawCase(c, args.out, args.quiet);
+    if (c.methods.empty()) continue;
+    std::string row = drawCase(c, methods, args.out, args.quiet);
     md += row + "\n";
   }
   AtomicFile f(args.out + "/figures.md");

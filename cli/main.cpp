@@ -741,7 +741,7 @@ int main(int argc, char** argv) {
       ->transform(cli::listOf("method", {"mc", "mt5", "mt6", "bcc12"}))
       ->capture_default_str();
   compare->add_option("--engine", cmp.engine, "paper: the engine CT (raw 256x256x128 u8, gzip allowed)");
-  compare->add_option("--cthead", cmp.cthead, "paper: the CThead slices folder (u16 big-endian)");
+  compare->add_option("--cthead", cmp.cthead, "paper and figures: the CThead slices folder (u16 big-endian)");
   compare->add_flag("!--no-charts", cmp.charts, "spheres51: skip the PNG charts");
   compare->add_flag("-q,--quiet", cmp.quiet, "No notes on stderr");
 

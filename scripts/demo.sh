@@ -3,7 +3,8 @@
 # - the MRI brain template ch2better (Debian's mricron-data; Colin Holmes' brain, as distributed
 #   with MRIcron by Chris Rorden) at iso 50, as PLY and as a Draco-compressed glTF (.glb);
 # - the built-in noisy CT-like head phantom (160 x 160 x 140 int16) at the skin (-400 HU) and the
-#   bone (+300 HU), which needs no file at all.
+#   bone (+300 HU), which needs no file at all;
+# each with a rendered preview, out/*.png.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -14,12 +15,16 @@ cmake --build build --target isoslab
 mkdir -p out
 brain=/usr/share/mricron/templates/ch2better.nii.gz
 if [ -f "$brain" ]; then
-  ./build/cli/isoslab extract "$brain" --iso 50 --normals -o out/brain.ply --report out/brain.json
+  ./build/cli/isoslab extract "$brain" --iso 50 --normals -o out/brain.ply --report out/brain.json \
+    --preview out/brain.png --preview-view left
   ./build/cli/isoslab extract "$brain" --iso 50 --normals -o out/brain.glb --report out/brain-glb.json
 else
   echo "demo: $brain is not installed (Debian package mricron-data); using the phantom only" >&2
 fi
 input='phantom:head?n=160,160,140'
-./build/cli/isoslab extract "$input" --iso -400 --normals -o out/head-skin.ply --report out/head-skin.json
-./build/cli/isoslab extract "$input" --iso 300 --method mt6 --normals -o out/head-bone.ply --report out/head-bone.json
+./build/cli/isoslab extract "$input" --iso -400 --normals -o out/head-skin.ply --report out/head-skin.json \
+  --preview out/head-skin.png
+./build/cli/isoslab extract "$input" --iso 300 --method mt6 --normals -o out/head-bone.ply --report out/head-bone.json \
+  --preview out/head-bone.png --preview-view iso
 echo "demo: meshes in out/ (open the .ply or .glb files in any mesh viewer); reports in out/*.json"
+echo "demo: pictures: $(ls out/*.png | tr '\n' ' ')"

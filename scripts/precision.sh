@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Reruns the paper's precision and speed study into docs/precision/ (CSV, Markdown, charts):
-# installs what is missing, builds Release, then runs the three suites of `isoslab compare`.
+# installs what is missing, builds Release, then runs the suites of `isoslab compare`, and the
+# figures suite into docs/figures/
 # Uses ../shared/data's engine and CThead for the paper suite when present, phantoms otherwise.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,3 +16,7 @@ paper=()
 [ -d ../shared/data/cthead ] && paper+=(--cthead ../shared/data/cthead)
 "$bin" compare --suite paper "${paper[@]}" --out "$out"
 "$bin" compare --suite cubes --out "$out"
+# The image comparison into docs/figures/ (beside the tables: its own folder of PNGs).
+figures=()
+[ -d ../shared/data/cthead ] && figures+=(--cthead ../shared/data/cthead)
+"$bin" compare --suite figures "${figures[@]}" --out "${2:-docs/figures}"

@@ -108,6 +108,33 @@ TEST(Render, GlbRendersLikeThePreviewWithinQuantization) {
   EXPECT_GE(hues.size(), 3u);
 }
 
+// compare --suite figures: one labelled PNG per case, a panel of 360 x 390 pixels per method, and
+// the triangle counts of each method as extract gives them.
+TEST(Render, FiguresSuiteDrawsEveryCaseForEveryMethod) {
+  const std::string dir = testing::tempDir();
+  const auto r = runCli("compare --suite figures --methods mc,mt6 -q --out " + dir);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  for (const char* name : {"cube2_iso100", "cube2_iso50", "cube6_iso100", "cube6_iso50", "cube80_iso100",
+                           "cube80_iso50", "sphere_r28.46", "head"}) {
+    const Png png = readPng(dir + "/" + name + ".png");
+    EXPECT_EQ(png.width, 720) << name;
+    EXPECT_EQ(png.height, 390) << name;
+    // The label strip holds black text over white; the panels' centres are covered.
+    int dark = 0;
+    for (int y = 0; y < 30; ++y) {
+      for (int x = 0; x < 360; ++x) dark += png.at(x, y)[0] < 100 ? 1 : 0;
+    }
+    EXPECT_GT(dark, 50) << name;
+    EXPECT_NE(png.at(180, 210), (std::array<int, 3>{255, 255, 255})) << name;
+    EXPECT_NE(png.at(540, 210), (std::array<int, 3>{255, 255, 255})) << name;
+  }
+  // The ear has only the tetrahedral methods of the list: one panel.
+  EXPECT_EQ(readPng(dir + "/ear.png").width, 360);
+  // The cube of edge 6 at iso 50: counts derived in Extract tests (mc 428, mt6 1,584).
+  const std::string md = slurp(dir + "/figures.md");
+  EXPECT_NE(md.find("| cube, edge 6, iso 50 | 428 | 1584 |"), std::string::npos) << md;
+}
+
 TEST(Render, BadInputAndOptionsGetOneLine) {
   const std::string dir = testing::tempDir();
   const auto missing = runCli("render " + dir + "/none.ply -o " + dir + "/x.png");
