@@ -10,6 +10,7 @@ packages=(
   python3-matplotlib libopenimageio-dev fonts-dejavu-core
   python3-vtk9
   clang libclang-rt-14-dev
+  chromium
 )
 # Node.js runs the real glTF clients in the tests; use the machine's own when it has one.
 command -v node >/dev/null 2>&1 || packages+=(nodejs)

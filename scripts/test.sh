@@ -12,8 +12,9 @@ run_suite() {
   local dir=$1
   shift
   cmake -S . -B "$dir" -G Ninja -DISOSLAB_WERROR=ON "$@" >/dev/null
-  # The real glTF clients (Khronos validator, three.js, draco3d), pinned in tests/encode/js.
-  if [ ! -d "$dir/npm/node_modules/three" ]; then
+  # The real glTF clients (Khronos validator, three.js, draco3d) and the viewer's browser driver
+  # (playwright-core, for Debian's chromium), pinned in tests/encode/js.
+  if [ ! -d "$dir/npm/node_modules/three" ] || [ ! -d "$dir/npm/node_modules/playwright-core" ]; then
     (cd "$dir/npm" && npm install --no-audit --no-fund --loglevel=error >/dev/null) ||
       echo "test: npm install failed; the glTF client test will skip" >&2
   fi
