@@ -205,6 +205,14 @@ void LatticeKernel::marchRow(std::int64_t j, std::int64_t begin, std::int64_t en
   }
 }
 
+// Whether any of the cell's eight corners (two values from each of four rows) is NaN.
+static bool anyNan(const float* a0, const float* a1, const float* b0, const float* b1) noexcept {
+  for (int d = 0; d < 2; ++d) {
+    if (std::isnan(a0[d]) || std::isnan(a1[d]) || std::isnan(b0[d]) || std::isnan(b1[d])) return true;
+  }
+  return false;
+}
+
 // Cube-centre values of slab z_ + which: the mean of each cell's eight corners.
 void LatticeKernel::computeCentres(int which, std::vector<float>& dst) {
   const float* a = field_.slices[static_cast<std::size_t>(1 + which)];
@@ -221,7 +229,15 @@ void LatticeKernel::computeCentres(int which, std::vector<float>& dst) {
       column[i] = (static_cast<double>(a0[i]) + a1[i]) + (static_cast<double>(b0[i]) + b1[i]);
     }
     float* out = dst.data() + j * (nx_ - 1);
-    for (std::int64_t i = 0; i + 1 < nx_; ++i) out[i] = static_cast<float>((column[i] + column[i + 1]) / 8.0);
+    for (std::int64_t i = 0; i + 1 < nx_; ++i) {
+      double mean = (column[i] + column[i + 1]) / 8.0;
+      // +inf and -inf corners sum to NaN, which would put the centre outside a cell whose corners
+      // are all inside at iso -inf, a cell that the row trimming skips as inside. Such a centre is
+      // 0, which agrees with its corners whenever they all agree (iso -inf: inside; a NaN iso:
+      // outside), the only cells trimming skips. A NaN corner keeps the centre NaN.
+      if (std::isnan(mean) && !anyNan(a0 + i, a1 + i, b0 + i, b1 + i)) mean = 0;
+      out[i] = static_cast<float>(mean);
+    }
   }
 }
 
