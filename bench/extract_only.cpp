@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
-#include "core/error.h"
 #include "io/open_source.h"
 #include "stream/pipeline.h"
 

@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "encode/mesh_writer.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
-#include "core/error.h"
 #include "io/open_source.h"
 #include "stream/pipeline.h"
 

@@ -9,10 +9,10 @@
 #include <utility>
 #include <vector>
 
-#include "extract/frame.h"
 #include "core/mesh_sink.h"
-#include "extract/slab_view.h"
 #include "core/volume_info.h"
+#include "extract/frame.h"
+#include "extract/slab_view.h"
 
 namespace isoslab {
 

@@ -1,6 +1,5 @@
 #include "extract/frame.h"
 
-
 #include <algorithm>
 #include <cmath>
 

@@ -33,8 +33,8 @@ class LatticeSlabWorker final : public SlabWorker {
 
 class SequentialExtractor final : public Extractor {
  public:
-  SequentialExtractor(const ExtractOptions& options, const std::array<std::int64_t, 3>& dims,
-                      const LatticeFrame& frame, std::unique_ptr<CellScheme> scheme)
+  SequentialExtractor(const ExtractOptions& options, const std::array<std::int64_t, 3>& dims, const LatticeFrame& frame,
+                      std::unique_ptr<CellScheme> scheme)
       : kernel_(options, dims, frame, std::move(scheme)) {}
 
   int slicesBelow() const noexcept override { return kernel_.options().normals ? 1 : 0; }

@@ -306,7 +306,8 @@ void LatticeKernel::emitCase(const CaseList& v, unsigned key, std::int64_t i, st
   const std::uint8_t* edges = v.caseEdges.data() + span.firstEdge;
   for (std::size_t k = 0; k < span.edgeCount; ++k) ids[k] = vertex(v.edges[edges[k]], i, j);
   const auto* tri = v.caseTriangles.data() + span.firstTriangle;
-  for (std::size_t n = 0; n < span.triangleCount; ++n, ++tri) emitTriangle(ids[(*tri)[0]], ids[(*tri)[1]], ids[(*tri)[2]]);
+  for (std::size_t n = 0; n < span.triangleCount; ++n, ++tri)
+    emitTriangle(ids[(*tri)[0]], ids[(*tri)[1]], ids[(*tri)[2]]);
 }
 
 void LatticeKernel::emitTriangle(VertexId a, VertexId b, VertexId c) {

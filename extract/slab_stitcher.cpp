@@ -9,15 +9,18 @@
 namespace isoslab {
 namespace {
 constexpr VertexId kUnset = std::numeric_limits<VertexId>::max();
-std::size_t index(CacheSlot slot) noexcept { return static_cast<std::size_t>(slot); }
+std::size_t index(CacheSlot slot) noexcept {
+  return static_cast<std::size_t>(slot);
 }
+}  // namespace
 
 SlabStitcher::SlabStitcher(std::size_t sliceSlots) : top_(sliceSlots, kUnset) {}
 
 void SlabStitcher::stitch(SlabPart& part) {
   MeshChunk& chunk = part.chunk;
   if (chunk.slab != slab_) {
-    throw Error("internal error: slab " + std::to_string(chunk.slab) + " stitched after slab " + std::to_string(slab_ - 1));
+    throw Error("internal error: slab " + std::to_string(chunk.slab) + " stitched after slab " +
+                std::to_string(slab_ - 1));
   }
   ++slab_;
   const std::uint64_t count = chunk.positions.size();

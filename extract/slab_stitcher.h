@@ -21,8 +21,8 @@ class SlabStitcher {
   std::uint64_t vertexCount() const noexcept { return next_; }
 
  private:
-  std::vector<VertexId> top_;      // global ids of the previous slab's vertices on its slice z + 1
-  std::vector<CacheSlot> set_;     // slots of top_ in use
+  std::vector<VertexId> top_;   // global ids of the previous slab's vertices on its slice z + 1
+  std::vector<CacheSlot> set_;  // slots of top_ in use
   std::vector<VertexId> resolved_;
   std::uint64_t next_ = 0;
   std::int64_t slab_ = 0;

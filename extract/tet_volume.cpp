@@ -4,7 +4,8 @@ namespace isoslab {
 
 double tetInsideVolume(const std::array<double, 4>& v, double volume, unsigned cas, double iso) noexcept {
   auto s = [&](int from, int to) {
-    return (iso - v[static_cast<std::size_t>(from)]) / (v[static_cast<std::size_t>(to)] - v[static_cast<std::size_t>(from)]);
+    return (iso - v[static_cast<std::size_t>(from)]) /
+           (v[static_cast<std::size_t>(to)] - v[static_cast<std::size_t>(from)]);
   };
   int in[4];
   int out[4];

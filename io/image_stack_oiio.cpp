@@ -18,8 +18,8 @@
 #include <mutex>
 
 #include "core/error.h"
-#include "io/file_list.h"
 #include "core/limits.h"
+#include "io/file_list.h"
 
 namespace fs = std::filesystem;
 

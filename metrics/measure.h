@@ -5,9 +5,9 @@
 #include <optional>
 
 #include "extract/extractor.h"
+#include "io/slice_source.h"
 #include "metrics/mesh_stats.h"
 #include "metrics/sphere_metrics.h"
-#include "io/slice_source.h"
 #include "stream/pipeline.h"
 
 namespace isoslab {

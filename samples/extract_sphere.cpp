@@ -6,12 +6,12 @@
 #include <cstdlib>
 #include <string>
 
+#include "core/error.h"
 #include "encode/ply_writer.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
-#include "metrics/mesh_stats.h"
-#include "core/error.h"
 #include "io/open_source.h"
+#include "metrics/mesh_stats.h"
 #include "stream/pipeline.h"
 
 int main(int argc, char** argv) {

@@ -7,13 +7,13 @@
 #include <cassert>
 #include <chrono>
 #include <exception>
-#include <utility>
 #include <limits>
 #include <mutex>
 #include <thread>
+#include <utility>
 
-#include "extract/slab_stitcher.h"
 #include "core/error.h"
+#include "extract/slab_stitcher.h"
 #include "io/interrupt.h"
 #include "stream/bounded_queue.h"
 #include "stream/progress.h"
@@ -258,7 +258,8 @@ class PipelineRun {
       extractor_.extractSlab(view(z), chunk);
       result_.extractSeconds += since(t);
       if (extractor_.vertexCount() > std::numeric_limits<VertexId>::max()) {
-        throw Error(fmt::format("{}: the mesh exceeds {} vertices", info_.source, std::numeric_limits<VertexId>::max()));
+        throw Error(
+            fmt::format("{}: the mesh exceeds {} vertices", info_.source, std::numeric_limits<VertexId>::max()));
       }
       nextVertex = chunk.endVertex();
       emit(chunk);

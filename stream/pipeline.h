@@ -8,8 +8,8 @@
 #include <cstdint>
 #include <optional>
 
-#include "extract/extractor.h"
 #include "core/mesh_sink.h"
+#include "extract/extractor.h"
 #include "io/slice_source.h"
 
 namespace isoslab {

@@ -10,8 +10,8 @@
 
 #include "encode/indexed_mesh.h"
 #include "extract/extractor.h"
-#include "metrics/mesh_stats.h"
 #include "io/slice_source.h"
+#include "metrics/mesh_stats.h"
 
 namespace isoslab::testing {
 

@@ -115,7 +115,8 @@ std::uint64_t bcc12() {
           std::array<std::int64_t, 3> next = cell;
           ++next[static_cast<std::size_t>(axis)];
           const double other = centre(next[0], next[1], next[2]);
-          const double a = faceCorner(1, 0, 0), b = faceCorner(1, 1, 0), c = faceCorner(1, 0, 1), d = faceCorner(1, 1, 1);
+          const double a = faceCorner(1, 0, 0), b = faceCorner(1, 1, 0), c = faceCorner(1, 0, 1),
+                       d = faceCorner(1, 1, 1);
           for (auto [p, q] : {std::pair{a, b}, std::pair{b, d}, std::pair{d, c}, std::pair{c, a}}) {
             total += static_cast<std::uint64_t>(triangles({own, other, p, q}));
           }

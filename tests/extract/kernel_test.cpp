@@ -108,8 +108,8 @@ void expectClosedAndOriented(const Mesh& m, const std::string& what) {
   }
   for (const auto& [edge, count] : directed) {
     ASSERT_EQ(count, 1) << what << ": edge " << edge.first << "-" << edge.second << " used twice in one direction";
-    ASSERT_EQ(directed.count({edge.second, edge.first}), 1u) << what << ": boundary edge " << edge.first << "-"
-                                                             << edge.second;
+    ASSERT_EQ(directed.count({edge.second, edge.first}), 1u)
+        << what << ": boundary edge " << edge.first << "-" << edge.second;
   }
 }
 

@@ -6,8 +6,8 @@
 //   bits 3-4: --channel -1, 0, 1, 2.
 #include <fmt/format.h>
 
-#include "fuzz_support.h"
 #include "core/error.h"
+#include "fuzz_support.h"
 #include "io/open_source.h"
 
 using namespace isoslab;

@@ -19,12 +19,12 @@
 
 #include <fmt/format.h>
 
+#include "core/error.h"
 #include "encode/indexed_mesh.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
-#include "metrics/mesh_stats.h"
 #include "fuzz_support.h"
-#include "core/error.h"
+#include "metrics/mesh_stats.h"
 #include "stream/pipeline.h"
 
 using namespace isoslab;

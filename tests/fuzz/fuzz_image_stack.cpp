@@ -7,8 +7,8 @@
 //   bit 5: --spacing 1,1,2 given.
 #include <fmt/format.h>
 
-#include "fuzz_support.h"
 #include "core/error.h"
+#include "fuzz_support.h"
 #include "io/open_source.h"
 
 using namespace isoslab;

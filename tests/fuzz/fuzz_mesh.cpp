@@ -8,13 +8,13 @@
 #include <array>
 #include <limits>
 
-#include "encode/indexed_mesh.h"
-#include "encode/mesh_reader.h"
-#include "encode/mesh_metadata.h"
-#include "encode/mesh_writer.h"
-#include "metrics/mesh_stats.h"
-#include "fuzz_support.h"
 #include "core/error.h"
+#include "encode/indexed_mesh.h"
+#include "encode/mesh_metadata.h"
+#include "encode/mesh_reader.h"
+#include "encode/mesh_writer.h"
+#include "fuzz_support.h"
+#include "metrics/mesh_stats.h"
 
 using namespace isoslab;
 

@@ -13,8 +13,8 @@
 #include <cmath>
 #include <limits>
 
-#include "fuzz_support.h"
 #include "core/error.h"
+#include "fuzz_support.h"
 #include "io/open_source.h"
 
 using namespace isoslab;

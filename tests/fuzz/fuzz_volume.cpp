@@ -8,8 +8,8 @@
 // v.raw, v1.raw, v2.raw (NIfTI's .hdr: v.img), the names the seeds' headers use.
 #include <fmt/format.h>
 
-#include "fuzz_support.h"
 #include "core/error.h"
+#include "fuzz_support.h"
 #include "io/open_source.h"
 
 using namespace isoslab;

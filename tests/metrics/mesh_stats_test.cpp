@@ -1,8 +1,8 @@
 #include <gtest/gtest.h>
 
+#include "core/error.h"
 #include "encode/indexed_mesh.h"
 #include "metrics/mesh_stats.h"
-#include "core/error.h"
 
 namespace isoslab {
 namespace {

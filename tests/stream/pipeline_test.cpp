@@ -4,9 +4,9 @@
 #include <limits>
 #include <new>
 
+#include "core/error.h"
 #include "extract/frame.h"
 #include "extract/slab_stitcher.h"
-#include "core/error.h"
 #include "stream/pipeline.h"
 #include "test_support.h"
 
@@ -119,8 +119,8 @@ class OutOfMemoryExtractor final : public Extractor {
 TEST(Pipeline, OutOfMemoryInAKernelReachesTheCaller) {
   for (int threads : {1, 3}) {
     testing::VectorSource source({6, 6, 8}, [](std::int64_t i, std::int64_t, std::int64_t) { return float(i); });
-    OutOfMemoryExtractor ex(makeExtractor(ExtractOptions{Method::kMarchingCubes, 2.5}, source.info(),
-                                          LatticeFrame::voxel()));
+    OutOfMemoryExtractor ex(
+        makeExtractor(ExtractOptions{Method::kMarchingCubes, 2.5}, source.info(), LatticeFrame::voxel()));
     MemoryMeshSink sink;
     PipelineOptions p;
     p.threads = threads;
