@@ -21,6 +21,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "encode/mesh_reader.h"
 
 namespace isoslab::cli {
 namespace {
@@ -199,6 +200,9 @@ int runView(const std::string& glb, const std::string& report, const std::string
     throw Error(fmt::format(
         "{}: not a .glb file (binary glTF starts with 'glTF'); view takes the .glb that extract wrote", glb));
   }
+  // Decoded once as `decode` reads it, so that a truncated or corrupt .glb is refused here with one
+  // line, not by the browser.
+  readMeshData(glb, mesh);
   nlohmann::ordered_json reportJson;  // null when there is none; keeps the report's order
   if (!report.empty()) {
     const std::string text = readFile(report);
