@@ -24,7 +24,14 @@ CHARTS = [
     ("chart6_area_error", "area_error", "Chart 6: area error", "(S - 4 pi r^2) / 4 pi r^2"),
     ("chart7_volume_error", "volume_error", "Chart 7: volume error", "(V - 4/3 pi r^3) / (4/3 pi r^3)"),
 ]
-STYLE = {"mc": ("tab:blue", "o"), "mt5": ("tab:green", "s"), "mt6": ("tab:orange", "^"), "bcc12": ("tab:red", "v")}
+STYLE = {
+    "mc": ("tab:blue", "o"),
+    "mt5": ("tab:green", "s"),
+    "mt6": ("tab:orange", "^"),
+    "bcc12": ("tab:red", "v"),
+    "mt24": ("tab:purple", "D"),
+    "mc33": ("tab:cyan", "x"),
+}
 
 
 def main():

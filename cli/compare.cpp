@@ -33,7 +33,7 @@ std::vector<Method> methodsOf(const std::string& text) {
   std::string item;
   while (std::getline(s, item, ',')) {
     const auto m = parseMethod(item);
-    if (!m) throw Error(fmt::format("--methods: unknown method '{}' (use mc, mt5, mt6, bcc12)", item));
+    if (!m) throw Error(fmt::format("--methods: unknown method '{}' (use {})", item, fmt::join(methodNames(), ", ")));
     methods.push_back(*m);
   }
   return methods;

@@ -136,7 +136,7 @@ std::vector<FigureCase> figureCases(const CompareArgs& args, const std::vector<M
   ear.crop = args.cthead.empty() ? std::array<std::array<std::int64_t, 3>, 2>{{{0, 100, 30}, {60, 170, 70}}}
                                  : std::array<std::array<std::int64_t, 3>, 2>{{{5, 90, 40}, {55, 160, 85}}};
   ear.methods.clear();
-  for (Method m : {Method::kTetra5, Method::kTetra6, Method::kBcc12}) {
+  for (Method m : {Method::kTetra5, Method::kTetra6, Method::kBcc12, Method::kTetra24}) {
     if (std::find(methods.begin(), methods.end(), m) != methods.end()) ear.methods.push_back(m);
   }
   cases.push_back(ear);

@@ -269,7 +269,7 @@ bool sameFile(const std::string& a, const std::string& b) {
 
 int runExtract(const ExtractArgs& args) {
   const auto method = parseMethod(args.method);
-  if (!method) throw UsageError(fmt::format("--method: unknown method '{}' (use mc, mt5, mt6 or bcc12)", args.method));
+  if (!method) throw UsageError(fmt::format("--method: unknown method '{}' (use {})", args.method, fmt::join(methodNames(), ", ")));
   if (!args.report.empty() && sameFile(args.report, args.output)) {
     throw UsageError(fmt::format("--report '{}' names the same file as -o '{}'", args.report, args.output));
   }
@@ -656,8 +656,8 @@ int main(int argc, char** argv) {
       ->add_option("--iso", ex.iso,
                    "Iso value; voxels with value >= iso are inside (default: the input's suggestion, for phantoms)")
       ->check(finiteNumber());
-  extract->add_option("--method", ex.method, "mc, mt5, mt6 or bcc12")
-      ->transform(oneOf("method", {"mc", "mt5", "mt6", "bcc12"}))
+  extract->add_option("--method", ex.method, fmt::format("{}", fmt::join(methodNames(), ", ")))
+      ->transform(oneOf("method", methodNames()))
       ->capture_default_str();
   extract
       ->add_option("-o,--output", ex.output,
@@ -738,7 +738,7 @@ int main(int argc, char** argv) {
   compare->add_option("--centre", cmp.centre, "spheres51: centre offset from a grid point (default 0.5,0.5,0.5)")
       ->check(numberList([](const std::vector<double>& c) { return c.size() == 3 ? "" : "needs three values"; }));
   compare->add_option("--methods", cmp.methods, "Methods to compare")
-      ->transform(cli::listOf("method", {"mc", "mt5", "mt6", "bcc12"}))
+      ->transform(cli::listOf("method", methodNames()))
       ->capture_default_str();
   compare->add_option("--engine", cmp.engine, "paper: the engine CT (raw 256x256x128 u8, gzip allowed)");
   compare->add_option("--cthead", cmp.cthead, "paper and figures: the CThead slices folder (u16 big-endian)");

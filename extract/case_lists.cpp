@@ -118,8 +118,10 @@ EdgeRef CellCases::makeEdge(int a, int b) {
   r.plane = static_cast<std::uint8_t>(na->hz);
   assert(r.plane <= 2);
   auto& classes = na->hz == 1 ? oddClasses_ : evenClasses_;
-  const std::array<int, 3> dir{nb->hx - na->hx, nb->hy - na->hy, nb->hz - na->hz};
-  const auto it = classes.emplace(dir, classes.size()).first;
+  // mc, mt5, mt6 and bcc12 have one parity per plane; mt24's face centres share planes with
+  // corners (slice z: corners and z-face centres) and with cube centres.
+  const std::array<int, 5> key{na->hx & 1, na->hy & 1, nb->hx - na->hx, nb->hy - na->hy, nb->hz - na->hz};
+  const auto it = classes.emplace(key, classes.size()).first;
   const std::int64_t dx = na->hx >> 1;  // corner offsets 0/2 -> 0/1, centres 1 -> 0, 3 -> 1
   const std::int64_t dy = na->hy >> 1;
   r.edgeClass = it->second;

@@ -101,8 +101,11 @@ class CellCases {
   std::vector<LatticeNode> nodes_;
   CaseList mc_;
   std::vector<CaseList> variants_;
-  std::map<std::array<int, 3>, std::size_t> evenClasses_;
-  std::map<std::array<int, 3>, std::size_t> oddClasses_;
+  /// Edge classes by the lower endpoint's parity in x and y and the edge's direction: (anchor
+  /// lattice point, parity) names one half-lattice point, so (anchor, parity, direction) names one
+  /// edge. Numbered in order of first use.
+  std::map<std::array<int, 5>, std::size_t> evenClasses_;
+  std::map<std::array<int, 5>, std::size_t> oddClasses_;
 };
 
 }  // namespace isoslab

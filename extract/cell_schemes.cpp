@@ -80,6 +80,7 @@ CellScheme makeBcc12Scheme() {
   CellScheme s;
   s.name = "bcc12";
   s.rule = VariantRule::kBoundary;
+  s.values = NodeValues::kNeighbourCentres;
   addCorners(s);
   constexpr int kOwnCentre = 8;
   s.nodes.push_back({1, 1, 1});  // 8: own centre
@@ -108,6 +109,35 @@ CellScheme makeBcc12Scheme() {
           for (int m = 0; m < 4; ++m) addTet(s, list, kOwnCentre, neighbour, fc[m], fc[(m + 1) % 4]);
         }
       }
+    }
+  }
+  return s;
+}
+
+CellScheme makeTetra24Scheme() {
+  CellScheme s;
+  s.name = "mt24";
+  s.rule = VariantRule::kSingle;
+  s.values = NodeValues::kOwnCentres;
+  addCorners(s);
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int side = 0; side < 2; ++side) {
+      std::array<std::int8_t, 3> h{1, 1, 1};
+      h[static_cast<std::size_t>(axis)] = static_cast<std::int8_t>(2 * side);
+      s.nodes.push_back({h[0], h[1], h[2]});  // 8 + 2 * axis + side
+    }
+  }
+  constexpr int kCubeCentre = 14;
+  s.nodes.push_back({1, 1, 1});
+  s.variants.resize(1);
+  for (int axis = 0; axis < 3; ++axis) {
+    const int u = (axis + 1) % 3;
+    const int v = (axis + 2) % 3;
+    for (int side = 0; side < 2; ++side) {
+      const int base = side << axis;
+      const std::array<int, 4> fc{base, base | (1 << u), base | (1 << u) | (1 << v), base | (1 << v)};
+      const int faceCentre = 8 + 2 * axis + side;
+      for (int m = 0; m < 4; ++m) addTet(s, s.variants[0], kCubeCentre, faceCentre, fc[m], fc[(m + 1) % 4]);
     }
   }
   return s;

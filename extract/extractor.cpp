@@ -14,15 +14,23 @@ std::string_view methodName(Method m) noexcept {
       return "mt6";
     case Method::kBcc12:
       return "bcc12";
+    case Method::kTetra24:
+      return "mt24";
   }
   return "?";
 }
 
 std::optional<Method> parseMethod(std::string_view name) noexcept {
-  for (Method m : {Method::kMarchingCubes, Method::kTetra5, Method::kTetra6, Method::kBcc12}) {
+  for (Method m : kMethods) {
     if (name == methodName(m)) return m;
   }
   return std::nullopt;
+}
+
+std::vector<std::string> methodNames() {
+  std::vector<std::string> names;
+  for (Method m : kMethods) names.emplace_back(methodName(m));
+  return names;
 }
 
 std::unique_ptr<Extractor> makeExtractor(const ExtractOptions& options, const VolumeInfo& info,
@@ -39,6 +47,9 @@ std::unique_ptr<Extractor> makeExtractor(const ExtractOptions& options, const Vo
       break;
     case Method::kBcc12:
       scheme = std::make_unique<CellScheme>(makeBcc12Scheme());
+      break;
+    case Method::kTetra24:
+      scheme = std::make_unique<CellScheme>(makeTetra24Scheme());
       break;
   }
   return makeLatticeExtractor(options, info, frame, std::move(scheme));

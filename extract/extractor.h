@@ -16,7 +16,11 @@
 
 namespace isoslab {
 
-enum class Method : std::uint8_t { kMarchingCubes, kTetra5, kTetra6, kBcc12 };
+enum class Method : std::uint8_t { kMarchingCubes, kTetra5, kTetra6, kBcc12, kTetra24 };
+
+/// Every method, in the order the command line and the comparisons list them.
+inline constexpr Method kMethods[] = {Method::kMarchingCubes, Method::kTetra5, Method::kTetra6, Method::kBcc12,
+                                      Method::kTetra24};
 
 /// A welding-cache slot on one slice plane, below Extractor::sliceSlots(): how a slab worker names
 /// a vertex on a slice that another slab creates.
@@ -49,9 +53,11 @@ class SlabWorker {
   virtual void extract(const SlabView& slab, SlabPart& out) = 0;
 };
 
-/// "mc", "mt5", "mt6", "bcc12".
+/// "mc", "mt5", "mt6", "bcc12", "mt24".
 std::string_view methodName(Method m) noexcept;
 std::optional<Method> parseMethod(std::string_view name) noexcept;
+/// The names of kMethods, in order.
+std::vector<std::string> methodNames();
 
 struct ExtractOptions {
   Method method = Method::kMarchingCubes;

@@ -21,7 +21,8 @@ LatticeKernel::LatticeKernel(const ExtractOptions& options, const std::array<std
   flip_ = frame_.flipsWinding();
   threshold_ = insideThreshold(options_.iso);
   cellVolume_ = frame_.cellVolume();
-  needsCentres_ = scheme_ && scheme_->rule == VariantRule::kBoundary;
+  needsCentres_ = scheme_ && scheme_->values == NodeValues::kNeighbourCentres;
+  ownCentres_ = scheme_ && scheme_->values == NodeValues::kOwnCentres;
   field_.nx = nx_;
   field_.ny = ny_;
   field_.nz = nz_;
@@ -249,6 +250,38 @@ void LatticeKernel::loadCorners(const std::array<const float*, 4>& rows) noexcep
   }
 }
 
+// The mean of four corners: summed in double in one fixed order, so that the two cells sharing a
+// face compute the same float. A sum of +inf and -inf (no NaN among them) is 0, as for bcc12's
+// centres (computeCentres): it agrees with corners that all agree.
+static float cornerMean(const float* v, std::size_t count) noexcept {
+  double sum = 0;
+  bool nan = false;
+  for (std::size_t k = 0; k < count; k += 2) {
+    sum += static_cast<double>(v[k]) + static_cast<double>(v[k + 1]);
+    nan = nan || std::isnan(v[k]) || std::isnan(v[k + 1]);
+  }
+  const double mean = sum / static_cast<double>(count);
+  return static_cast<float>(std::isnan(mean) && !nan ? 0.0 : mean);
+}
+
+// mt24's node values 8..14 from the corners in value_: the six face centres (8 + 2 * axis +
+// side), each the mean of its face's corners in the face's own order (the lower remaining axis
+// first), and the cube centre, the mean of all eight.
+void LatticeKernel::ownCentres() noexcept {
+  for (int axis = 0; axis < 3; ++axis) {
+    const int p = axis == 0 ? 1 : 0;
+    const int q = axis == 2 ? 1 : 2;
+    for (int side = 0; side < 2; ++side) {
+      const int base = side << axis;
+      const float face[4] = {value_[static_cast<std::size_t>(base)], value_[static_cast<std::size_t>(base | 1 << p)],
+                             value_[static_cast<std::size_t>(base | 1 << q)],
+                             value_[static_cast<std::size_t>(base | 1 << p | 1 << q)]};
+      value_[static_cast<std::size_t>(8 + 2 * axis + side)] = cornerMean(face, 4);
+    }
+  }
+  value_[14] = cornerMean(value_.data(), 8);
+}
+
 // Emits the cell's triangles and returns the inside volume of its tetrahedra, in voxel units.
 double LatticeKernel::marchTetrahedra(unsigned cornerCase, std::int64_t i, std::int64_t j,
                                       const std::array<const float*, 4>& corners) {
@@ -266,7 +299,11 @@ double LatticeKernel::marchTetrahedra(unsigned cornerCase, std::int64_t i, std::
   }
   CaseList& v = cases_.variants()[variant];
   unsigned nodeCase = cornerCase;
-  if (needsCentres_) {
+  if (ownCentres_) {
+    loadCorners(corners);
+    ownCentres();
+    for (unsigned n = 8; n < 15; ++n) nodeCase |= static_cast<unsigned>(value_[n] >= threshold_) << n;
+  } else if (needsCentres_) {
     const std::int64_t c = j * (nx_ - 1) + i;
     value_[8] = centres_[0][static_cast<std::size_t>(c)];
     if (v.nodeMask & (1u << 9)) value_[9] = centres_[0][static_cast<std::size_t>(c + 1)];
@@ -280,7 +317,7 @@ double LatticeKernel::marchTetrahedra(unsigned cornerCase, std::int64_t i, std::
   const unsigned key = nodeCase & used;
   if (key == 0) return 0.0;
   if (key == used) return v.volume;
-  loadCorners(corners);  // only for cells the surface crosses
+  if (!ownCentres_) loadCorners(corners);  // only for cells the surface crosses
   v.ensureCase(key);
   emitCase(v, key, i, j);
   if (!options_.cellVolumes) return 0.0;

@@ -61,6 +61,7 @@ class LatticeKernel {
   void marchRow(std::int64_t j, std::int64_t begin, std::int64_t end, double& insideVolume);
   void computeCentres(int which, std::vector<float>& dst);
   void loadCorners(const std::array<const float*, 4>& rows) noexcept;
+  void ownCentres() noexcept;
   double marchTetrahedra(unsigned cornerCase, std::int64_t i, std::int64_t j,
                          const std::array<const float*, 4>& corners);
   void emitCase(const CaseList& v, unsigned key, std::int64_t i, std::int64_t j);
@@ -77,7 +78,8 @@ class LatticeKernel {
   std::vector<double> columns_;
   std::array<std::vector<RowSpan>, 3> rows_;
   bool rowsCarried_ = false;  // rows_[0..] hold the spans of this slab's slices, rolled from the last
-  bool needsCentres_ = false;
+  bool needsCentres_ = false;  // bcc12: cube centres of this slab and the next
+  bool ownCentres_ = false;    // mt24: face and cube centres of each cell, from its corners
   float threshold_ = 0;  // a value v is inside when v >= threshold_
   std::vector<CacheSlot>* foreign_ = nullptr;
   bool flip_ = false;
@@ -86,7 +88,7 @@ class LatticeKernel {
   std::int64_t z_ = 0;
   SlabField field_;
   MeshChunk* out_ = nullptr;
-  std::array<float, 12> value_{};
+  std::array<float, 16> value_{};  // node values: corners, then the scheme's centres
   std::uint64_t vertexCount_ = 0;
 };
 

@@ -1,5 +1,7 @@
 #include "extract/slab_field.h"
 
+#include <array>
+
 namespace isoslab {
 namespace {
 
@@ -23,6 +25,23 @@ Vec3d SlabField::gradient(const LatticeNode& node, std::int64_t i, std::int64_t 
     return {0.25 * ((c[1] - c[0]) + (c[3] - c[2]) + (c[5] - c[4]) + (c[7] - c[6])),
             0.25 * ((c[2] - c[0]) + (c[3] - c[1]) + (c[6] - c[4]) + (c[7] - c[5])),
             0.25 * ((c[4] - c[0]) + (c[5] - c[1]) + (c[6] - c[2]) + (c[7] - c[3]))};
+  }
+  if (node.isFaceCentre()) {
+    // The mean of the face's four corners' gradients: the same whichever of the two cells sharing
+    // the face creates the vertex.
+    Vec3d g{0, 0, 0};
+    for (int k = 0; k < 4; ++k) {
+      std::array<int, 3> h{node.hx, node.hy, node.hz};
+      int bit = 0;
+      for (auto& c : h) {
+        if (c & 1) c += ((k >> bit++) & 1) != 0 ? 1 : -1;
+      }
+      const Vec3d gc = gradient({static_cast<std::int8_t>(h[0]), static_cast<std::int8_t>(h[1]),
+                                 static_cast<std::int8_t>(h[2])},
+                                i, j);
+      for (std::size_t a = 0; a < 3; ++a) g[a] += 0.25 * gc[a];
+    }
+    return g;
   }
   const std::int64_t gi = i + node.hx / 2;
   const std::int64_t gj = j + node.hy / 2;

@@ -30,7 +30,7 @@ struct SlabField {
   /// Gradient of the field at `node` of cell (i, j, z), with respect to lattice coordinates.
   /// Corners: central differences, one-sided at the volume's faces. Cube centres: the gradient of
   /// the trilinear interpolant of the centre's cell, taken at the centre (the mean of the cell's
-  /// four edge differences per axis).
+  /// four edge differences per axis). Face centres: the mean of the face's four corners' gradients.
   Vec3d gradient(const LatticeNode& node, std::int64_t i, std::int64_t j) const noexcept;
 };
 

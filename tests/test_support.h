@@ -74,6 +74,6 @@ std::string slurp(const std::string& path);
 /// Number of regular files in `folder`, hidden ones included.
 int fileCount(const std::string& folder);
 
-inline constexpr Method kAllMethods[] = {Method::kMarchingCubes, Method::kTetra5, Method::kTetra6, Method::kBcc12};
+inline constexpr auto& kAllMethods = kMethods;
 
 }  // namespace isoslab::testing

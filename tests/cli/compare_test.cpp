@@ -38,7 +38,7 @@ TEST(Compare, Spheres51SubsetHasTheExpectedRowsAndPrecision) {
   const auto r = testing::runCli("compare --suite spheres51 --radii 5,10,20 --no-charts -q --out " + out);
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const auto rows = readCsv(out + "/results.csv");
-  ASSERT_EQ(rows.size(), 3u * 4 * 2);
+  ASSERT_EQ(rows.size(), 3u * std::size(kMethods) * 2);
   std::map<std::pair<std::string, std::string>, double> triangles;  // (method, radius)
   for (const auto& row : rows) {
     for (const char* key : {"method", "field", "radius", "triangles", "area_error", "volume_error"}) {
@@ -58,6 +58,8 @@ TEST(Compare, Spheres51SubsetHasTheExpectedRowsAndPrecision) {
     const double bcc = triangles[{"bcc12", radius}];
     const double mt6 = triangles[{"mt6", radius}];
     EXPECT_GT(bcc, mt6) << radius;
+    const double mt24 = triangles[{"mt24", radius}];
+    EXPECT_GT(mt24, bcc) << radius;
   }
   EXPECT_TRUE(fs::exists(out + "/summary.md"));
 }
@@ -82,7 +84,7 @@ TEST(Compare, CubesSuiteReproducesTheBlockCount) {
   const std::string out = testing::tempDir();
   ASSERT_EQ(testing::runCli("compare --suite cubes -q --out " + out).exitCode, 0);
   const auto rows = readCsv(out + "/cubes.csv");
-  ASSERT_EQ(rows.size(), 3u * 2 * 4);
+  ASSERT_EQ(rows.size(), 3u * 2 * std::size(kMethods));
   for (const auto& row : rows) {
     if (row.at("edge") == "6" && row.at("iso") == "50" && row.at("method") == "mc") {
       EXPECT_EQ(row.at("triangles"), "428");

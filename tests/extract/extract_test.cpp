@@ -127,6 +127,34 @@ std::uint64_t bcc12() {
   return total;
 }
 
+// mt24: six pyramids from the cube's centre (the mean of its 8 corners), one per face, each cut
+// into four tetrahedra through the face's centre (the mean of the face's 4 corners): (cube
+// centre, face centre, the two ends of one face edge).
+std::uint64_t mt24() {
+  std::uint64_t total = 0;
+  for (std::int64_t k = 0; k < 9; ++k) {
+    for (std::int64_t j = 0; j < 9; ++j) {
+      for (std::int64_t i = 0; i < 9; ++i) {
+        auto v = [&](int c) { return corner(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)); };
+        double own = 0;
+        for (int c = 0; c < 8; ++c) own += v(c) / 8;
+        for (int axis = 0; axis < 3; ++axis) {
+          const int u = 1 << ((axis + 1) % 3), w = 1 << ((axis + 2) % 3);
+          for (int side = 0; side < 2; ++side) {
+            const int base = side << axis;
+            const std::array<double, 4> ring{v(base), v(base | u), v(base | u | w), v(base | w)};
+            const double face = (ring[0] + ring[1] + ring[2] + ring[3]) / 4;
+            for (std::size_t m = 0; m < 4; ++m) {
+              total += static_cast<std::uint64_t>(triangles({own, face, ring[m], ring[(m + 1) % 4]}));
+            }
+          }
+        }
+      }
+    }
+  }
+  return total;
+}
+
 }  // namespace block
 
 TEST(ExtractBlock, ExactTriangleCounts) {
@@ -135,15 +163,17 @@ TEST(ExtractBlock, ExactTriangleCounts) {
     std::uint64_t triangles;
   };
   for (const Expect& e : {Expect{Method::kMarchingCubes, 428}, Expect{Method::kTetra5, block::mt5()},
-                          Expect{Method::kTetra6, 1584}, Expect{Method::kBcc12, block::bcc12()}}) {
+                          Expect{Method::kTetra6, 1584}, Expect{Method::kBcc12, block::bcc12()},
+                          Expect{Method::kTetra24, block::mt24()}}) {
     const Extraction x = testing::extract(kBlock, e.method, 50);
     EXPECT_EQ(x.stats.triangles, e.triangles) << name(e.method);
     EXPECT_TRUE(x.stats.closed()) << name(e.method);
     EXPECT_EQ(x.stats.inconsistentEdges, 0u) << name(e.method);
     EXPECT_EQ(x.stats.euler, 2) << name(e.method);
-    // bcc12's centre values on the block's faces are the mean of four 100s and four 0s: exactly
-    // the iso value, so vertices land on those centres and some triangles collapse.
-    if (e.method != Method::kBcc12) {
+    // bcc12's centre values on the block's faces are the mean of four 100s and four 0s, and so
+    // are mt24's face centres on the faces across the block's edges: exactly the iso value, so
+    // vertices land on those centres and some triangles collapse.
+    if (e.method != Method::kBcc12 && e.method != Method::kTetra24) {
       EXPECT_EQ(x.stats.degenerateTriangles, 0u) << name(e.method);
     }
   }
@@ -271,9 +301,11 @@ TEST(ExtractSphere, TetrahedralMethodsMakeMoreTrianglesThanMarchingCubes) {
   const auto mt5 = count(Method::kTetra5);
   const auto mt6 = count(Method::kTetra6);
   const auto bcc = count(Method::kBcc12);
+  const auto mt24 = count(Method::kTetra24);
   EXPECT_LT(mc, mt5);
   EXPECT_LT(mt5, mt6);
   EXPECT_LT(mt6, bcc);
+  EXPECT_LT(bcc, mt24);
 }
 
 TEST(ExtractTorus, EulerCharacteristicZeroForEveryMethod) {
@@ -338,7 +370,7 @@ TEST(ExtractRandom, CubeEdgeVerticesMatchMarchingCubesBitForBit) {
   auto key = [](const Vec3f& p) { return std::array<float, 3>{p.x, p.y, p.z}; };
   testing::VectorSource mcSource({24, 24, 24}, values);
   const Extraction mc = testing::extract(mcSource, Method::kMarchingCubes, 50);
-  for (Method m : {Method::kTetra5, Method::kTetra6, Method::kBcc12}) {
+  for (Method m : {Method::kTetra5, Method::kTetra6, Method::kBcc12, Method::kTetra24}) {
     testing::VectorSource source({24, 24, 24}, values);
     const Extraction x = testing::extract(source, m, 50);
     std::set<std::array<float, 3>> positions;

@@ -5,6 +5,7 @@
 #include <random>
 #include <set>
 
+#include "extract/case_lists.h"
 #include "extract/cell_schemes.h"
 #include "extract/mc_table.h"
 #include "extract/tet_table.h"
@@ -332,6 +333,132 @@ TEST(CellSchemes, Bcc12TilesABlockOfCellsExactlyOnce) {
     int in = 0;
     for (const auto& t : all) in += contains(t, q) ? 1 : 0;
     ASSERT_EQ(in, 1) << q[0] << " " << q[1] << " " << q[2];
+  }
+}
+
+// mt24 (the paper's 24 tetrahedra per cube, after Baxter et al.): 24 tetrahedra of equal volume
+// tile the cube, and a 2 x 2 x 2 block of cells exactly once.
+TEST(CellSchemes, Mt24TilesTheCubeAndABlockOfCells) {
+  const CellScheme s = makeTetra24Scheme();
+  ASSERT_EQ(s.variants.size(), 1u);
+  ASSERT_EQ(s.variants[0].size(), 24u);
+  ASSERT_EQ(s.nodes.size(), 15u);
+  int sum = 0;
+  for (const Tetrahedron& t : s.variants[0]) {
+    EXPECT_EQ(sv6(s, t), 2);  // a 24th of the cell: 6 x 8 / 24
+    sum += sv6(s, t);
+  }
+  EXPECT_EQ(sum, 48);
+  std::vector<PlacedTet> all;
+  for (int c = 0; c < 8; ++c) {
+    const auto placed = place(s, s.variants[0], c & 1, (c >> 1) & 1, (c >> 2) & 1);
+    all.insert(all.end(), placed.begin(), placed.end());
+  }
+  std::mt19937 rng(24);
+  std::uniform_real_distribution<double> u(0.0005, 1.9995);
+  for (int m = 0; m < 3000; ++m) {
+    const std::array<double, 3> q{u(rng), u(rng), u(rng)};
+    int in = 0;
+    for (const auto& t : all) in += contains(t, q) ? 1 : 0;
+    ASSERT_EQ(in, 1) << q[0] << " " << q[1] << " " << q[2];
+  }
+}
+
+// The triangles (tetrahedron faces) a scheme draws on the face (axis, side) of a cell, each as its
+// three nodes in global half-unit coordinates.
+std::set<std::set<std::array<int, 3>>> faceTriangles(const CellScheme& s, int axis, int side,
+                                                     std::array<int, 3> cell) {
+  std::set<std::set<std::array<int, 3>>> out;
+  for (const Tetrahedron& t : s.variants[0]) {
+    for (int skip = 0; skip < 4; ++skip) {
+      std::set<std::array<int, 3>> tri;
+      for (int k = 0; k < 4; ++k) {
+        if (k == skip) continue;
+        const LatticeNode& n = s.nodes[t.nodes[static_cast<std::size_t>(k)]];
+        const std::array<int, 3> h{n.hx, n.hy, n.hz};
+        if (h[static_cast<std::size_t>(axis)] != 2 * side) break;
+        std::array<int, 3> g{};
+        for (std::size_t a = 0; a < 3; ++a) g[a] = 2 * cell[a] + h[a];
+        tri.insert(g);
+      }
+      if (tri.size() == 3) out.insert(tri);
+    }
+  }
+  return out;
+}
+
+TEST(CellSchemes, Mt24NeighboursCutSharedFacesIntoTheSameTriangles) {
+  const CellScheme s = makeTetra24Scheme();
+  for (int axis = 0; axis < 3; ++axis) {
+    std::array<int, 3> next{0, 0, 0};
+    next[static_cast<std::size_t>(axis)] = 1;
+    const auto lower = faceTriangles(s, axis, 1, {0, 0, 0});
+    const auto upper = faceTriangles(s, axis, 0, next);
+    EXPECT_EQ(lower.size(), 4u) << "axis " << axis;
+    EXPECT_EQ(lower, upper) << "axis " << axis;
+    // Each triangle joins the face centre with one face edge.
+    for (const auto& tri : lower) {
+      int centres = 0;
+      for (const auto& p : tri) centres += (p[0] & 1) + (p[1] & 1) + (p[2] & 1) == 2 ? 1 : 0;
+      EXPECT_EQ(centres, 1);
+    }
+  }
+}
+
+TEST(CellSchemes, Mt24EachTetrahedronHasOneEdgeBetweenTwoCentres) {
+  const CellScheme s = makeTetra24Scheme();
+  std::set<std::pair<int, int>> pyramids;
+  for (const Tetrahedron& t : s.variants[0]) {
+    int centreEdges = 0;
+    for (int a = 0; a < 4; ++a) {
+      for (int b = a + 1; b < 4; ++b) {
+        const LatticeNode& na = s.nodes[t.nodes[static_cast<std::size_t>(a)]];
+        const LatticeNode& nb = s.nodes[t.nodes[static_cast<std::size_t>(b)]];
+        if (na.oddAxes() == 0 || nb.oddAxes() == 0) continue;
+        ++centreEdges;
+        // Cube centre to face centre: half a voxel.
+        EXPECT_EQ(na.isCentre() + nb.isCentre(), 1);
+        EXPECT_EQ(na.isFaceCentre() + nb.isFaceCentre(), 1);
+        const int d2 = (na.hx - nb.hx) * (na.hx - nb.hx) + (na.hy - nb.hy) * (na.hy - nb.hy) +
+                       (na.hz - nb.hz) * (na.hz - nb.hz);
+        EXPECT_EQ(d2, 1);
+        pyramids.insert({std::min(t.nodes[static_cast<std::size_t>(a)], t.nodes[static_cast<std::size_t>(b)]),
+                         std::max(t.nodes[static_cast<std::size_t>(a)], t.nodes[static_cast<std::size_t>(b)])});
+      }
+    }
+    EXPECT_EQ(centreEdges, 1);
+  }
+  EXPECT_EQ(pyramids.size(), 6u);  // one centre-centre edge per pyramid, shared by its 4 tetrahedra
+}
+
+// Welding: within a slab, two edges of the cells of a lattice get the same cache slot (plane and
+// slot) exactly when they are the same lattice edge, for every method. mt24's face centres share
+// planes with corners, so its edge classes must tell their kinds apart.
+TEST(CaseLists, EdgeSlotsNameLatticeEdgesOneToOne) {
+  const std::int64_t nx = 7;
+  for (const CellScheme& s : {makeTetra5Scheme(), makeTetra6Scheme(), makeBcc12Scheme(), makeTetra24Scheme()}) {
+    const CellCases cases(&s, nx);
+    using Point = std::array<int, 3>;
+    std::map<std::pair<int, std::int64_t>, std::pair<Point, Point>> bySlot;
+    std::map<std::pair<Point, Point>, std::pair<int, std::int64_t>> byEdge;
+    for (std::int64_t j = 1; j < 4; ++j) {
+      for (std::int64_t i = 1; i < 4; ++i) {
+        for (const CaseList& v : cases.variants()) {
+          for (const EdgeRef& e : v.edges) {
+            auto global = [&](int n) {
+              const LatticeNode& node = cases.nodes()[static_cast<std::size_t>(n)];
+              return Point{static_cast<int>(2 * i) + node.hx, static_cast<int>(2 * j) + node.hy, node.hz};
+            };
+            const std::pair<Point, Point> edge{global(e.a), global(e.b)};
+            const std::pair<int, std::int64_t> slot{e.plane, e.slot(i, j, nx)};
+            const auto [a, newSlot] = bySlot.emplace(slot, edge);
+            EXPECT_EQ(a->second, edge) << s.name << ": two edges in one slot";
+            const auto [b, newEdge] = byEdge.emplace(edge, slot);
+            EXPECT_EQ(b->second, slot) << s.name << ": one edge in two slots";
+          }
+        }
+      }
+    }
   }
 }
 
