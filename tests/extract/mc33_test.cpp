@@ -111,7 +111,13 @@ std::array<int, 3> mid2(int e) {
 struct Dsu {
   std::vector<int> parent;
   std::vector<int> size;
-  explicit Dsu(std::size_t n) : parent(n), size(n, 1) { std::iota(parent.begin(), parent.end(), 0); }
+  explicit Dsu(std::size_t n = 0) { reset(n); }
+  // Back to n singletons, keeping the storage.
+  void reset(std::size_t n) {
+    parent.resize(n);
+    size.assign(n, 1);
+    std::iota(parent.begin(), parent.end(), 0);
+  }
   int find(int a) {
     while (parent[static_cast<std::size_t>(a)] != a) {
       parent[static_cast<std::size_t>(a)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(a)])];
@@ -496,16 +502,36 @@ struct SampledTopology {
   bool reliable = true;
   std::array<int, 12> component{};  // per crossed edge: its (inside, outside) component pair
   std::array<int, 12> loop{};       // per crossed edge: its (inside, outside) surface-region pair
+  std::array<int, 8> corners{};     // per corner: its component of the inside or the outside
   int components = 0;
 };
 
+// Relabels a partition of the corners by first occurrence.
+std::array<int, 8> cornerPartition(const std::array<int, 8>& raw) {
+  std::array<int, 8> out{};
+  std::map<int, int> names;
+  for (std::size_t c = 0; c < 8; ++c) out[c] = names.emplace(raw[c], static_cast<int>(names.size())).first->second;
+  return out;
+}
+
+// Storage reused from one cell to the next (one per thread).
+struct SamplerBuffers {
+  std::vector<char> state0;
+  std::vector<int> split;
+  Dsu volume;
+  Dsu surface;
+};
+
 SampledTopology sampleCell(const double* d, int n) {
+  thread_local SamplerBuffers buffers;
   SampledTopology out;
   const int m = n + 1;
   const std::size_t rows = static_cast<std::size_t>(m) * static_cast<std::size_t>(m);
   // Per row (j, k): the state at x = 0 and the first sample of the other state (m when uniform).
-  std::vector<char> state0(rows);
-  std::vector<int> split(rows);
+  std::vector<char>& state0 = buffers.state0;
+  std::vector<int>& split = buffers.split;
+  state0.resize(rows);
+  split.resize(rows);
   const double inverse = 1.0 / n;
   auto row = [m](int j, int k) {
     return static_cast<std::size_t>(k) * static_cast<std::size_t>(m) + static_cast<std::size_t>(j);
@@ -536,7 +562,8 @@ SampledTopology sampleCell(const double* d, int n) {
     return i < split[r] ? state0[r] != 0 : state0[r] == 0;
   };
   // 3D labels: node 2r is the run holding x = 0, node 2r + 1 the other run.
-  Dsu volume(2 * rows);
+  Dsu& volume = buffers.volume;
+  volume.reset(2 * rows);
   auto runNode = [&](int i, int j, int k) {
     const std::size_t r = row(j, k);
     return static_cast<int>(2 * r + (i < split[r] ? 0 : 1));
@@ -566,7 +593,8 @@ SampledTopology sampleCell(const double* d, int n) {
   }
   // Surface labels: rows on the faces y = 0, N and z = 0, N by run (nodes 2r, 2r + 1); the other
   // rows meet the surface only at their ends, nodes 2 * rows + 2r (x = 0) and + 1 (x = N).
-  Dsu surface(4 * rows);
+  Dsu& surface = buffers.surface;
+  surface.reset(4 * rows);
   auto onSurfaceRow = [n](int j, int k) { return j == 0 || j == n || k == 0 || k == n; };
   auto surfaceNode = [&](int i, int j, int k) {
     if (onSurfaceRow(j, k)) return runNode(i, j, k);
@@ -630,6 +658,11 @@ SampledTopology sampleCell(const double* d, int n) {
   out.component = canonicalPartition(rawComponent);
   out.loop = canonicalPartition(rawLoop);
   out.components = static_cast<int>(pairs.size());
+  std::array<int, 8> rawCorners{};
+  for (int c = 0; c < 8; ++c) {
+    rawCorners[static_cast<std::size_t>(c)] = volume.find(runNode(coord(c, 0) * n, coord(c, 1) * n, coord(c, 2) * n));
+  }
+  out.corners = cornerPartition(rawCorners);
   return out;
 }
 
@@ -928,6 +961,7 @@ TEST(Mc33Topology, SingleCellsMatchBruteForceSamplingAndCoverThe33Configurations
   std::map<unsigned, MeshTopology> meshes;
   int skippedNear = 0;
   int delicate = 0;
+  int sweepMismatches = 0;
   int skipped = 0;
   int tested = 0;
   int mismatches = 0;
@@ -958,6 +992,14 @@ TEST(Mc33Topology, SingleCellsMatchBruteForceSamplingAndCoverThe33Configurations
       continue;
     }
     ++tested;
+    // The sweep alone finds the sampled components of the inside and the outside.
+    std::array<int, 8> sweep{};
+    const auto labels = mc33::sweepComponents(d);
+    for (std::size_t c = 0; c < 8; ++c) sweep[c] = labels[c];
+    if (cornerPartition(sweep) != fine.corners) {
+      ++sweepMismatches;
+      if (sweepMismatches <= 5) ADD_FAILURE() << "cell " << n << ": the sweep's components differ from sampling";
+    }
     const unsigned cas = mc33::keyCase(key);
     auto cached = meshes.find(key);
     if (cached == meshes.end())
@@ -982,6 +1024,7 @@ TEST(Mc33Topology, SingleCellsMatchBruteForceSamplingAndCoverThe33Configurations
     ++orbitHits[config.canonical];
   }
   EXPECT_EQ(mismatches, 0);
+  EXPECT_EQ(sweepMismatches, 0);
   // 12.2 and 12.3 (mirror images, distinct under rotations and complement): the smaller canonical
   // form is called 12.2.
   int mirror = 0;
@@ -1012,6 +1055,138 @@ TEST(Mc33Topology, SingleCellsMatchBruteForceSamplingAndCoverThe33Configurations
       kCells, tested, kFine, kCoarse, delicate, skipped, 100.0 * skipped / kCells, skippedNear, seconds);
   EXPECT_GE(tested, 10000);
   EXPECT_LT(skipped, kCells / 50);
+}
+
+// The boundary regions of a key (corners linked by cube edges and the face decisions), computed
+// here from the face segments' definition rather than taken from the library.
+std::array<int, 8> boundaryRegions(unsigned cas, unsigned faces) {
+  Dsu dsu(8);
+  for (const auto& e : mc::kEdgeCorners) {
+    if (isInside(cas, e[0]) == isInside(cas, e[1])) dsu.unite(e[0], e[1]);
+  }
+  for (int f = 0; f < 6; ++f) {
+    if (!ambiguousFace(cas, f)) continue;
+    const bool joined = ((faces >> f) & 1u) != 0;
+    const bool insideAt0 = isInside(cas, faceCorner(f, 0));
+    if (joined == insideAt0) {
+      dsu.unite(faceCorner(f, 0), faceCorner(f, 2));
+    } else {
+      dsu.unite(faceCorner(f, 1), faceCorner(f, 3));
+    }
+  }
+  std::array<int, 8> out{};
+  for (int c = 0; c < 8; ++c) out[static_cast<std::size_t>(c)] = dsu.find(c);
+  return cornerPartition(out);
+}
+
+// On many cells (no sampling): the key's case and face bits are the definitions', and whatever the
+// exact sweep joins beyond the faces is at most one of the key's interior candidates, the one its
+// interior code names.
+TEST(Mc33Decider, KeysFollowTheDefinitionsAndInteriorJoinsAreCandidates) {
+  const std::array<int, 256> base = baseCases();
+  CellMaker maker(base);
+#if defined(__SANITIZE_ADDRESS__)
+  constexpr int kDraws = 100000;
+#else
+  constexpr int kDraws = 600000;
+#endif
+  int joins = 0;
+  for (int n = 0; n < kDraws; ++n) {
+    float v[8];
+    const float threshold = maker.draw(static_cast<int>(maker.rng() % 15), v);
+    const unsigned key = mc33::cellKey(v, threshold);
+    ASSERT_TRUE(mc33::isValidKey(key));
+    unsigned cas = 0;
+    double d[8];
+    for (int c = 0; c < 8; ++c) {
+      cas |= (v[c] >= threshold ? 1u : 0u) << c;
+      d[c] = static_cast<double>(v[c]) - static_cast<double>(threshold);
+    }
+    ASSERT_EQ(mc33::keyCase(key), cas);
+    unsigned faces = 0;
+    for (int f = 0; f < 6; ++f) {
+      if (mc33::faceJoinsInside(d[faceCorner(f, 0)], d[faceCorner(f, 1)], d[faceCorner(f, 2)], d[faceCorner(f, 3)])) {
+        faces |= 1u << f;
+      }
+    }
+    ASSERT_EQ(mc33::keyFaces(key), faces);
+    // Components of the sweep, merged with the boundary regions.
+    const std::array<int, 8> regions = boundaryRegions(cas, faces);
+    const auto labels = mc33::sweepComponents(d);
+    Dsu merged(8);
+    for (int c = 0; c < 8; ++c) {
+      merged.unite(c, labels[static_cast<std::size_t>(c)]);
+      for (int c2 = 0; c2 < 8; ++c2) {
+        if (regions[static_cast<std::size_t>(c)] == regions[static_cast<std::size_t>(c2)]) merged.unite(c, c2);
+      }
+    }
+    std::set<EdgePair> joined;  // region pairs the interior joins, by smallest corner
+    for (int c = 0; c < 8; ++c) {
+      for (int c2 = c + 1; c2 < 8; ++c2) {
+        const bool firstOfRegion = std::find(regions.begin(), regions.begin() + c,
+                                             regions[static_cast<std::size_t>(c)]) == regions.begin() + c;
+        const bool firstOfRegion2 = std::find(regions.begin(), regions.begin() + c2,
+                                              regions[static_cast<std::size_t>(c2)]) == regions.begin() + c2;
+        if (firstOfRegion && firstOfRegion2 &&
+            regions[static_cast<std::size_t>(c)] != regions[static_cast<std::size_t>(c2)] &&
+            merged.find(c) == merged.find(c2)) {
+          joined.insert({c, c2});
+        }
+      }
+    }
+    ASSERT_LE(joined.size(), 1u) << "cell " << n;
+    const auto candidates = mc33::interiorCandidates(cas, faces);
+    const unsigned code = mc33::keyInterior(key);
+    if (joined.empty()) {
+      ASSERT_EQ(code, 0u) << "cell " << n;
+      continue;
+    }
+    ++joins;
+    ASSERT_GE(code, 1u) << "cell " << n << ": the interior joins corners " << joined.begin()->first << " and "
+                        << joined.begin()->second << " (case " << cas << ", faces " << faces << ")";
+    const auto& named = candidates[code - 1];
+    ASSERT_EQ(EdgePair(named[0], named[1]), *joined.begin()) << "cell " << n;
+  }
+  std::printf("[mc33] %d cells, %d with an interior join\n", kDraws, joins);
+  EXPECT_GT(joins, kDraws / 200);
+}
+
+TEST(Mc33Decider, NonFiniteValuesGiveValidKeysWithoutInteriorJoins) {
+  const float inf = std::numeric_limits<float>::infinity();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> value(-2.0f, 2.0f);
+  std::set<unsigned> keys;
+  for (int n = 0; n < 200000; ++n) {
+    float v[8];
+    for (float& x : v) x = value(rng);
+    const int specials = 1 + static_cast<int>(rng() % 3);
+    for (int s = 0; s < specials; ++s) v[rng() % 8] = std::array<float, 3>{nan, inf, -inf}[rng() % 3];
+    const float threshold = n % 50 == 0 ? std::array<float, 3>{nan, inf, -inf}[rng() % 3] : 0.0f;
+    const unsigned key = mc33::cellKey(v, threshold);
+    ASSERT_EQ(key, mc33::cellKey(v, threshold));
+    ASSERT_TRUE(mc33::isValidKey(key));
+    ASSERT_EQ(mc33::keyInterior(key), 0u);
+    unsigned cas = 0;
+    for (int c = 0; c < 8; ++c) cas |= (v[c] >= threshold ? 1u : 0u) << c;  // NaN is outside
+    ASSERT_EQ(mc33::keyCase(key), cas);
+    for (int f = 0; f < 6; ++f) {
+      bool finite = std::isfinite(threshold);
+      for (int m = 0; m < 4; ++m) finite = finite && std::isfinite(v[faceCorner(f, m)]);
+      if (!finite) {
+        ASSERT_EQ((mc33::keyFaces(key) >> f) & 1u, 0u);
+      }
+    }
+    keys.insert(key);
+  }
+  for (unsigned key : keys) {
+    const auto errors = checkKey(key);
+    for (const auto& e : errors) ADD_FAILURE() << e;
+  }
+  EXPECT_GT(keys.size(), 100u);
+  // A NaN threshold leaves every corner outside.
+  const float ones[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+  EXPECT_EQ(mc33::cellKey(ones, nan), 0u);
 }
 
 }  // namespace
