@@ -18,11 +18,15 @@
 // component is the set of loops between one component of I and one of O. All that the interior
 // adds is which regions of one state it joins. A join of two regions R1, R2 must keep that graph a
 // tree, so R1 and R2 share their neighbour X of the other state; the surface between X and R1 u R2
-// is then an annulus (a tunnel). The trilinear interior joins at most one such pair, and only when a
-// corner of R1 u R2 is diagonally opposite a corner outside X. That rule gives at most two candidate
-// pairs per case and face bits (one for each state in Chernyaev's 13.5, else at most one) and
-// reproduces the interior tests of 4.1, 6.1, 7.4, 10.1, 12.1 and 13.5; the tests check it against
-// the exact sweep below on random cells (Mc33InteriorJoinsAreCandidates) and both against sampling.
+// is then an annulus (a tunnel). Which joins occur was found by experiment, not proved: on 10^7
+// random cells the exact sweep below joined at most one pair per cell, and exactly the pairs R1, R2
+// with a common neighbour X such that a corner of R1 u R2 is diagonally opposite a corner outside X.
+// These candidates number at most two per case and face bits (one of each state in Chernyaev's
+// 13.5, else at most one) and are the interior tests of his 4.1, 6.1, 7.4, 10.1, 12.1 and 13.5.
+// cellKey runs the sweep only where a candidate exists and names the candidate it joins (a join
+// outside the candidates, never seen, would be dropped). The tests re-check this on 600,000 cells
+// (Mc33Decider.KeysFollowTheDefinitionsAndInteriorJoinsAreCandidates) and compare keys, triangles
+// and the sweep itself with a brute-force sampling of the field (Mc33Topology).
 //
 // Interior decision, exact sweep along z. The section z = t is bilinear with corner values linear in
 // t. Its inside (outside) components each contain a section corner, and change only where a vertical
@@ -88,8 +92,24 @@ constexpr CornerSets boundaryRegions(unsigned cas, unsigned faces) {
   return sets;
 }
 
+/// Face bits cellKey can return for a case: bits on ambiguous faces only, and never both faces of
+/// one opposite pair joined while both faces of another are separated. Two opposite ambiguous
+/// faces hold every corner once, and (all values finite, as a joined face needs) joining both means
+/// prod |inside values| >= prod |outside values| over the cube while separating both means the
+/// reverse, strictly; the decider is exact, so no rounding breaks this. It removes 18 face
+/// combinations from each of the two cases of Chernyaev's class 13.
 constexpr bool validFaces(unsigned cas, unsigned faces) {
-  return (faces & ~static_cast<unsigned>(kAmbiguousFaces[cas])) == 0;
+  const unsigned ambiguous = kAmbiguousFaces[cas];
+  if ((faces & ~ambiguous) != 0) return false;
+  bool bothJoined = false;
+  bool bothSeparated = false;
+  for (int axis = 0; axis < 3; ++axis) {
+    const unsigned pair = 3u << (2 * axis);
+    if ((ambiguous & pair) != pair) continue;
+    bothJoined = bothJoined || (faces & pair) == pair;
+    bothSeparated = bothSeparated || (faces & pair) == 0;
+  }
+  return !(bothJoined && bothSeparated);
 }
 
 /// Candidate pairs of a case and face bits, as r1 * 8 + r2 (r1 < r2 the smallest corners of the two

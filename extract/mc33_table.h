@@ -116,11 +116,12 @@ bool faceJoinsInside(double a00, double a10, double a11, double a01) noexcept;
 unsigned cellKey(const float* v, float threshold) noexcept;
 
 /// The triangles of a key. Throws std::logic_error for a key that cellKey never returns (face bits
-/// on a face that is not ambiguous, an interior code without a candidate). Slow (microseconds):
-/// call it once per key and cache the result.
+/// on a face that is not ambiguous or that no field produces, an interior code without a
+/// candidate). Slow (up to about a millisecond for a tunnel): call it once per key and cache it.
 Mc33Case buildCase(unsigned key);
 
-/// True for the keys buildCase accepts; cellKey returns only such keys.
+/// True for the keys buildCase accepts (768 of them); cellKey returns only such keys, and each of
+/// them for some corner values.
 bool isValidKey(unsigned key) noexcept;
 
 /// Every valid key, ascending.

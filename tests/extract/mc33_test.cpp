@@ -354,15 +354,30 @@ TEST(Mc33Table, EveryKeyIsAClosedOrientedManifoldPatchWithTheFaceSegments) {
       "[mc33] %zu valid keys (%d with an interior join), %d use cell points; at most %zu triangles and %zu "
       "cell points per key\n",
       keys.size(), interior, withCellPoints, maxTriangles, maxCellPoints);
-  // 256 cases; the ambiguous faces and the interior candidates add the rest.
+  // 256 cases; the ambiguous faces and the interior candidates add the rest, less the face bits of
+  // class 13 that need the product of the inside magnitudes both >= and < that of the outside ones.
   std::size_t expected = 0;
+  int impossible = 0;
   for (unsigned cas = 0; cas < 256; ++cas) {
     for (unsigned faces = 0; faces < 64; ++faces) {
-      if ((faces & ~static_cast<unsigned>(mc33::kAmbiguousFaces[cas])) == 0) {
-        expected += 1 + mc33::interiorCandidates(cas, faces).size();
+      if ((faces & ~static_cast<unsigned>(mc33::kAmbiguousFaces[cas])) != 0) continue;
+      bool bothJoined = false;
+      bool bothSeparated = false;
+      for (int axis = 0; axis < 3; ++axis) {
+        if (!ambiguousFace(cas, 2 * axis) || !ambiguousFace(cas, 2 * axis + 1)) continue;
+        const unsigned pair = (faces >> (2 * axis)) & 3u;
+        bothJoined = bothJoined || pair == 3u;
+        bothSeparated = bothSeparated || pair == 0u;
       }
+      if (bothJoined && bothSeparated) {
+        ++impossible;
+        EXPECT_FALSE(mc33::isValidKey(cas | faces << 8));
+        continue;
+      }
+      expected += 1 + mc33::interiorCandidates(cas, faces).size();
     }
   }
+  EXPECT_EQ(impossible, 36);
   EXPECT_EQ(keys.size(), expected);
   EXPECT_GT(interior, 0);
   for (unsigned key = 0; key < mc33::kKeyCount; ++key) {
@@ -1091,11 +1106,13 @@ TEST(Mc33Decider, KeysFollowTheDefinitionsAndInteriorJoinsAreCandidates) {
   constexpr int kDraws = 600000;
 #endif
   int joins = 0;
+  std::set<unsigned> seen;
   for (int n = 0; n < kDraws; ++n) {
     float v[8];
     const float threshold = maker.draw(static_cast<int>(maker.rng() % 15), v);
     const unsigned key = mc33::cellKey(v, threshold);
     ASSERT_TRUE(mc33::isValidKey(key));
+    seen.insert(key);
     unsigned cas = 0;
     double d[8];
     for (int c = 0; c < 8; ++c) {
@@ -1147,8 +1164,13 @@ TEST(Mc33Decider, KeysFollowTheDefinitionsAndInteriorJoinsAreCandidates) {
     const auto& named = candidates[code - 1];
     ASSERT_EQ(EdgePair(named[0], named[1]), *joined.begin()) << "cell " << n;
   }
-  std::printf("[mc33] %d cells, %d with an interior join\n", kDraws, joins);
+  std::printf("[mc33] %d cells, %d with an interior join, %zu distinct keys of %zu valid ones\n", kDraws, joins,
+              seen.size(), mc33::allKeys().size());
   EXPECT_GT(joins, kDraws / 200);
+#if !defined(__SANITIZE_ADDRESS__)
+  // Every valid key occurs (and buildCase refuses the others): exactly the reachable keys.
+  EXPECT_EQ(seen.size(), mc33::allKeys().size());
+#endif
 }
 
 TEST(Mc33Decider, NonFiniteValuesGiveValidKeysWithoutInteriorJoins) {
