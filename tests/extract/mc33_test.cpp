@@ -414,7 +414,7 @@ TEST(Mc33Table, KeysWithoutAmbiguityAreTheCaseAndMatchMc) {
 TEST(Mc33Table, NeighboursDrawTheSameSegmentsOnASharedFace) {
   // Per (axis, corner states of the face in (u, v) order, decision): the segments as pairs of
   // face-local edge names (corners with the axis bit cleared), directed, for side 0 and side 1.
-  std::map<std::tuple<int, int, int, int>, std::set<EdgePair>> bySide;
+  std::map<std::tuple<int, int, int>, std::set<EdgePair>> bySide;
   int compared = 0;
   for (unsigned key : mc33::allKeys()) {
     const unsigned cas = mc33::keyCase(key);
@@ -440,7 +440,7 @@ TEST(Mc33Table, NeighboursDrawTheSameSegmentsOnASharedFace) {
           }
         }
       }
-      const auto id = std::make_tuple(axis, states, decision, 0);
+      const auto id = std::make_tuple(axis, states, decision);
       const auto [it, fresh] = bySide.emplace(id, segs);
       if (!fresh) {
         EXPECT_EQ(it->second, segs) << "key " << key << " face " << f;
@@ -785,8 +785,10 @@ unsigned mapCase(unsigned cas, const std::array<int, 8>& map) {
   return out;
 }
 
-// Chernyaev's base case (Lorensen's numbering) of each of the 256 cases, under rotations and
-// complement. Representatives: 11 holds the corners {0, 1, 3, 4}, 14 the mirror image {0, 1, 3, 7}.
+// Chernyaev's base case (Lorensen's numbering) of each of the 256 cases, under the 24 rotations
+// and complement, as in Lorensen and Cline and in Chernyaev: 11 and 14 are mirror images (checked
+// in Mc33Topology), as are 12.2 and 12.3, so with reflections only 31 configurations would remain.
+// Representatives: 11 holds the corners {0, 1, 3, 4}, 14 the corners {0, 1, 3, 7}.
 std::array<int, 256> baseCases() {
   const std::array<unsigned, 15> reps = {0x00, 0x01, 0x03, 0x09, 0x81, 0x07, 0x83, 0x16,
                                          0x0F, 0x17, 0xC3, 0x1B, 0x87, 0x69, 0x8B};
@@ -858,7 +860,6 @@ Configuration classify(unsigned key, const MeshTopology& topo, const std::array<
   const int j = std::min(joinedCount, ambiguous - joinedCount);  // joins counted up to complement
   const int comps = topo.components;
   const int maxLoops = loops.empty() ? 0 : loops.back();
-  const std::string b = std::to_string(out.base);
   switch (out.base) {
     case 3:
       out.name = comps == 2 ? "3.1" : "3.2";
@@ -887,7 +888,7 @@ Configuration classify(unsigned key, const MeshTopology& topo, const std::array<
       }
       break;
     default:
-      out.name = b;
+      out.name = std::to_string(out.base);
   }
   return out;
 }
@@ -969,6 +970,9 @@ TEST(Mc33Topology, SingleCellsMatchBruteForceSamplingAndCoverThe33Configurations
   for (unsigned cas = 0; cas < 256; ++cas) ASSERT_GE(base[cas], 0) << cas;
   const auto rots = rotations();
   ASSERT_EQ(rots.size(), 24u);
+  // 14 is 11 reflected in the plane x = y (corners 1 and 2 swap, 5 and 6 swap).
+  const std::array<int, 8> reflection = {0, 2, 1, 3, 4, 6, 5, 7};
+  EXPECT_EQ(base[mapCase(0x1B, reflection)], 14);
   CellMaker maker(base);
   std::map<int, std::set<std::vector<int>>> orbits;  // per base case, the configurations seen
   std::map<std::vector<int>, std::string> orbitName;
