@@ -24,11 +24,19 @@ namespace isoslab::mc33 {
 inline constexpr unsigned kKeyCount = 1u << 16;
 /// Point 12 + m of a triangle is cell point m of its case; points 0-11 are the crossed cube edges.
 inline constexpr std::uint8_t kCellPoint = 12;
+/// The most triangles and cell points any key has (the tests check that both are reached).
+inline constexpr int kMaxTriangles = 14;
+inline constexpr int kMaxCellPoints = 2;
 
-/// The triangles of one key, counter-clockwise seen from outside (from the lower values).
+/// The triangles of one key, counter-clockwise seen from outside (from the lower values), as in
+/// mc::kCaseTable. Every crossed edge and every cell point is used; a triangle edge joins two
+/// points of one cube face only if it is a segment of that face (as the face decision cuts it), so
+/// neighbouring cells share those segments and nothing else on the face.
 struct Mc33Case {
   std::vector<std::array<std::uint8_t, 3>> triangles;
-  /// Per cell point: the mask of crossed edges whose vertices' mean places it.
+  /// Per cell point: the mask of crossed edges whose vertices' mean places it (the vertices where
+  /// the surface crosses those edges). A cell point fans a disc whose loop has no fan from one of
+  /// its points (the mask is the loop), or is a hub of a tunnel (the mask is the hub's neighbours).
   std::vector<std::uint16_t> cellPoints;
 };
 
@@ -110,9 +118,12 @@ constexpr unsigned keyInterior(unsigned key) {
 bool faceJoinsInside(double a00, double a10, double a11, double a01) noexcept;
 
 /// The key of a cell with corner values v[0..7] (corner c at (c & 1, (c >> 1) & 1, (c >> 2) & 1)),
-/// a pure function of its inputs. NaN is outside; a face with a NaN or infinite value does not join
-/// its inside corners, and a cell with any NaN or infinite corner joins nothing through its
-/// interior. Thread-safe; allocates nothing.
+/// a pure function of its inputs: the kernel passes threshold = insideThreshold(iso). The decisions
+/// use the values shifted in double, double(v[c]) - double(threshold). NaN is outside; a face with a
+/// NaN or infinite value does not join its inside corners, and a cell with any NaN or infinite
+/// value joins nothing through its interior. When !mayBeAmbiguous(case) the key is the case; the
+/// interior sweep runs only for case and face bits with an interior candidate. Thread-safe;
+/// allocates nothing.
 unsigned cellKey(const float* v, float threshold) noexcept;
 
 /// The triangles of a key. Throws std::logic_error for a key that cellKey never returns (face bits

@@ -378,6 +378,8 @@ TEST(Mc33Table, EveryKeyIsAClosedOrientedManifoldPatchWithTheFaceSegments) {
     }
   }
   EXPECT_EQ(impossible, 36);
+  EXPECT_EQ(maxTriangles, static_cast<std::size_t>(mc33::kMaxTriangles));
+  EXPECT_EQ(maxCellPoints, static_cast<std::size_t>(mc33::kMaxCellPoints));
   EXPECT_EQ(keys.size(), expected);
   EXPECT_GT(interior, 0);
   for (unsigned key = 0; key < mc33::kKeyCount; ++key) {
