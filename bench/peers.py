@@ -204,7 +204,7 @@ def main():
     print("|---|---|---|---|---|---|---|---|---|")
     for name, path, iso in methods:
         base = {}
-        for method in ("mc", "mt5", "mt6", "bcc12", "mt24"):
+        for method in ("mc", "mt5", "mt6", "bcc12", "mt24", "mc33"):
             t1, tris, load = extract_only(path, iso, 1, method)
             t2, _, _ = extract_only(path, iso, 2, method)
             empty, _, _ = extract_only(path, 1e9, 1, method)

@@ -14,7 +14,7 @@ struct CompareArgs {
   std::string out = "compare-out";
   std::string radii;   // spheres51: a subset "5,10,20" instead of the 51 radii
   std::string centre;  // spheres51: offset of the centre from a grid point (default 0.5,0.5,0.5)
-  std::string methods = "mc,mt5,mt6,bcc12,mt24";
+  std::string methods = "mc,mt5,mt6,bcc12,mt24,mc33";
   std::string engine;  // paper: ../shared/data/engine/engine_256x256x128_uint8.raw.gz
   std::string cthead;  // paper: ../shared/data/cthead
   bool charts = true;

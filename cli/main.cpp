@@ -269,7 +269,9 @@ bool sameFile(const std::string& a, const std::string& b) {
 
 int runExtract(const ExtractArgs& args) {
   const auto method = parseMethod(args.method);
-  if (!method) throw UsageError(fmt::format("--method: unknown method '{}' (use {})", args.method, fmt::join(methodNames(), ", ")));
+  if (!method)
+    throw UsageError(
+        fmt::format("--method: unknown method '{}' (use {})", args.method, fmt::join(methodNames(), ", ")));
   if (!args.report.empty() && sameFile(args.report, args.output)) {
     throw UsageError(fmt::format("--report '{}' names the same file as -o '{}'", args.report, args.output));
   }

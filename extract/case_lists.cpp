@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "extract/mc33_table.h"
 #include "extract/mc_table.h"
 #include "extract/tet_table.h"
 
@@ -53,7 +54,7 @@ void CaseList::buildCase(unsigned key) {
   addCase(key, triangles);
 }
 
-CellCases::CellCases(const CellScheme* scheme, std::int64_t nx) : nx_(nx) {
+CellCases::CellCases(const CellScheme* scheme, std::int64_t nx, bool mc33) : nx_(nx) {
   if (scheme == nullptr) {
     for (int c = 0; c < 8; ++c) {
       nodes_.push_back({static_cast<std::int8_t>(2 * (c & 1)), static_cast<std::int8_t>(2 * ((c >> 1) & 1)),
@@ -74,6 +75,17 @@ CellCases::CellCases(const CellScheme* scheme, std::int64_t nx) : nx_(nx) {
       }
       mc_.addCase(c, triangles);
     }
+    if (mc33) {
+      mc33_.edges = mc_.edges;
+      for (std::size_t m = 0; m < kMaxCellPoints; ++m) {
+        EdgeRef point;
+        point.cellOnly = true;
+        point.cellPoint = static_cast<std::uint8_t>(1 + m);
+        mc33_.edges.push_back(point);
+      }
+      mc33_.cases.resize(mc33::kKeyCount);
+      mc33Points_.resize(mc33::kKeyCount);
+    }
   } else {
     nodes_ = scheme->nodes;
     for (const auto& variant : scheme->variants) {
@@ -87,7 +99,17 @@ CellCases::CellCases(const CellScheme* scheme, std::int64_t nx) : nx_(nx) {
         v.volume += r.volume;
         std::array<std::uint8_t, 6> ids{};
         for (std::size_t e = 0; e < 6; ++e) {
-          const EdgeRef edge = makeEdge(t.nodes[tet::kTetEdges[e][0]], t.nodes[tet::kTetEdges[e][1]]);
+          const int a = t.nodes[tet::kTetEdges[e][0]];
+          const int b = t.nodes[tet::kTetEdges[e][1]];
+          // Where every cell's tetrahedra stay within the cell, an edge whose middle lies strictly
+          // inside the cell belongs to no other cell, and takes no class (no cache slot) at all.
+          // (bcc12's tetrahedra reach into the neighbours.)
+          const LatticeNode& na = nodes_[static_cast<std::size_t>(a)];
+          const LatticeNode& nb = nodes_[static_cast<std::size_t>(b)];
+          auto inner = [](int twice) { return twice > 0 && twice < 4; };  // 2 * the middle, half-units
+          const bool cellOnly = scheme->values != NodeValues::kNeighbourCentres && inner(na.hx + nb.hx) &&
+                                inner(na.hy + nb.hy) && inner(na.hz + nb.hz);
+          const EdgeRef edge = makeEdge(a, b, cellOnly);
           auto same = [&](const EdgeRef& o) { return o.a == edge.a && o.b == edge.b; };
           auto it = std::find_if(v.edges.begin(), v.edges.end(), same);
           if (it == v.edges.end()) it = v.edges.insert(v.edges.end(), edge);
@@ -104,8 +126,19 @@ CellCases::CellCases(const CellScheme* scheme, std::int64_t nx) : nx_(nx) {
   markSharedEdges();
 }
 
+// mc33's case `key`, from the generated tables (mc33_table.h): points 0..11 are the cube edges and
+// 12 + m the cell points, which are mc33_'s edges in the same order.
+static_assert(kMaxCellPoints == static_cast<std::size_t>(mc33::kMaxCellPoints));
+
+void CellCases::buildMc33Case(unsigned key) {
+  const mc33::Mc33Case c = mc33::buildCase(key);
+  if (c.cellPoints.size() > kMaxCellPoints) throw std::logic_error("an mc33 case has too many cell points");
+  std::copy(c.cellPoints.begin(), c.cellPoints.end(), mc33Points_[key].begin());
+  mc33_.addCase(key, c.triangles);
+}
+
 // Registers the edge between nodes a and b and returns how to find its vertex slot.
-EdgeRef CellCases::makeEdge(int a, int b) {
+EdgeRef CellCases::makeEdge(int a, int b, bool cellOnly) {
   const LatticeNode* na = &nodes_[static_cast<std::size_t>(a)];
   const LatticeNode* nb = &nodes_[static_cast<std::size_t>(b)];
   if (lowerNode(*nb, *na)) {
@@ -117,6 +150,8 @@ EdgeRef CellCases::makeEdge(int a, int b) {
   r.b = static_cast<std::uint8_t>(b);
   r.plane = static_cast<std::uint8_t>(na->hz);
   assert(r.plane <= 2);
+  r.cellOnly = cellOnly;
+  if (cellOnly) return r;
   auto& classes = na->hz == 1 ? oddClasses_ : evenClasses_;
   // mc, mt5, mt6 and bcc12 have one parity per plane; mt24's face centres share planes with
   // corners (slice z: corners and z-face centres) and with cube centres.
@@ -132,14 +167,18 @@ EdgeRef CellCases::makeEdge(int a, int b) {
 void CellCases::markSharedEdges() {
   std::vector<EdgeRef*> edges;
   for (auto& e : mc_.edges) edges.push_back(&e);
+  for (auto& e : mc33_.edges) {
+    if (e.cellPoint == 0) edges.push_back(&e);
+  }
   for (auto& v : variants_) {
     for (auto& e : v.edges) edges.push_back(&e);
   }
   std::vector<bool> onTop(evenClasses_.size(), false);
   for (const EdgeRef* e : edges) {
-    if (e->plane == 2) onTop[e->edgeClass] = true;
+    if (e->plane == 2 && !e->cellOnly) onTop[e->edgeClass] = true;
   }
   for (EdgeRef* e : edges) {
+    if (e->cellOnly) continue;
     e->shared = e->plane == 0 && onTop[e->edgeClass];
     e->stride = static_cast<std::int64_t>((e->plane == 1 ? oddClasses_ : evenClasses_).size());
     e->offset = e->cell * e->stride + static_cast<std::int64_t>(e->edgeClass);

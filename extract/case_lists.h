@@ -25,6 +25,12 @@ struct EdgeRef {
   /// On plane 0, whether the slab below has this edge too (as a plane-2 edge of the same class):
   /// true for edges in slice z, false for those rising from it.
   bool shared = false;
+  /// No other cell has this edge: it runs through the cell's interior (mt6's main diagonal, mt24's
+  /// edges from the cube centre), so its vertex needs no welding-cache slot.
+  bool cellOnly = false;
+  /// mc33: 1 + m for the cell's point m (placed at the mean of some of the cell's cut points;
+  /// a and b are unused), 0 for a lattice edge.
+  std::uint8_t cellPoint = 0;
   std::size_t edgeClass = 0;
   std::int64_t cell = 0;    // lattice offset of the lower endpoint's anchor from the cell's (i, j)
   std::int64_t stride = 0;  // classes of the plane
@@ -43,6 +49,9 @@ struct TetRef {
 
 /// The most distinct edges one case can cut (bcc12's interior cell has fewer lattice edges).
 constexpr std::size_t kMaxCaseEdges = 64;
+
+/// The most points inside one cell that an mc33 case uses (mc33_table.h).
+constexpr std::size_t kMaxCellPoints = 2;
 
 /// One cell variant: its tetrahedra (none for Marching Cubes), edges and cases.
 struct CaseList {
@@ -80,13 +89,21 @@ struct CaseList {
 /// The nodes, edge classes and case lists of a method on a lattice nx points wide.
 class CellCases {
  public:
-  /// `scheme` null means Marching Cubes. Throws std::logic_error for a scheme variant with more
-  /// than kMaxCaseEdges edges (a table defect, caught by the tests).
-  CellCases(const CellScheme* scheme, std::int64_t nx);
+  /// `scheme` null means Marching Cubes, and `mc33` adds its topologically correct variant.
+  /// Throws std::logic_error for a scheme variant with more than kMaxCaseEdges edges (a table
+  /// defect, caught by the tests).
+  CellCases(const CellScheme* scheme, std::int64_t nx, bool mc33 = false);
 
   const std::vector<LatticeNode>& nodes() const noexcept { return nodes_; }
   /// Marching Cubes as one variant whose cases come from mc_table.h.
   const CaseList& marchingCubes() const noexcept { return mc_; }
+  /// mc33's cases by mc33::cellKey: the 12 cube edges, then its cell points; built on first use.
+  const CaseList& marchingCubes33() const noexcept { return mc33_; }
+  void ensureMc33Case(unsigned key) {
+    if (mc33_.cases[key].firstEdge < 0) buildMc33Case(key);
+  }
+  /// Per cell point of case `key` (built), the cube edges whose cut points' mean places it.
+  const std::uint16_t* mc33CellPoints(unsigned key) const noexcept { return mc33Points_[key].data(); }
   std::vector<CaseList>& variants() noexcept { return variants_; }
   const std::vector<CaseList>& variants() const noexcept { return variants_; }
   /// Edge classes anchored on the slice planes (0 and 2) and on the centre plane (1).
@@ -94,12 +111,15 @@ class CellCases {
   std::size_t centreClasses() const noexcept { return oddClasses_.size(); }
 
  private:
-  EdgeRef makeEdge(int a, int b);
+  EdgeRef makeEdge(int a, int b, bool cellOnly = false);
+  void buildMc33Case(unsigned key);
   void markSharedEdges();
 
   std::int64_t nx_ = 0;
   std::vector<LatticeNode> nodes_;
   CaseList mc_;
+  CaseList mc33_;
+  std::vector<std::array<std::uint16_t, kMaxCellPoints>> mc33Points_;
   std::vector<CaseList> variants_;
   /// Edge classes by the lower endpoint's parity in x and y and the edge's direction: (anchor
   /// lattice point, parity) names one half-lattice point, so (anchor, parity, direction) names one

@@ -40,9 +40,9 @@ enum class VariantRule : std::uint8_t {
 
 /// Where the values of the nodes beyond the eight corners come from.
 enum class NodeValues : std::uint8_t {
-  kCorners,            // there are none (mt5, mt6)
-  kNeighbourCentres,   // cube centres of the cell and of its +x, +y, +z neighbours (bcc12)
-  kOwnCentres,         // the cell's own face and cube centres, means of its corners (mt24)
+  kCorners,           // there are none (mt5, mt6)
+  kNeighbourCentres,  // cube centres of the cell and of its +x, +y, +z neighbours (bcc12)
+  kOwnCentres,        // the cell's own face and cube centres, means of its corners (mt24)
 };
 
 struct CellScheme {

@@ -16,6 +16,8 @@ std::string_view methodName(Method m) noexcept {
       return "bcc12";
     case Method::kTetra24:
       return "mt24";
+    case Method::kMarchingCubes33:
+      return "mc33";
   }
   return "?";
 }
@@ -38,6 +40,7 @@ std::unique_ptr<Extractor> makeExtractor(const ExtractOptions& options, const Vo
   std::unique_ptr<CellScheme> scheme;
   switch (options.method) {
     case Method::kMarchingCubes:
+    case Method::kMarchingCubes33:
       break;
     case Method::kTetra5:
       scheme = std::make_unique<CellScheme>(makeTetra5Scheme());

@@ -16,11 +16,11 @@
 
 namespace isoslab {
 
-enum class Method : std::uint8_t { kMarchingCubes, kTetra5, kTetra6, kBcc12, kTetra24 };
+enum class Method : std::uint8_t { kMarchingCubes, kTetra5, kTetra6, kBcc12, kTetra24, kMarchingCubes33 };
 
 /// Every method, in the order the command line and the comparisons list them.
-inline constexpr Method kMethods[] = {Method::kMarchingCubes, Method::kTetra5, Method::kTetra6, Method::kBcc12,
-                                      Method::kTetra24};
+inline constexpr Method kMethods[] = {Method::kMarchingCubes, Method::kTetra5,  Method::kTetra6,
+                                      Method::kBcc12,         Method::kTetra24, Method::kMarchingCubes33};
 
 /// A welding-cache slot on one slice plane, below Extractor::sliceSlots(): how a slab worker names
 /// a vertex on a slice that another slab creates.
@@ -53,7 +53,7 @@ class SlabWorker {
   virtual void extract(const SlabView& slab, SlabPart& out) = 0;
 };
 
-/// "mc", "mt5", "mt6", "bcc12", "mt24".
+/// "mc", "mt5", "mt6", "bcc12", "mt24", "mc33".
 std::string_view methodName(Method m) noexcept;
 std::optional<Method> parseMethod(std::string_view name) noexcept;
 /// The names of kMethods, in order.

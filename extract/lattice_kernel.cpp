@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "extract/mc33_table.h"
+#include "extract/mc_table.h"
 #include "extract/row_spans.h"
 #include "extract/tet_volume.h"
 
@@ -13,7 +15,10 @@ namespace isoslab {
 
 LatticeKernel::LatticeKernel(const ExtractOptions& options, const std::array<std::int64_t, 3>& dims,
                              const LatticeFrame& frame, std::unique_ptr<CellScheme> scheme)
-    : options_(options), frame_(frame), scheme_(std::move(scheme)), cases_(scheme_.get(), dims[0]) {
+    : options_(options),
+      frame_(frame),
+      scheme_(std::move(scheme)),
+      cases_(scheme_.get(), dims[0], options.method == Method::kMarchingCubes33) {
   nx_ = dims[0];
   ny_ = dims[1];
   nz_ = dims[2];
@@ -23,6 +28,7 @@ LatticeKernel::LatticeKernel(const ExtractOptions& options, const std::array<std
   cellVolume_ = frame_.cellVolume();
   needsCentres_ = scheme_ && scheme_->values == NodeValues::kNeighbourCentres;
   ownCentres_ = scheme_ && scheme_->values == NodeValues::kOwnCentres;
+  mc33_ = !scheme_ && options_.method == Method::kMarchingCubes33;
   field_.nx = nx_;
   field_.ny = ny_;
   field_.nz = nz_;
@@ -199,7 +205,16 @@ void LatticeKernel::marchRow(std::int64_t j, std::int64_t begin, std::int64_t en
     const std::array<const float*, 4> corners{a0 + i, a1 + i, b0 + i, b1 + i};
     if (!scheme_) {
       loadCorners(corners);
-      emitCase(cases_.marchingCubes(), thisCase, i, j);
+      if (mc33_) {
+        // Only cells with two groups of inside or outside corners can be ambiguous; the rest have
+        // mc's topology, and key == case.
+        const unsigned key = mc33::mayBeAmbiguous(thisCase) ? mc33::cellKey(value_.data(), threshold_) : thisCase;
+        cases_.ensureMc33Case(key);
+        cellPoints_ = cases_.mc33CellPoints(key);
+        emitCase(cases_.marchingCubes33(), key, i, j);
+      } else {
+        emitCase(cases_.marchingCubes(), thisCase, i, j);
+      }
     } else {
       insideVolume += marchTetrahedra(thisCase, i, j, corners);
     }
@@ -353,6 +368,12 @@ void LatticeKernel::emitTriangle(VertexId a, VertexId b, VertexId c) {
 }
 
 VertexId LatticeKernel::vertex(const EdgeRef& e, std::int64_t i, std::int64_t j) {
+  if (e.cellOnly) {
+    // Looked up once per cell (a case lists each edge once), and no other cell has it.
+    const auto id = static_cast<VertexId>(vertexCount_++);
+    createVertex(e, i, j);
+    return id;
+  }
   const std::int64_t slot = e.slot(i, j, nx_);
   VertexId& id = cache_.id(e.plane, slot);
   if (id == WeldingCache::kNone) {
@@ -371,14 +392,54 @@ VertexId LatticeKernel::vertex(const EdgeRef& e, std::int64_t i, std::int64_t j)
   return id;
 }
 
-void LatticeKernel::createVertex(const EdgeRef& e, std::int64_t i, std::int64_t j) {
-  const double va = value_[e.a];
-  const double vb = value_[e.b];
-  double t = (options_.iso - va) / (vb - va);
+// The fraction along the edge from node a (value va) to node b where the field meets the iso value.
+static double cutFraction(double iso, double va, double vb) noexcept {
+  const double t = (iso - va) / (vb - va);
   // An infinite iso value or end value, or a NaN end (outside), leave no fraction to interpolate:
   // the vertex goes to the edge's middle, so that it stays on its edge.
-  if (std::isnan(t)) t = 0.5;
-  t = std::clamp(t, 0.0, 1.0);
+  return std::isnan(t) ? 0.5 : std::clamp(t, 0.0, 1.0);
+}
+
+// An mc33 cell point: the mean of the cut points of the cube edges in its mask, in lattice
+// coordinates, with the mean of their interpolated gradients.
+void LatticeKernel::createCellPoint(unsigned mask, std::int64_t i, std::int64_t j) {
+  const auto& nodes = cases_.nodes();
+  Vec3d sum{0, 0, 0};
+  Vec3d gradient{0, 0, 0};
+  double count = 0;
+  for (unsigned e = 0; e < 12; ++e) {
+    if (((mask >> e) & 1u) == 0) continue;
+    const auto& corners = mc::kEdgeCorners[e];
+    const double t = cutFraction(options_.iso, value_[corners[0]], value_[corners[1]]);
+    const Vec3d a = field_.position(nodes[corners[0]], i, j);
+    const Vec3d b = field_.position(nodes[corners[1]], i, j);
+    for (std::size_t k = 0; k < 3; ++k) sum[k] += a[k] + t * (b[k] - a[k]);
+    if (options_.normals) {
+      const Vec3d ga = field_.gradient(nodes[corners[0]], i, j);
+      const Vec3d gb = field_.gradient(nodes[corners[1]], i, j);
+      for (std::size_t k = 0; k < 3; ++k) gradient[k] += ga[k] + t * (gb[k] - ga[k]);
+    }
+    count += 1;
+  }
+  const Vec3d w = frame_.map(sum[0] / count, sum[1] / count, sum[2] / count);
+  out_->positions.push_back({static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])});
+  out_->boundary.push_back(0);
+  if (!options_.normals) return;
+  const Vec3d g = frame_.gradient(gradient);
+  const double len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  // The normal points down the gradient; a cancelled gradient gives a zero normal.
+  const double s = len > 0 && std::isfinite(len) ? -1.0 / len : 0.0;
+  out_->normals.push_back({static_cast<float>(g[0] * s), static_cast<float>(g[1] * s), static_cast<float>(g[2] * s)});
+}
+
+void LatticeKernel::createVertex(const EdgeRef& e, std::int64_t i, std::int64_t j) {
+  if (e.cellPoint != 0) {
+    createCellPoint(cellPoints_[e.cellPoint - 1], i, j);
+    return;
+  }
+  const double va = value_[e.a];
+  const double vb = value_[e.b];
+  const double t = cutFraction(options_.iso, va, vb);
   const auto& nodes = cases_.nodes();
   const Vec3d a = field_.position(nodes[e.a], i, j);
   const Vec3d b = field_.position(nodes[e.b], i, j);

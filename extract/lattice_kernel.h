@@ -68,6 +68,7 @@ class LatticeKernel {
   void emitTriangle(VertexId a, VertexId b, VertexId c);
   VertexId vertex(const EdgeRef& e, std::int64_t i, std::int64_t j);
   void createVertex(const EdgeRef& e, std::int64_t i, std::int64_t j);
+  void createCellPoint(unsigned mask, std::int64_t i, std::int64_t j);
 
   ExtractOptions options_;
   LatticeFrame frame_;
@@ -77,10 +78,12 @@ class LatticeKernel {
   std::array<std::vector<float>, 2> centres_;  // cube-centre values of slabs z and z + 1 (bcc12)
   std::vector<double> columns_;
   std::array<std::vector<RowSpan>, 3> rows_;
-  bool rowsCarried_ = false;  // rows_[0..] hold the spans of this slab's slices, rolled from the last
-  bool needsCentres_ = false;  // bcc12: cube centres of this slab and the next
-  bool ownCentres_ = false;    // mt24: face and cube centres of each cell, from its corners
-  float threshold_ = 0;  // a value v is inside when v >= threshold_
+  bool rowsCarried_ = false;                   // rows_[0..] hold the spans of this slab's slices, rolled from the last
+  bool needsCentres_ = false;                  // bcc12: cube centres of this slab and the next
+  bool ownCentres_ = false;                    // mt24: face and cube centres of each cell, from its corners
+  bool mc33_ = false;                          // mc33: Marching Cubes with the trilinear topology
+  const std::uint16_t* cellPoints_ = nullptr;  // mc33: the current case's cell points
+  float threshold_ = 0;                        // a value v is inside when v >= threshold_
   std::vector<CacheSlot>* foreign_ = nullptr;
   bool flip_ = false;
   double cellVolume_ = 1;

@@ -517,6 +517,9 @@ unsigned cellKey(const float* v, float threshold) noexcept {
       faces |= 1u << f;
     }
   }
+  // Exact face decisions never give a combination that no field has (validFaces); should one
+  // occur, the cell keeps mc's topology rather than reach a key without triangles.
+  if (!validFaces(cas, faces)) return cas;
   unsigned key = cas | (faces << 8);
   const Candidates& candidates = kCandidates[cas * 64 + faces];
   if (candidates[0] == 0xFF || !finite) return key;

@@ -36,9 +36,8 @@ Vec3d SlabField::gradient(const LatticeNode& node, std::int64_t i, std::int64_t 
       for (auto& c : h) {
         if (c & 1) c += ((k >> bit++) & 1) != 0 ? 1 : -1;
       }
-      const Vec3d gc = gradient({static_cast<std::int8_t>(h[0]), static_cast<std::int8_t>(h[1]),
-                                 static_cast<std::int8_t>(h[2])},
-                                i, j);
+      const Vec3d gc = gradient(
+          {static_cast<std::int8_t>(h[0]), static_cast<std::int8_t>(h[1]), static_cast<std::int8_t>(h[2])}, i, j);
       for (std::size_t a = 0; a < 3; ++a) g[a] += 0.25 * gc[a];
     }
     return g;

@@ -31,7 +31,7 @@ runs=0
 differ=0
 for k in "${!inputs[@]}"; do
   input=${inputs[$k]}
-  for method in mc mt5 mt6 bcc12 mt24; do
+  for method in mc mt5 mt6 bcc12 mt24 mc33; do
     for threads in 1 3; do
       for format in ply stl obj drc glb; do
         extra=(--method "$method" --threads "$threads" -q)

@@ -9,6 +9,8 @@ packages=(
   libdcmtk-dev libopenjp2-7-dev libdraco-dev libeigen3-dev draco
   python3-matplotlib libopenimageio-dev fonts-dejavu-core
   python3-vtk9
+  # Peers for bench/topology.py (scikit-image's Lewiner MC33, the DICOM read by pydicom).
+  python3-skimage python3-pydicom
   clang libclang-rt-14-dev
   chromium
 )

@@ -162,9 +162,9 @@ TEST(ExtractBlock, ExactTriangleCounts) {
     Method method;
     std::uint64_t triangles;
   };
-  for (const Expect& e : {Expect{Method::kMarchingCubes, 428}, Expect{Method::kTetra5, block::mt5()},
-                          Expect{Method::kTetra6, 1584}, Expect{Method::kBcc12, block::bcc12()},
-                          Expect{Method::kTetra24, block::mt24()}}) {
+  for (const Expect& e :
+       {Expect{Method::kMarchingCubes, 428}, Expect{Method::kTetra5, block::mt5()}, Expect{Method::kTetra6, 1584},
+        Expect{Method::kBcc12, block::bcc12()}, Expect{Method::kTetra24, block::mt24()}}) {
     const Extraction x = testing::extract(kBlock, e.method, 50);
     EXPECT_EQ(x.stats.triangles, e.triangles) << name(e.method);
     EXPECT_TRUE(x.stats.closed()) << name(e.method);
@@ -285,7 +285,7 @@ TEST(ExtractSphere, ClosedOrientedAndAccurateForEveryMethod) {
     EXPECT_EQ(s.euler, 2) << name(m);
     EXPECT_NEAR(s.area / area, 1.0, 0.005) << name(m);
     EXPECT_NEAR(s.volume / volume, 1.0, 0.005) << name(m);
-    if (m == Method::kMarchingCubes) {
+    if (m == Method::kMarchingCubes || m == Method::kMarchingCubes33) {
       EXPECT_FALSE(s.cellVolume.has_value());
     } else {
       ASSERT_TRUE(s.cellVolume.has_value()) << name(m);
@@ -306,6 +306,28 @@ TEST(ExtractSphere, TetrahedralMethodsMakeMoreTrianglesThanMarchingCubes) {
   EXPECT_LT(mt5, mt6);
   EXPECT_LT(mt6, bcc);
   EXPECT_LT(bcc, mt24);
+}
+
+// Two inside voxels diagonally across one face, (1,1,1) and (2,2,1), with the face's other two
+// corners at 1 and everything else 0; iso 5. The bilinear saddle of the face, (AC - BD) / (A + C -
+// B - D) with the values shifted by the iso value, decides whether the inside joins across it:
+// with the inside voxels at 10 it is (25 - 16) / 18 > 0, one surface (Euler characteristic 2);
+// at 6 it is (1 - 16) / 10 < 0, two (Euler characteristic 4). mc always separates (4).
+TEST(ExtractMc33, TheFaceSaddleDecidesWhetherTwoVoxelsJoin) {
+  for (const float high : {10.0f, 6.0f}) {
+    std::vector<float> values(4 * 4 * 4, 0.0f);
+    auto at = [&](int i, int j, int k) -> float& { return values[static_cast<std::size_t>((k * 4 + j) * 4 + i)]; };
+    at(1, 1, 1) = at(2, 2, 1) = high;
+    at(2, 1, 1) = at(1, 2, 1) = 1.0f;
+    for (Method m : {Method::kMarchingCubes, Method::kMarchingCubes33}) {
+      testing::VectorSource source({4, 4, 4}, values);
+      const Extraction x = testing::extract(source, m, 5);
+      EXPECT_TRUE(x.stats.closed()) << name(m);
+      EXPECT_EQ(x.stats.inconsistentEdges, 0u) << name(m);
+      const bool joined = m == Method::kMarchingCubes33 && high == 10.0f;
+      EXPECT_EQ(x.stats.euler, joined ? 2 : 4) << name(m) << " at " << high;
+    }
+  }
 }
 
 TEST(ExtractTorus, EulerCharacteristicZeroForEveryMethod) {
@@ -334,7 +356,7 @@ TEST(ExtractRandom, NoCracksAndConsistentWinding) {
       EXPECT_EQ(x.stats.interiorBoundaryEdges, 0u) << name(m) << " seed " << seed;
       EXPECT_EQ(x.stats.nonManifoldEdges, 0u) << name(m) << " seed " << seed;
       EXPECT_EQ(x.stats.inconsistentEdges, 0u) << name(m) << " seed " << seed;
-      if (m != Method::kMarchingCubes) {
+      if (x.stats.cellVolume) {
         // Closed or cut by the box, the per-tetrahedron volume stays within the box.
         EXPECT_GT(*x.stats.cellVolume, 0.0);
         EXPECT_LT(*x.stats.cellVolume, 31.0 * 31 * 31);
@@ -527,7 +549,7 @@ TEST(Normals, UnitWhereTheCentralDifferenceVanishes) {
         EXPECT_GT(n.x * out[0] + n.y * out[1] + n.z * out[2], 0) << name(method) << " vertex " << v;
       }
     }
-    if (method == Method::kMarchingCubes) {
+    if (method == Method::kMarchingCubes || method == Method::kMarchingCubes33) {
       EXPECT_EQ(x.mesh.positions.size(), 6u);
       EXPECT_EQ(directions, (std::multiset<std::array<float, 3>>{
                                 {1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}}));

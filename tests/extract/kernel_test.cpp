@@ -158,7 +158,7 @@ TEST(Kernels, CubeEdgeVerticesAgreeAcrossMethods) {
   const std::array<std::int64_t, 3> dims{11, 11, 11};
   const Volume vol(dims, sphere(dims, 3.7));
   const Mesh mc = sequential(vol, options(Method::kMarchingCubes, 0.0));
-  for (Method m : {Method::kTetra5, Method::kTetra6, Method::kBcc12, Method::kTetra24}) {
+  for (Method m : {Method::kTetra5, Method::kTetra6, Method::kBcc12, Method::kTetra24, Method::kMarchingCubes33}) {
     const Mesh other = sequential(vol, options(m, 0.0));
     std::set<std::tuple<float, float, float>> have;
     for (const Vec3f& p : other.positions) have.insert({p.x, p.y, p.z});

@@ -336,6 +336,34 @@ TEST(CellSchemes, Bcc12TilesABlockOfCellsExactlyOnce) {
   }
 }
 
+// An edge marked cellOnly takes no welding slot, so no other cell may have it: in a block of
+// cells, each cellOnly edge of a cell is an edge of no other cell's tetrahedra.
+TEST(CaseLists, CellOnlyEdgesBelongToOneCell) {
+  for (const CellScheme& s : {makeTetra5Scheme(), makeTetra6Scheme(), makeBcc12Scheme(), makeTetra24Scheme()}) {
+    const CellCases cases(&s, 8);
+    using Point = std::array<int, 3>;
+    std::map<std::pair<Point, Point>, std::set<int>> cellsOf;  // global edge -> cells having it
+    std::set<std::pair<Point, Point>> cellOnly;
+    int onlyCount = 0;
+    for (int c = 0; c < 27; ++c) {
+      const int ci = c % 3, cj = c / 3 % 3, ck = c / 9;
+      const auto& v = cases.variants()[0];  // bcc12's interior variant: every face shared
+      for (const EdgeRef& e : v.edges) {
+        auto global = [&](int n) {
+          const LatticeNode& node = cases.nodes()[static_cast<std::size_t>(n)];
+          return Point{2 * ci + node.hx, 2 * cj + node.hy, 2 * ck + node.hz};
+        };
+        const std::pair<Point, Point> edge{std::min(global(e.a), global(e.b)), std::max(global(e.a), global(e.b))};
+        cellsOf[edge].insert(c);
+        if (e.cellOnly) cellOnly.insert(edge), ++onlyCount;
+      }
+    }
+    for (const auto& edge : cellOnly) EXPECT_EQ(cellsOf[edge].size(), 1u) << s.name;
+    const int perCell = onlyCount / 27;
+    EXPECT_EQ(perCell, s.name == "mt6" ? 1 : s.name == "mt24" ? 14 : 0) << s.name;
+  }
+}
+
 // mt24 (the paper's 24 tetrahedra per cube, after Baxter et al.): 24 tetrahedra of equal volume
 // tile the cube, and a 2 x 2 x 2 block of cells exactly once.
 TEST(CellSchemes, Mt24TilesTheCubeAndABlockOfCells) {
@@ -366,8 +394,7 @@ TEST(CellSchemes, Mt24TilesTheCubeAndABlockOfCells) {
 
 // The triangles (tetrahedron faces) a scheme draws on the face (axis, side) of a cell, each as its
 // three nodes in global half-unit coordinates.
-std::set<std::set<std::array<int, 3>>> faceTriangles(const CellScheme& s, int axis, int side,
-                                                     std::array<int, 3> cell) {
+std::set<std::set<std::array<int, 3>>> faceTriangles(const CellScheme& s, int axis, int side, std::array<int, 3> cell) {
   std::set<std::set<std::array<int, 3>>> out;
   for (const Tetrahedron& t : s.variants[0]) {
     for (int skip = 0; skip < 4; ++skip) {
@@ -419,8 +446,8 @@ TEST(CellSchemes, Mt24EachTetrahedronHasOneEdgeBetweenTwoCentres) {
         // Cube centre to face centre: half a voxel.
         EXPECT_EQ(na.isCentre() + nb.isCentre(), 1);
         EXPECT_EQ(na.isFaceCentre() + nb.isFaceCentre(), 1);
-        const int d2 = (na.hx - nb.hx) * (na.hx - nb.hx) + (na.hy - nb.hy) * (na.hy - nb.hy) +
-                       (na.hz - nb.hz) * (na.hz - nb.hz);
+        const int d2 =
+            (na.hx - nb.hx) * (na.hx - nb.hx) + (na.hy - nb.hy) * (na.hy - nb.hy) + (na.hz - nb.hz) * (na.hz - nb.hz);
         EXPECT_EQ(d2, 1);
         pyramids.insert({std::min(t.nodes[static_cast<std::size_t>(a)], t.nodes[static_cast<std::size_t>(b)]),
                          std::max(t.nodes[static_cast<std::size_t>(a)], t.nodes[static_cast<std::size_t>(b)])});
@@ -445,6 +472,7 @@ TEST(CaseLists, EdgeSlotsNameLatticeEdgesOneToOne) {
       for (std::int64_t i = 1; i < 4; ++i) {
         for (const CaseList& v : cases.variants()) {
           for (const EdgeRef& e : v.edges) {
+            if (e.cellOnly) continue;  // no slot (CaseLists.CellOnlyEdgesBelongToOneCell)
             auto global = [&](int n) {
               const LatticeNode& node = cases.nodes()[static_cast<std::size_t>(n)];
               return Point{static_cast<int>(2 * i) + node.hx, static_cast<int>(2 * j) + node.hy, node.hz};
