@@ -141,7 +141,7 @@ int runSpheres(const CompareArgs& args) {
   const std::string csvPath = args.out + "/results.csv";
   writeFile(csvPath, csv);
 
-  std::string md = "# spheres51: precision of the four methods on analytic spheres\n\n";
+  std::string md = "# spheres51: precision of the methods on analytic spheres\n\n";
   md += fmt::format(
       "{} radii ({} .. {} voxels), centres offset by ({}, {}, {}) from a grid point, grids with at least 2 "
       "voxels of margin; fields `binary` (100 inside, 0 outside, iso 50) and `distance` (1000 - 10 |p - c|, "

@@ -120,10 +120,15 @@ def volume(n, f):
 ball = volume(6, lambda i, j, k: 128 + 40 - 4 * ((i - 2.5) ** 2 + (j - 2.5) ** 2 + (k - 2.5) ** 2).__int__())
 saddle = volume(5, lambda i, j, k: 128 + (4 if (i + j + k) % 2 else -4))
 special = volume(4, lambda i, j, k: [255, 254, 253, 252, 251, 250, 128, 140][(i + 2 * j + 3 * k) % 8])
-for m in range(4):
-    put("extract", f"ball_m{m}", bytes([4, 4, 4, m | 4 | 8, 128 + 20]) + ball)
-    put("extract", f"saddle_m{m}", bytes([3, 3, 3, m | 16, 128]) + saddle)
-    put("extract", f"special_m{m}", bytes([2, 2, 2, m | 32 | 8, 1]) + special)
+for m in range(6):  # the method index: bits 0-1 and 6 of the flags
+    bits = (m & 3) | (m & 4) << 4
+    put("extract", f"ball_m{m}", bytes([4, 4, 4, bits | 4 | 8, 128 + 20]) + ball)
+    put("extract", f"saddle_m{m}", bytes([3, 3, 3, bits | 16, 128]) + saddle)
+    put("extract", f"special_m{m}", bytes([2, 2, 2, bits | 32 | 8, 1]) + special)
+# mc33 (method 5) on an 8^3 field of few levels around iso 0: many ambiguous faces and tunnels.
+levels = [100, 156, 120, 136, 128, 129, 127]
+put("extract", "mc33_saddles", bytes([6, 6, 6, 1 | 64 | 8, 128]) +
+    volume(8, lambda i, j, k: levels[(i * 7 + j * 13 + k * 29 + i * j * k) % 7]))
 put("extract", "ball_frames", bytes([4, 4, 4, 1 | 48, 0]) + ball)
 put("extract", "ball_double_iso", bytes([4, 4, 4, 3, 3]) + struct.pack("<d", 5.0000001) + ball)
 PY

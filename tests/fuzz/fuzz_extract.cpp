@@ -1,4 +1,4 @@
-// The extraction kernels (mc, mt5, mt6, bcc12) on small random volumes and iso values, NaN and
+// The extraction kernels (mc, mt5, mt6, bcc12, mt24, mc33) on small random volumes and iso values, NaN and
 // infinities included, through the pipeline as `isoslab extract` runs them. Checked here, with
 // abort() on a violation: every chunk continues the vertex ids; every triangle uses three distinct
 // vertices of its own chunk or the one before (the streaming contract); positions are finite and
@@ -8,7 +8,7 @@
 //
 // Input:
 //   0..2  dims: 2 + byte % 7 (2..8)
-//   3     bits 0-1 method; bit 2 normals; bit 3 compare with 2 threads; bits 4-5 the frame: voxel,
+//   3     bits 0-1 and 6 the method (an index into kMethods, modulo their count); bit 2 normals; bit 3 compare with 2 threads; bits 4-5 the frame: voxel,
 //         anisotropic spacing, a left-handed direction, uneven slice origins
 //   4     iso: 0 NaN, 1 +inf, 2 -inf, 3 the next 8 bytes as a double, 4 FLT_MAX, else (b - 128) / 4
 //   then one byte per voxel, x fastest (missing bytes are 0): 255 NaN, 254 +inf, 253 -inf,
@@ -150,7 +150,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   info.source = "fuzz";
   const std::uint8_t flags = fuzz::takeByte(in);
   ExtractOptions options;
-  options.method = static_cast<Method>(flags & 3);
+  const unsigned methodIndex = (flags & 3u) | ((flags >> 4) & 4u);
+  options.method = kMethods[methodIndex % std::size(kMethods)];
   options.normals = (flags & 4) != 0;
   const bool compareThreads = (flags & 8) != 0;
   switch ((flags >> 4) & 3) {
