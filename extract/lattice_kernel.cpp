@@ -401,11 +401,13 @@ static double cutFraction(double iso, double va, double vb) noexcept {
 }
 
 // An mc33 cell point: the mean of the cut points of the cube edges in its mask, in lattice
-// coordinates, with the mean of their interpolated gradients.
+// coordinates; its normal is the normalised sum of their unit normals (the first one's where they
+// cancel).
 void LatticeKernel::createCellPoint(unsigned mask, std::int64_t i, std::int64_t j) {
   const auto& nodes = cases_.nodes();
   Vec3d sum{0, 0, 0};
-  Vec3d gradient{0, 0, 0};
+  Vec3d normal{0, 0, 0};
+  Vec3d first{0, 0, 0};
   double count = 0;
   for (unsigned e = 0; e < 12; ++e) {
     if (((mask >> e) & 1u) == 0) continue;
@@ -415,9 +417,9 @@ void LatticeKernel::createCellPoint(unsigned mask, std::int64_t i, std::int64_t 
     const Vec3d b = field_.position(nodes[corners[1]], i, j);
     for (std::size_t k = 0; k < 3; ++k) sum[k] += a[k] + t * (b[k] - a[k]);
     if (options_.normals) {
-      const Vec3d ga = field_.gradient(nodes[corners[0]], i, j);
-      const Vec3d gb = field_.gradient(nodes[corners[1]], i, j);
-      for (std::size_t k = 0; k < 3; ++k) gradient[k] += ga[k] + t * (gb[k] - ga[k]);
+      const Vec3d n = edgeNormal(corners[0], corners[1], t, i, j);
+      if (count == 0) first = n;
+      for (std::size_t k = 0; k < 3; ++k) normal[k] += n[k];
     }
     count += 1;
   }
@@ -425,11 +427,9 @@ void LatticeKernel::createCellPoint(unsigned mask, std::int64_t i, std::int64_t 
   out_->positions.push_back({static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])});
   out_->boundary.push_back(0);
   if (!options_.normals) return;
-  const Vec3d g = frame_.gradient(gradient);
-  const double len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-  // The normal points down the gradient; a cancelled gradient gives a zero normal.
-  const double s = len > 0 && std::isfinite(len) ? -1.0 / len : 0.0;
-  out_->normals.push_back({static_cast<float>(g[0] * s), static_cast<float>(g[1] * s), static_cast<float>(g[2] * s)});
+  const double len = std::sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]);
+  const Vec3d n = len > 1e-6 ? Vec3d{normal[0] / len, normal[1] / len, normal[2] / len} : first;
+  out_->normals.push_back({static_cast<float>(n[0]), static_cast<float>(n[1]), static_cast<float>(n[2])});
 }
 
 void LatticeKernel::createVertex(const EdgeRef& e, std::int64_t i, std::int64_t j) {
@@ -458,22 +458,32 @@ void LatticeKernel::createVertex(const EdgeRef& e, std::int64_t i, std::int64_t 
   if (on(2, static_cast<double>(nz_ - 1))) faces |= kFaceZMax;
   out_->boundary.push_back(faces);
   if (!options_.normals) return;
-  const Vec3d ga = field_.gradient(nodes[e.a], i, j);
-  const Vec3d gb = field_.gradient(nodes[e.b], i, j);
+  const Vec3d n = edgeNormal(e.a, e.b, t, i, j);
+  out_->normals.push_back({static_cast<float>(n[0]), static_cast<float>(n[1]), static_cast<float>(n[2])});
+}
+
+// The unit normal at fraction t along the edge from node a to node b of cell (i, j), in the output
+// frame: down the interpolated gradient, from higher to lower values.
+Vec3d LatticeKernel::edgeNormal(int a, int b, double t, std::int64_t i, std::int64_t j) const noexcept {
+  const auto& nodes = cases_.nodes();
+  const auto na = nodes[static_cast<std::size_t>(a)];
+  const auto nb = nodes[static_cast<std::size_t>(b)];
+  const Vec3d ga = field_.gradient(na, i, j);
+  const Vec3d gb = field_.gradient(nb, i, j);
   Vec3d g = frame_.gradient({ga[0] + t * (gb[0] - ga[0]), ga[1] + t * (gb[1] - ga[1]), ga[2] + t * (gb[2] - ga[2])});
   double len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
   if (!(len > 0) || !std::isfinite(len)) {
     // The central differences cancel (a symmetric extremum at the vertex), or are infinite or NaN
     // (infinite or NaN values nearby): take the direction of the vertex's own edge, from its
     // outside end to its inside end (the edge crosses the iso value, so one end is inside).
-    const Vec3d d{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-    const double sign = vb >= options_.iso ? 1.0 : -1.0;
-    g = frame_.gradient({d[0] * sign, d[1] * sign, d[2] * sign});
+    const Vec3d pa = field_.position(na, i, j);
+    const Vec3d pb = field_.position(nb, i, j);
+    const double sign = value_[static_cast<std::size_t>(b)] >= options_.iso ? 1.0 : -1.0;
+    g = frame_.gradient({(pb[0] - pa[0]) * sign, (pb[1] - pa[1]) * sign, (pb[2] - pa[2]) * sign});
     len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
   }
-  // The normal points down the gradient, from higher to lower values.
   const double s = len > 0 ? -1.0 / len : 0.0;
-  out_->normals.push_back({static_cast<float>(g[0] * s), static_cast<float>(g[1] * s), static_cast<float>(g[2] * s)});
+  return {g[0] * s, g[1] * s, g[2] * s};
 }
 
 }  // namespace isoslab

@@ -69,6 +69,7 @@ class LatticeKernel {
   VertexId vertex(const EdgeRef& e, std::int64_t i, std::int64_t j);
   void createVertex(const EdgeRef& e, std::int64_t i, std::int64_t j);
   void createCellPoint(unsigned mask, std::int64_t i, std::int64_t j);
+  Vec3d edgeNormal(int a, int b, double t, std::int64_t i, std::int64_t j) const noexcept;
 
   ExtractOptions options_;
   LatticeFrame frame_;

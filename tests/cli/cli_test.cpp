@@ -398,7 +398,7 @@ TEST(Cli, InfoShowsTheTiltFirstPositionExtentAndThicknessOfDicomSeries) {
 
 TEST(Cli, OutputBytesAreTheSameForEveryThreadCount) {
   const std::string dir = testing::tempDir();
-  for (const char* method : {"mc", "mt5", "mt6", "bcc12"}) {
+  for (const std::string& method : methodNames()) {
     for (const char* ext : {"ply", "glb"}) {
       std::string first;
       for (int threads : {1, 2, 4}) {
