@@ -34,6 +34,7 @@
 #include "io/image_writer.h"
 #include "io/interrupt.h"
 #include "io/open_source.h"
+#include "io/pad_source.h"
 #include "io/phantom.h"
 #include "io/volume_formats.h"
 #include "io/volume_writer.h"
@@ -183,6 +184,7 @@ struct ExtractArgs {
   std::string method = "mc";
   std::string output;
   bool normals = false;
+  bool closeBoundary = false;
   std::string report;
   bool quiet = false;
   std::string sphere;
@@ -329,9 +331,13 @@ int runExtract(const ExtractArgs& args) {
   // The per-tetrahedron inside volume (volume_cells) costs a quarter of mt6's time: only for a
   // report or sphere measures.
   options.cellVolumes = !args.report.empty() || sphere.has_value();
+  options.closeBoundary = args.closeBoundary;
   auto extractor = makeExtractor(options, info, frame);
 
   const MeshHeader header = extractionHeader(options, info, frame, *extractor);
+  // The caps need the field beyond the faces: one NaN point around the volume (the header, frame
+  // and value range stay the volume's own).
+  if (args.closeBoundary) source = std::make_unique<PadSource>(std::move(source));
 
   MeshStatsSink stats;
   std::optional<SphereErrorSink> sphereErrors;
@@ -666,6 +672,9 @@ int main(int argc, char** argv) {
                    "Output mesh: .ply (binary), .stl (binary), .obj, .glb (glTF 2.0, Draco-compressed chunks) or "
                    ".drc (one Draco mesh)")
       ->required();
+  extract->add_flag("--close-boundary", ex.closeBoundary,
+                    "Take the field as outside beyond the volume's faces, so that the surface is capped there "
+                    "and closed");
   extract->add_flag("--normals", ex.normals,
                     "Write vertex normals from the field's gradient (PLY, OBJ and Draco; STL has facet normals)");
   extract->add_option("--report", ex.report, "Write a JSON report of the run");

@@ -66,6 +66,11 @@ struct ExtractOptions {
   /// Tetrahedral methods: sum the volume inside the surface over the tetrahedra (the paper's
   /// per-cell volume, MeshChunk::cellVolume).
   bool cellVolumes = true;
+  /// The field is outside beyond the volume's faces, so the surface is capped there and closed:
+  /// the slices come padded with one NaN point on each side of every axis (io/pad_source.h), the
+  /// extractor's lattice is info.dims + 2, and vertices where an edge leaves the volume lie exactly
+  /// on its faces. Output coordinates stay those of the unpadded volume. No cellVolumes.
+  bool closeBoundary = false;
 };
 
 class Extractor {
@@ -104,7 +109,8 @@ class Extractor {
 MeshHeader extractionHeader(const ExtractOptions& options, const VolumeInfo& info, const LatticeFrame& frame,
                             const Extractor& extractor);
 
-/// The extractor for `options.method`, for a volume of `info`'s dims, emitting positions in `frame`.
+/// The extractor for `options.method`, for a volume of `info`'s dims (plus 2 per axis with
+/// closeBoundary: it then takes the padded slices), emitting positions in `frame`.
 std::unique_ptr<Extractor> makeExtractor(const ExtractOptions& options, const VolumeInfo& info,
                                          const LatticeFrame& frame);
 

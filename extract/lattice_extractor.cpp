@@ -60,7 +60,11 @@ class SequentialExtractor final : public Extractor {
 
 std::unique_ptr<Extractor> makeLatticeExtractor(const ExtractOptions& options, const VolumeInfo& info,
                                                 const LatticeFrame& frame, std::unique_ptr<CellScheme> scheme) {
-  return std::make_unique<SequentialExtractor>(options, info.dims, frame, std::move(scheme));
+  std::array<std::int64_t, 3> dims = info.dims;
+  if (options.closeBoundary) {
+    for (auto& d : dims) d += 2;
+  }
+  return std::make_unique<SequentialExtractor>(options, dims, frame, std::move(scheme));
 }
 
 }  // namespace isoslab

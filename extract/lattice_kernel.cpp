@@ -32,6 +32,11 @@ LatticeKernel::LatticeKernel(const ExtractOptions& options, const std::array<std
   field_.nx = nx_;
   field_.ny = ny_;
   field_.nz = nz_;
+  if (options_.closeBoundary) {
+    pad_ = 1;
+    field_.pad = 1;
+    options_.cellVolumes = false;  // tetInsideVolume knows nothing of the caps
+  }
 }
 
 std::unique_ptr<CellScheme> LatticeKernel::copyScheme() const {
@@ -400,11 +405,55 @@ static double cutFraction(double iso, double va, double vb) noexcept {
   return std::isnan(t) ? 0.5 : std::clamp(t, 0.0, 1.0);
 }
 
+// Where the vertex of the edge from node a to node b of cell (i, j) lies, in lattice coordinates,
+// and its fraction t from a (for the normal's interpolation); sets `leaves` when the edge leaves the
+// volume (closeBoundary): the vertex is then the point where it crosses the volume's face, exactly.
+Vec3d LatticeKernel::cutPoint(int a, int b, std::int64_t i, std::int64_t j, double& t, bool& leaves) const noexcept {
+  const auto& nodes = cases_.nodes();
+  const Vec3d pa = field_.position(nodes[static_cast<std::size_t>(a)], i, j);
+  const Vec3d pb = field_.position(nodes[static_cast<std::size_t>(b)], i, j);
+  leaves = false;
+  if (pad_ != 0) {
+    const std::array<double, 3> lo{1.0, 1.0, 1.0};
+    const std::array<double, 3> hi{static_cast<double>(nx_ - 2), static_cast<double>(ny_ - 2),
+                                   static_cast<double>(nz_ - 2)};
+    auto outside = [&](const Vec3d& p) {
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (p[k] < lo[k] || p[k] > hi[k]) return true;
+      }
+      return false;
+    };
+    const bool outA = outside(pa);
+    if (outA != outside(pb)) {
+      // From the end inside the volume towards the one outside, to the first face it crosses.
+      const Vec3d& p = outA ? pb : pa;
+      const Vec3d& q = outA ? pa : pb;
+      double s = 1;
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (q[k] < lo[k]) s = std::min(s, (lo[k] - p[k]) / (q[k] - p[k]));
+        if (q[k] > hi[k]) s = std::min(s, (hi[k] - p[k]) / (q[k] - p[k]));
+      }
+      leaves = true;
+      t = outA ? 1 - s : s;
+      return {p[0] + s * (q[0] - p[0]), p[1] + s * (q[1] - p[1]), p[2] + s * (q[2] - p[2])};
+    }
+  }
+  t = cutFraction(options_.iso, value_[static_cast<std::size_t>(a)], value_[static_cast<std::size_t>(b)]);
+  return {pa[0] + t * (pb[0] - pa[0]), pa[1] + t * (pb[1] - pa[1]), pa[2] + t * (pb[2] - pa[2])};
+}
+
+// The output position of lattice point p (the padding's offset removed: exact, the coordinates
+// being at least 1).
+Vec3f LatticeKernel::outputPosition(const Vec3d& p) const noexcept {
+  const auto pad = static_cast<double>(pad_);
+  const Vec3d w = frame_.map(p[0] - pad, p[1] - pad, p[2] - pad);
+  return {static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])};
+}
+
 // An mc33 cell point: the mean of the cut points of the cube edges in its mask, in lattice
 // coordinates; its normal is the normalised sum of their unit normals (the first one's where they
 // cancel).
 void LatticeKernel::createCellPoint(unsigned mask, std::int64_t i, std::int64_t j) {
-  const auto& nodes = cases_.nodes();
   Vec3d sum{0, 0, 0};
   Vec3d normal{0, 0, 0};
   Vec3d first{0, 0, 0};
@@ -412,10 +461,10 @@ void LatticeKernel::createCellPoint(unsigned mask, std::int64_t i, std::int64_t 
   for (unsigned e = 0; e < 12; ++e) {
     if (((mask >> e) & 1u) == 0) continue;
     const auto& corners = mc::kEdgeCorners[e];
-    const double t = cutFraction(options_.iso, value_[corners[0]], value_[corners[1]]);
-    const Vec3d a = field_.position(nodes[corners[0]], i, j);
-    const Vec3d b = field_.position(nodes[corners[1]], i, j);
-    for (std::size_t k = 0; k < 3; ++k) sum[k] += a[k] + t * (b[k] - a[k]);
+    double t = 0;
+    bool leaves = false;
+    const Vec3d p = cutPoint(corners[0], corners[1], i, j, t, leaves);
+    for (std::size_t k = 0; k < 3; ++k) sum[k] += p[k];
     if (options_.normals) {
       const Vec3d n = edgeNormal(corners[0], corners[1], t, i, j);
       if (count == 0) first = n;
@@ -423,8 +472,7 @@ void LatticeKernel::createCellPoint(unsigned mask, std::int64_t i, std::int64_t 
     }
     count += 1;
   }
-  const Vec3d w = frame_.map(sum[0] / count, sum[1] / count, sum[2] / count);
-  out_->positions.push_back({static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])});
+  out_->positions.push_back(outputPosition({sum[0] / count, sum[1] / count, sum[2] / count}));
   out_->boundary.push_back(0);
   if (!options_.normals) return;
   const double len = std::sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]);
@@ -437,28 +485,51 @@ void LatticeKernel::createVertex(const EdgeRef& e, std::int64_t i, std::int64_t 
     createCellPoint(cellPoints_[e.cellPoint - 1], i, j);
     return;
   }
-  const double va = value_[e.a];
-  const double vb = value_[e.b];
-  const double t = cutFraction(options_.iso, va, vb);
-  const auto& nodes = cases_.nodes();
-  const Vec3d a = field_.position(nodes[e.a], i, j);
-  const Vec3d b = field_.position(nodes[e.b], i, j);
-  const Vec3d lattice{a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
-  const Vec3d w = frame_.map(lattice[0], lattice[1], lattice[2]);
-  out_->positions.push_back({static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])});
+  double t = 0;
+  bool leaves = false;
+  const Vec3d lattice = cutPoint(e.a, e.b, i, j, t, leaves);
+  out_->positions.push_back(outputPosition(lattice));
   std::uint8_t faces = 0;
-  auto on = [&](int axis, double value) {
-    return a[static_cast<std::size_t>(axis)] == value && b[static_cast<std::size_t>(axis)] == value;
-  };
-  if (on(0, 0.0)) faces |= kFaceXMin;
-  if (on(0, static_cast<double>(nx_ - 1))) faces |= kFaceXMax;
-  if (on(1, 0.0)) faces |= kFaceYMin;
-  if (on(1, static_cast<double>(ny_ - 1))) faces |= kFaceYMax;
-  if (on(2, 0.0)) faces |= kFaceZMin;
-  if (on(2, static_cast<double>(nz_ - 1))) faces |= kFaceZMax;
+  if (pad_ == 0) {
+    const auto& nodes = cases_.nodes();
+    const Vec3d a = field_.position(nodes[e.a], i, j);
+    const Vec3d b = field_.position(nodes[e.b], i, j);
+    auto on = [&](int axis, double value) {
+      return a[static_cast<std::size_t>(axis)] == value && b[static_cast<std::size_t>(axis)] == value;
+    };
+    if (on(0, 0.0)) faces |= kFaceXMin;
+    if (on(0, static_cast<double>(nx_ - 1))) faces |= kFaceXMax;
+    if (on(1, 0.0)) faces |= kFaceYMin;
+    if (on(1, static_cast<double>(ny_ - 1))) faces |= kFaceYMax;
+    if (on(2, 0.0)) faces |= kFaceZMin;
+    if (on(2, static_cast<double>(nz_ - 1))) faces |= kFaceZMax;
+  } else {
+    // Capped: the faces the vertex lies on.
+    if (lattice[0] == 1.0) faces |= kFaceXMin;
+    if (lattice[0] == static_cast<double>(nx_ - 2)) faces |= kFaceXMax;
+    if (lattice[1] == 1.0) faces |= kFaceYMin;
+    if (lattice[1] == static_cast<double>(ny_ - 2)) faces |= kFaceYMax;
+    if (lattice[2] == 1.0) faces |= kFaceZMin;
+    if (lattice[2] == static_cast<double>(nz_ - 2)) faces |= kFaceZMax;
+  }
   out_->boundary.push_back(faces);
   if (!options_.normals) return;
-  const Vec3d n = edgeNormal(e.a, e.b, t, i, j);
+  Vec3d n{};
+  if (leaves) {
+    // A cap's vertex: the cap lies in the face, so its normal is the face's outward normal (of the
+    // first face the edge crosses, for a vertex on a volume edge or corner).
+    Vec3d out{0, 0, 0};
+    for (std::size_t k = 0; k < 3 && out == Vec3d{0, 0, 0}; ++k) {
+      if (faces & (1u << (2 * k))) out[k] = -1;
+      if (faces & (1u << (2 * k + 1))) out[k] = 1;
+    }
+    // Normals map by the inverse transpose, as gradients do.
+    const Vec3d g = frame_.gradient(out);
+    const double len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    n = {g[0] / len, g[1] / len, g[2] / len};
+  } else {
+    n = edgeNormal(e.a, e.b, t, i, j);
+  }
   out_->normals.push_back({static_cast<float>(n[0]), static_cast<float>(n[1]), static_cast<float>(n[2])});
 }
 

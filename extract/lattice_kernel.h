@@ -70,6 +70,8 @@ class LatticeKernel {
   void createVertex(const EdgeRef& e, std::int64_t i, std::int64_t j);
   void createCellPoint(unsigned mask, std::int64_t i, std::int64_t j);
   Vec3d edgeNormal(int a, int b, double t, std::int64_t i, std::int64_t j) const noexcept;
+  Vec3d cutPoint(int a, int b, std::int64_t i, std::int64_t j, double& t, bool& leaves) const noexcept;
+  Vec3f outputPosition(const Vec3d& lattice) const noexcept;
 
   ExtractOptions options_;
   LatticeFrame frame_;
@@ -90,6 +92,7 @@ class LatticeKernel {
   double cellVolume_ = 1;
   std::int64_t nx_ = 0, ny_ = 0, nz_ = 0, planeSize_ = 0;
   std::int64_t z_ = 0;
+  std::int64_t pad_ = 0;  // closeBoundary: the lattice's NaN points around the volume, per side
   SlabField field_;
   MeshChunk* out_ = nullptr;
   std::array<float, 16> value_{};  // node values: corners, then the scheme's centres

@@ -5,11 +5,12 @@
 namespace isoslab {
 namespace {
 
-// Central difference along one axis at index g of n points; one-sided at the ends.
+// Central difference along one axis at index g of n points; one-sided at the volume's ends, `pad`
+// points in from the lattice's.
 template <typename F>
-double difference(std::int64_t g, std::int64_t n, F&& value) noexcept {
-  if (g == 0) return value(1) - value(0);
-  if (g == n - 1) return value(0) - value(-1);
+double difference(std::int64_t g, std::int64_t n, std::int64_t pad, F&& value) noexcept {
+  if (g <= pad) return value(1) - value(0);
+  if (g >= n - 1 - pad) return value(0) - value(-1);
   return 0.5 * (value(1) - value(-1));
 }
 
@@ -45,9 +46,9 @@ Vec3d SlabField::gradient(const LatticeNode& node, std::int64_t i, std::int64_t 
   const std::int64_t gi = i + node.hx / 2;
   const std::int64_t gj = j + node.hy / 2;
   const std::int64_t dz = node.hz / 2;
-  return {difference(gi, nx, [&](std::int64_t d) { return static_cast<double>(at(gi + d, gj, dz)); }),
-          difference(gj, ny, [&](std::int64_t d) { return static_cast<double>(at(gi, gj + d, dz)); }),
-          difference(z + dz, nz, [&](std::int64_t d) { return static_cast<double>(at(gi, gj, dz + d)); })};
+  return {difference(gi, nx, pad, [&](std::int64_t d) { return static_cast<double>(at(gi + d, gj, dz)); }),
+          difference(gj, ny, pad, [&](std::int64_t d) { return static_cast<double>(at(gi, gj + d, dz)); }),
+          difference(z + dz, nz, pad, [&](std::int64_t d) { return static_cast<double>(at(gi, gj, dz + d)); })};
 }
 
 }  // namespace isoslab

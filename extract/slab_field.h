@@ -15,6 +15,9 @@ struct SlabField {
   std::array<const float*, 4> slices{};
   std::int64_t nx = 0, ny = 0, nz = 0;
   std::int64_t z = 0;
+  /// Lattice points on each side of every axis that lie outside the volume (1 with
+  /// ExtractOptions::closeBoundary): differences are one-sided at the volume's own faces.
+  std::int64_t pad = 0;
 
   /// Value at global lattice point (gi, gj) of slice z + dz, dz in -1..2.
   float at(std::int64_t gi, std::int64_t gj, std::int64_t dz) const noexcept {

@@ -12,6 +12,7 @@
 
 #include "extract/frame.h"
 #include "io/open_source.h"
+#include "io/pad_source.h"
 #include "stream/pipeline.h"
 
 namespace fs = std::filesystem;
@@ -63,6 +64,21 @@ Extraction extract(SliceSource& source, Method method, double iso, bool normals)
   header.iso = iso;
   header.cellVolumes = extractor->cellVolumes();
   runPipeline(source, *extractor, tee, header);
+  return {memory.mesh(), stats.stats()};
+}
+
+Extraction extract(std::unique_ptr<SliceSource> source, const ExtractOptions& options, int threads) {
+  const VolumeInfo info = source->info();
+  const LatticeFrame frame = LatticeFrame::physical(info);
+  auto extractor = makeExtractor(options, info, frame);
+  const MeshHeader header = extractionHeader(options, info, frame, *extractor);
+  if (options.closeBoundary) source = std::make_unique<PadSource>(std::move(source));
+  MemoryMeshSink memory;
+  MeshStatsSink stats;
+  TeeSink tee({&memory, &stats});
+  PipelineOptions pipeline;
+  pipeline.threads = threads;
+  runPipeline(*source, *extractor, tee, header, pipeline);
   return {memory.mesh(), stats.stats()};
 }
 

@@ -46,6 +46,9 @@ struct Extraction {
 
 /// Runs the pipeline on `source` (physical frame) into memory, measuring as it goes.
 Extraction extract(SliceSource& source, Method method, double iso, bool normals = false);
+/// Runs the pipeline with `options` (padding the source for closeBoundary) on `threads` threads,
+/// with the header the command line gives (volume faces included).
+Extraction extract(std::unique_ptr<SliceSource> source, const ExtractOptions& options, int threads = 1);
 /// Same for a spec that openSource() understands (phantoms).
 Extraction extract(const std::string& input, Method method, double iso, bool normals = false);
 

@@ -26,6 +26,21 @@ TEST(RealData, EngineAtIso90IsClosedWhereInteriorAndOrdersTheMethods) {
   EXPECT_GT(bcc, mt6);
 }
 
+// The Philips head at -400 (skin) is cut by the volume's faces; --close-boundary closes it.
+TEST(RealData, PhilipsHeadWithCloseBoundaryHasNoBoundaryEdges) {
+  const std::string philips = testing::sharedData("ct-philips-head");
+  if (philips.empty()) GTEST_SKIP() << "../shared/data/ct-philips-head is absent";
+  ExtractOptions options;
+  options.iso = -400;
+  options.closeBoundary = true;
+  const testing::Extraction x = testing::extract(openSource(philips, {}), options, 2);
+  EXPECT_GT(x.stats.triangles, 1000000u);
+  EXPECT_EQ(x.stats.boundaryEdges, 0u);
+  EXPECT_EQ(x.stats.interiorBoundaryEdges, 0u);
+  EXPECT_EQ(x.stats.nonManifoldEdges, 0u);
+  EXPECT_EQ(x.stats.inconsistentEdges, 0u);
+}
+
 TEST(RealData, CtHeadBigEndianSlicesAtIso600IsClosedWhereInterior) {
   const std::string cthead = testing::sharedData("cthead");
   if (cthead.empty()) GTEST_SKIP() << "../shared/data/cthead is absent";

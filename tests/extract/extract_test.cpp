@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -361,8 +362,9 @@ std::size_t sampledSurfaces(const std::vector<float>& v, std::int64_t n, int ste
     for (int c = 0; c < 8; ++c) {
       double w = 1;
       for (int a = 0; a < 3; ++a) w *= ((c >> a) & 1) ? f[a] : 1 - f[a];
-      sum += w * v[static_cast<std::size_t>(((base[2] + (c >> 2 & 1)) * n + base[1] + (c >> 1 & 1)) * n + base[0] +
-                                            (c & 1))];
+      sum +=
+          w *
+          v[static_cast<std::size_t>(((base[2] + (c >> 2 & 1)) * n + base[1] + (c >> 1 & 1)) * n + base[0] + (c & 1))];
     }
     return sum;
   };
@@ -370,7 +372,8 @@ std::size_t sampledSurfaces(const std::vector<float>& v, std::int64_t n, int ste
   std::vector<std::uint8_t> inside(count);
   for (std::int64_t z = 0; z < m; ++z) {
     for (std::int64_t y = 0; y < m; ++y) {
-      for (std::int64_t x = 0; x < m; ++x) inside[static_cast<std::size_t>((z * m + y) * m + x)] = value(x, y, z) >= iso;
+      for (std::int64_t x = 0; x < m; ++x)
+        inside[static_cast<std::size_t>((z * m + y) * m + x)] = value(x, y, z) >= iso;
     }
   }
   Sets sets(count);
@@ -393,8 +396,8 @@ std::size_t sampledSurfaces(const std::vector<float>& v, std::int64_t n, int ste
   });
   std::set<std::pair<std::uint32_t, std::uint32_t>> pairs;
   forNeighbours([&](std::uint32_t a, std::uint32_t b) {
-    if (inside[a] != inside[b]) pairs.insert(inside[a] ? std::pair{sets.find(a), sets.find(b)}
-                                                       : std::pair{sets.find(b), sets.find(a)});
+    if (inside[a] != inside[b])
+      pairs.insert(inside[a] ? std::pair{sets.find(a), sets.find(b)} : std::pair{sets.find(b), sets.find(a)});
   });
   return pairs.size();
 }
@@ -435,6 +438,91 @@ TEST(ExtractMc33, SurfaceComponentsAreTheTrilinearFieldsOnRandomFields) {
     EXPECT_EQ(mc33.stats.nonManifoldEdges, 0u);
     EXPECT_EQ(mc33.stats.interiorBoundaryEdges, 0u);
     EXPECT_EQ(mc33.stats.inconsistentEdges, 0u);
+  }
+}
+
+// --close-boundary: a sphere of radius 20 centred near the corner (5, 6, 7) of a 40^3 volume, cut
+// by three of its faces. Capped, every method gives one closed, manifold, oriented surface, whose
+// volume is the sphere's clipped to the box (integrated here column by column), with the caps'
+// vertices exactly on the faces; 1 and 3 threads give the same mesh.
+double clippedSphereVolume(const std::array<double, 3>& c, double r, double box) {
+  const int n = 2000;
+  const double h = box / n;
+  double sum = 0;
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b < n; ++b) {
+      const double x = (a + 0.5) * h - c[0], y = (b + 0.5) * h - c[1];
+      const double d2 = r * r - x * x - y * y;
+      if (d2 <= 0) continue;
+      const double half = std::sqrt(d2);
+      sum += std::clamp(c[2] + half, 0.0, box) - std::clamp(c[2] - half, 0.0, box);
+    }
+  }
+  return sum * h * h;
+}
+
+TEST(ExtractCloseBoundary, ASphereCutByTheFacesIsClosedForEveryMethod) {
+  const char* spec = "phantom:sphere?n=40&r=20&c=5,6,7&field=distance";
+  const double truth = clippedSphereVolume({5, 6, 7}, 20, 39);
+  for (Method m : kAllMethods) {
+    ExtractOptions options;
+    options.method = m;
+    options.iso = 800;
+    options.normals = true;
+    options.closeBoundary = true;
+    const Extraction x = testing::extract(openSource(spec, {}), options);
+    const MeshStats& s = x.stats;
+    EXPECT_EQ(s.boundaryEdges, 0u) << name(m);
+    EXPECT_EQ(s.nonManifoldEdges, 0u) << name(m);
+    EXPECT_EQ(s.inconsistentEdges, 0u) << name(m);
+    EXPECT_EQ(s.euler, 2) << name(m);
+    EXPECT_NEAR(s.volume / truth, 1.0, 0.005) << name(m);
+    EXPECT_FALSE(s.cellVolume.has_value()) << name(m);
+    // Every vertex in the box; those flagged on a face exactly on it, and the caps there.
+    std::array<int, 6> onFace{};
+    for (std::size_t v = 0; v < x.mesh.positions.size(); ++v) {
+      const Vec3f& p = x.mesh.positions[v];
+      const float c[3] = {p.x, p.y, p.z};
+      for (int a = 0; a < 3; ++a) {
+        ASSERT_GE(c[a], 0.0f) << name(m);
+        ASSERT_LE(c[a], 39.0f) << name(m);
+        if (x.mesh.boundary[v] & (1u << (2 * a))) {
+          ASSERT_EQ(c[a], 0.0f) << name(m);
+          ++onFace[static_cast<std::size_t>(2 * a)];
+        }
+        if (x.mesh.boundary[v] & (1u << (2 * a + 1))) ++onFace[static_cast<std::size_t>(2 * a + 1)];
+      }
+      const Vec3f& n = x.mesh.normals[v];
+      ASSERT_NEAR(std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z), 1.0, 1e-5) << name(m);
+    }
+    EXPECT_GT(onFace[0], 100) << name(m);  // x-min, y-min, z-min caps; the sphere misses the others
+    EXPECT_GT(onFace[2], 100) << name(m);
+    EXPECT_GT(onFace[4], 100) << name(m);
+    EXPECT_EQ(onFace[1] + onFace[3] + onFace[5], 0) << name(m);
+    const Extraction threaded = testing::extract(openSource(spec, {}), options, 3);
+    EXPECT_TRUE(threaded.mesh == x.mesh) << name(m);
+  }
+}
+
+// Without the caps the same sphere is open where the faces cut it; a sphere inside the volume is
+// the same surface with or without them.
+TEST(ExtractCloseBoundary, OnlyTheCutsChange) {
+  ExtractOptions options;
+  options.iso = 800;
+  const Extraction open = testing::extract(openSource("phantom:sphere?n=40&r=20&c=5,6,7&field=distance", {}), options);
+  EXPECT_GT(open.stats.boundaryEdges, 0u);
+  EXPECT_EQ(open.stats.interiorBoundaryEdges, 0u);
+  const char* inside = "phantom:sphere?n=40&r=12&field=distance";
+  options.iso = 880;  // 1000 - 10 r
+  const Extraction plain = testing::extract(openSource(inside, {}), options);
+  options.closeBoundary = true;
+  const Extraction capped = testing::extract(openSource(inside, {}), options);
+  EXPECT_EQ(capped.mesh.triangles, plain.mesh.triangles);
+  ASSERT_EQ(capped.mesh.positions.size(), plain.mesh.positions.size());
+  for (std::size_t v = 0; v < plain.mesh.positions.size(); ++v) {
+    EXPECT_NEAR(capped.mesh.positions[v].x, plain.mesh.positions[v].x, 1e-5);
+    EXPECT_NEAR(capped.mesh.positions[v].y, plain.mesh.positions[v].y, 1e-5);
+    EXPECT_NEAR(capped.mesh.positions[v].z, plain.mesh.positions[v].z, 1e-5);
   }
 }
 
