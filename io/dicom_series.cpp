@@ -1073,6 +1073,28 @@ class DicomSource final : public SliceSource {
 
   const VolumeInfo& info() const noexcept override { return info_; }
 
+  // A skipped slice's file is not opened and its pixel data is not read. The one exception are
+  // frames of a compressed multi-frame file that the next slice read comes from: there DCMTK
+  // finds a frame's first fragment by counting on from the frame before it (startFragment_), so
+  // they are decoded and dropped.
+  std::int64_t skipSlices(std::int64_t n) override {
+    const std::size_t end = next_ + static_cast<std::size_t>(std::clamp<std::int64_t>(
+                                        n, 0, static_cast<std::int64_t>(series_.slices.size() - next_)));
+    const bool chained = series_.multiFrame && DcmXfer(series_.transferSyntaxUid.c_str()).isEncapsulated();
+    const std::string* following = chained && end < series_.slices.size() ? &series_.slices[end].path : nullptr;
+    std::vector<float> scratch;
+    const auto skipped = static_cast<std::int64_t>(end - next_);
+    while (next_ < end) {
+      if (following != nullptr && series_.slices[next_].path == *following) {
+        scratch.resize(static_cast<std::size_t>(info_.sliceVoxels()));
+        readSlice(scratch);
+      } else {
+        ++next_;
+      }
+    }
+    return skipped;
+  }
+
   bool readSlice(std::span<float> out) override {
     if (next_ >= series_.slices.size()) return false;
     const DicomSlice& slice = series_.slices[next_++];
