@@ -27,7 +27,7 @@ struct FigureCase {
   SourceOptions options;
   double iso = 0;
   render::View view = *render::presetView("iso");
-  std::optional<std::array<std::array<std::int64_t, 3>, 2>> crop;  // lo, hi
+  std::optional<LatticeBox> crop;
   std::vector<Method> methods;
 };
 
@@ -36,7 +36,7 @@ constexpr int kStrip = 30;
 
 std::unique_ptr<SliceSource> openCase(const FigureCase& c) {
   auto source = openSource(c.input, c.options);
-  if (c.crop) source = std::make_unique<CropSource>(std::move(source), (*c.crop)[0], (*c.crop)[1]);
+  if (c.crop) source = std::make_unique<CropSource>(std::move(source), *c.crop);
   return source;
 }
 
@@ -133,8 +133,7 @@ std::vector<FigureCase> figureCases(const CompareArgs& args, const std::vector<M
   ear.title = head.title + ", the right ear (a detail of the head)";
   ear.view = *render::presetView("right");
   ear.view.roll = head.view.roll;
-  ear.crop = args.cthead.empty() ? std::array<std::array<std::int64_t, 3>, 2>{{{0, 100, 30}, {60, 170, 70}}}
-                                 : std::array<std::array<std::int64_t, 3>, 2>{{{5, 90, 40}, {55, 160, 85}}};
+  ear.crop = args.cthead.empty() ? LatticeBox{{0, 100, 30}, {59, 169, 69}} : LatticeBox{{5, 90, 40}, {54, 159, 84}};
   ear.methods.clear();
   for (Method m : {Method::kTetra5, Method::kTetra6, Method::kBcc12, Method::kTetra24}) {
     if (std::find(methods.begin(), methods.end(), m) != methods.end()) ear.methods.push_back(m);

@@ -30,6 +30,7 @@
 #include "encode/ply_writer.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
+#include "io/crop_source.h"
 #include "io/dicom_series.h"
 #include "io/image_writer.h"
 #include "io/interrupt.h"
@@ -197,7 +198,81 @@ struct ExtractArgs {
   std::string preview;  // a PNG rendered as the triangles stream past
   cli::ImageArgs previewImage;
   RawArgs raw;
+  std::string roi;  // i0,j0,k0,i1,j1,k1 or, with roiSpace "physical", x0,y0,z0,x1,y1,z1
+  std::string roiSpace = "voxel";
 };
+
+// --roi as run: the box as given, the lattice points it selected (the input's indices, inclusive)
+// and the input's dims.
+struct RoiChoice {
+  std::vector<double> requested;
+  LatticeBox box;
+  std::array<std::int64_t, 3> inputDims{};
+  bool clipped = false;
+};
+
+// --roi: six numbers, each lower corner at most the upper one.
+CLI::Validator roiList() {
+  return numberList([](const std::vector<double>& v) -> std::string {
+    if (v.size() != 6) return "needs six numbers, the box's lower and upper corners: i0,j0,k0,i1,j1,k1";
+    for (std::size_t a = 0; a < 3; ++a) {
+      if (v[a] > v[a + 3]) return fmt::format("is reversed: its upper corner is below its lower one on axis {}", a);
+    }
+    return {};
+  });
+}
+
+// The source cut to --roi. A voxel box is clipped to the lattice (with a note); a physical box, in
+// the output coordinates of --space, selects the lattice points that lie in it (LatticeFrame::
+// latticeBox). A box that leaves fewer than 2 points on an axis is an error naming the input.
+std::unique_ptr<SliceSource> cropToRoi(std::unique_ptr<SliceSource> source, const ExtractArgs& args, RoiChoice& roi) {
+  const VolumeInfo& info = source->info();
+  const std::string& input = args.inputs.front();
+  roi.requested = parseList(args.roi, "--roi");
+  roi.inputDims = info.dims;
+  const auto& v = roi.requested;
+  std::string note;
+  if (args.roiSpace == "voxel") {
+    LatticeBox asked;
+    for (std::size_t a = 0; a < 6; ++a) {
+      if (v[a] != std::floor(v[a]) || std::abs(v[a]) > 9.0e15) {
+        throw UsageError(
+            fmt::format("--roi '{}' needs whole numbers (lattice indices) with --roi-space voxel", args.roi));
+      }
+      (a < 3 ? asked.lo[a] : asked.hi[a - 3]) = static_cast<std::int64_t>(v[a]);
+    }
+    roi.box = clipLatticeBox(asked, info.dims, input, &roi.clipped);
+    if (roi.clipped) {
+      note = fmt::format("--roi {} reaches past the volume's {}x{}x{} lattice points: clipped to {}", args.roi,
+                         info.dims[0], info.dims[1], info.dims[2], latticeBoxText(roi.box));
+    }
+  } else {
+    const std::string box = fmt::format("--roi {} ({} coordinates)", args.roi, args.space);
+    const LatticeFrame frame = LatticeFrame::forSpace(info, args.space);
+    const auto found = frame.latticeBox({v[0], v[1], v[2], v[3], v[4], v[5]}, info.dims);
+    if (!found) {
+      const auto b = frame.bounds(info.dims);
+      throw Error(
+          fmt::format("{}: {} holds no lattice point of the volume, whose lattice points lie in {:g}..{:g}, "
+                      "{:g}..{:g}, {:g}..{:g}",
+                      input, box, b[0], b[3], b[1], b[4], b[2], b[5]));
+    }
+    const auto dims = found->dims();
+    for (std::size_t a = 0; a < 3; ++a) {
+      if (dims[a] < 2) {
+        throw Error(
+            fmt::format("{}: {} holds lattice points {}, {} along axis {}; a surface needs at least 2 on every "
+                        "axis",
+                        input, box, latticeBoxText(*found), dims[a], a));
+      }
+    }
+    roi.box = *found;
+    note =
+        fmt::format("{} selects lattice points {} ({}x{}x{})", box, latticeBoxText(roi.box), dims[0], dims[1], dims[2]);
+  }
+  if (!args.quiet && !note.empty()) std::fprintf(stderr, "isoslab: %s\n", note.c_str());
+  return std::make_unique<CropSource>(std::move(source), roi.box);
+}
 
 std::array<double, 2> valueRange(SliceSource& source);
 
@@ -283,6 +358,7 @@ int runExtract(const ExtractArgs& args) {
   }
   std::vector<std::string> notes;
   auto source = openSource(args.inputs, sourceOptions(args.raw), &notes);
+  std::optional<RoiChoice> roi;
   // Readers' notes that are warnings print even with --quiet and go to the report.
   std::vector<std::string> warnings;
   for (std::string& n : notes) {
@@ -294,6 +370,7 @@ int runExtract(const ExtractArgs& args) {
       std::fprintf(stderr, "isoslab: %s\n", n.c_str());
     }
   }
+  if (!args.roi.empty()) source = cropToRoi(std::move(source), args, roi.emplace());
   const VolumeInfo& info = source->info();
   double iso = 0;
   if (args.iso) {
@@ -377,6 +454,14 @@ int runExtract(const ExtractArgs& args) {
     r["method"] = header.method;
     r["iso"] = iso;
     r["dims"] = {info.dims[0], info.dims[1], info.dims[2]};
+    if (roi) {
+      r["roi"] = {
+          {"box", {roi->box.lo[0], roi->box.lo[1], roi->box.lo[2], roi->box.hi[0], roi->box.hi[1], roi->box.hi[2]}},
+          {"requested", roi->requested},
+          {"space", args.roiSpace},
+          {"clipped", roi->clipped},
+          {"input_dims", {roi->inputDims[0], roi->inputDims[1], roi->inputDims[2]}}};
+    }
     r["spacing"] = array3(info.spacing);
     r["volume_bounds"] = header.volumeBounds;
     r["voxel_type"] = std::string(voxelTypeName(info.type));
@@ -720,6 +805,20 @@ int main(int argc, char** argv) {
                    "Measure the mesh against the sphere cx,cy,cz,r (output coordinates); phantom spheres are measured "
                    "by themselves")
       ->check(sphereList());
+
+  auto* roiOption = extract
+                        ->add_option("--roi", ex.roi,
+                                     "Extract only the box i0,j0,k0,i1,j1,k1 of lattice points (inclusive; clipped to "
+                                     "the volume), or x0,y0,z0,x1,y1,z1 with --roi-space physical")
+                        ->check(roiList())
+                        ->group("Region of interest");
+  extract
+      ->add_option("--roi-space", ex.roiSpace,
+                   "--roi in voxel (lattice indices) or physical (the output coordinates of --space)")
+      ->transform(oneOf("ROI space", {"voxel", "physical"}))
+      ->capture_default_str()
+      ->needs(roiOption)
+      ->group("Region of interest");
 
   extract->add_option("--preview", ex.preview, "Also render the mesh to this PNG as it streams (memory: the image)")
       ->group("Preview");

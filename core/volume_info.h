@@ -50,6 +50,18 @@ struct VolumeInfo {
   std::int64_t sliceVoxels() const noexcept { return dims[0] * dims[1]; }
 };
 
+/// A box of lattice points given by index, inclusive on both ends (as vtkExtractVOI's VOI): points
+/// lo[a] .. hi[a] on axis a, hi[a] - lo[a] + 1 of them.
+struct LatticeBox {
+  std::array<std::int64_t, 3> lo{};
+  std::array<std::int64_t, 3> hi{};
+
+  std::array<std::int64_t, 3> dims() const noexcept {
+    return {hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1};
+  }
+  bool operator==(const LatticeBox&) const = default;
+};
+
 /// Checks dims for sanity (every axis at least 2 and at most 2^31-1 points, the product
 /// representable); throws isoslab::Error mentioning `what` otherwise.
 void validateDims(const std::array<std::int64_t, 3>& dims, const std::string& what);

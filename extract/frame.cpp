@@ -131,6 +131,52 @@ std::optional<VolumeFaces> LatticeFrame::faces(const std::array<std::int64_t, 3>
   return faces;
 }
 
+std::optional<LatticeBox> LatticeFrame::latticeBox(const std::array<double, 6>& box,
+                                                   const std::array<std::int64_t, 3>& dims) const noexcept {
+  auto inside = [&](const Vec3d& p) {
+    return box[0] <= p[0] && p[0] <= box[3] && box[1] <= p[1] && p[1] <= box[4] && box[2] <= p[2] && p[2] <= box[5];
+  };
+  const double last = static_cast<double>(dims[0] - 1);
+  std::optional<LatticeBox> found;
+  for (std::int64_t k = 0; k < dims[2]; ++k) {
+    for (std::int64_t j = 0; j < dims[1]; ++j) {
+      const auto jd = static_cast<double>(j);
+      const auto kd = static_cast<double>(k);
+      // Along the row, a point moves by column 0 of the linear part per step of i, from c.
+      const Vec3d c = map(0, jd, kd);
+      double lo = 0;
+      double hi = last;
+      for (std::size_t r = 0; r < 3 && lo <= hi; ++r) {
+        const double step = linear_[3 * r];
+        if (step == 0) {
+          if (!(box[r] <= c[r] && c[r] <= box[r + 3])) hi = -1;
+          continue;
+        }
+        double a = (box[r] - c[r]) / step;
+        double b = (box[r + 3] - c[r]) / step;
+        if (a > b) std::swap(a, b);
+        lo = std::fmax(lo, a);
+        hi = std::fmin(hi, b);
+      }
+      // Rounding may move the cut's ends by a fraction of a step: widen by one point on either
+      // side, then trim with the exact test.
+      if (!(lo <= hi + 2)) continue;
+      auto i0 = static_cast<std::int64_t>(std::fmax(std::floor(lo) - 1, 0.0));
+      auto i1 = static_cast<std::int64_t>(std::fmin(std::ceil(hi) + 1, last));
+      while (i0 <= i1 && !inside(map(static_cast<double>(i0), jd, kd))) ++i0;
+      while (i1 >= i0 && !inside(map(static_cast<double>(i1), jd, kd))) --i1;
+      if (i0 > i1) continue;
+      if (!found) {
+        found = LatticeBox{{i0, j, k}, {i1, j, k}};
+        continue;
+      }
+      found->lo = {std::min(found->lo[0], i0), std::min(found->lo[1], j), std::min(found->lo[2], k)};
+      found->hi = {std::max(found->hi[0], i1), std::max(found->hi[1], j), std::max(found->hi[2], k)};
+    }
+  }
+  return found;
+}
+
 Vec3d LatticeFrame::gradient(const Vec3d& g) const noexcept {
   const auto& m = inverseT_;
   return {m[0] * g[0] + m[1] * g[1] + m[2] * g[2], m[3] * g[0] + m[4] * g[1] + m[5] * g[2],

@@ -43,6 +43,14 @@ class LatticeFrame {
   /// origins bend a face out of its plane by more than a rounding tolerance.
   std::optional<VolumeFaces> faces(const std::array<std::int64_t, 3>& dims) const;
 
+  /// The smallest box of lattice indices (of a lattice of `dims`) that holds every lattice point
+  /// whose position, as map() gives it, lies in the axis-aligned `box` (xmin ymin zmin xmax ymax
+  /// zmax, both ends inclusive); nothing when no lattice point does. Exact for every frame, tilted
+  /// and per-slice origins too: each row of the lattice is cut by the box's six planes, and the
+  /// ends of the cut are checked with map() itself. Costs a few map()s per row (dims[1] * dims[2]).
+  std::optional<LatticeBox> latticeBox(const std::array<double, 6>& box,
+                                       const std::array<std::int64_t, 3>& dims) const noexcept;
+
   /// Output volume of one unit lattice cube.
   double cellVolume() const noexcept { return determinant_ < 0 ? -determinant_ : determinant_; }
 

@@ -1073,6 +1073,28 @@ class DicomSource final : public SliceSource {
 
   const VolumeInfo& info() const noexcept override { return info_; }
 
+  // A skipped slice's file is not opened and its pixel data is not read. The one exception are
+  // frames of a compressed multi-frame file that the next slice read comes from: they are decoded
+  // and dropped, so that DCMTK can count on to the next frame's first fragment (startFragment_)
+  // even where the file has no offset table and frames of several fragments.
+  std::int64_t skipSlices(std::int64_t n) override {
+    const std::size_t end = next_ + static_cast<std::size_t>(std::clamp<std::int64_t>(
+                                        n, 0, static_cast<std::int64_t>(series_.slices.size() - next_)));
+    const bool chained = series_.multiFrame && DcmXfer(series_.transferSyntaxUid.c_str()).isEncapsulated();
+    const std::string* following = chained && end < series_.slices.size() ? &series_.slices[end].path : nullptr;
+    std::vector<float> scratch;
+    const auto skipped = static_cast<std::int64_t>(end - next_);
+    while (next_ < end) {
+      if (following != nullptr && series_.slices[next_].path == *following) {
+        scratch.resize(static_cast<std::size_t>(info_.sliceVoxels()));
+        readSlice(scratch);
+      } else {
+        ++next_;
+      }
+    }
+    return skipped;
+  }
+
   bool readSlice(std::span<float> out) override {
     if (next_ >= series_.slices.size()) return false;
     const DicomSlice& slice = series_.slices[next_++];
@@ -1083,7 +1105,13 @@ class DicomSource final : public SliceSource {
       if (c.bad()) throw Error(fmt::format("{}: not a readable DICOM file: {}", slice.path, c.text()));
       openPath_ = slice.path;
       startFragment_ = 0;
+      nextFrame_ = 0;
     }
+    // DCMTK leaves startFragment_ at the fragment after the frame it decoded: a valid hint for the
+    // next frame only. For any other (frames sorted out of file order, or skipped), 0 lets DCMTK
+    // find the frame's fragment itself, from the offset table or one fragment per frame.
+    if (slice.frame != nextFrame_) startFragment_ = 0;
+    nextFrame_ = slice.frame + 1;
     DcmDataset* ds = file_->getDataset();
     const std::uint16_t rows = getU16(ds, DCM_Rows);
     const std::uint16_t columns = getU16(ds, DCM_Columns);
@@ -1240,6 +1268,7 @@ class DicomSource final : public SliceSource {
   std::unique_ptr<DcmFileCache> cache_;
   std::string openPath_;
   Uint32 startFragment_ = 0;
+  std::uint32_t nextFrame_ = 0;  // the frame that startFragment_ is the hint for
   std::vector<std::uint8_t> frameBytes_;
 };
 

@@ -270,6 +270,13 @@ class ImageStackSource final : public SliceSource {
 
   const VolumeInfo& info() const noexcept override { return info_; }
 
+  // Pages are read by index (read_image takes the subimage), so skipped ones are not decoded.
+  std::int64_t skipSlices(std::int64_t n) override {
+    const std::int64_t count = std::clamp<std::int64_t>(n, 0, static_cast<std::int64_t>(pages_.size() - next_));
+    next_ += static_cast<std::size_t>(count);
+    return count;
+  }
+
   bool readSlice(std::span<float> out) override {
     if (next_ >= pages_.size()) return false;
     const Page& page = pages_[next_++];

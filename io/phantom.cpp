@@ -302,4 +302,10 @@ bool PhantomSource::readSlice(std::span<float> slice) {
   return true;
 }
 
+std::int64_t PhantomSource::skipSlices(std::int64_t n) {
+  const std::int64_t count = std::clamp<std::int64_t>(n, 0, info_.dims[2] - nextSlice_);
+  nextSlice_ += count;
+  return count;
+}
+
 }  // namespace isoslab

@@ -39,6 +39,8 @@ class PhantomSource final : public SliceSource {
 
   const VolumeInfo& info() const noexcept override { return info_; }
   bool readSlice(std::span<float> slice) override;
+  /// Computes nothing for the skipped slices.
+  std::int64_t skipSlices(std::int64_t n) override;
 
   /// The field value at lattice point (i, j, k) before conversion to the voxel type.
   double value(std::int64_t i, std::int64_t j, std::int64_t k) const noexcept;

@@ -9,6 +9,18 @@
 
 namespace isoslab {
 
+std::int64_t SliceSource::skipSlices(std::int64_t n) {
+  std::int64_t skipped = 0;
+  if (lendsSlices()) {
+    while (skipped < n && lendSlice() != nullptr) ++skipped;
+    return skipped;
+  }
+  std::vector<float> scratch;
+  if (n > 0) scratch.resize(static_cast<std::size_t>(info().sliceVoxels()));
+  while (skipped < n && readSlice(scratch)) ++skipped;
+  return skipped;
+}
+
 void validateGeometry(const VolumeInfo& info, const std::string& what) {
   for (std::size_t a = 0; a < 3; ++a) {
     const double s = info.spacing[a];

@@ -30,6 +30,16 @@ class SliceSource {
   /// info().dims[2] slices have been read. Throws isoslab::Error if the data is short or unreadable.
   virtual bool readSlice(std::span<float> slice) = 0;
 
+  /// Moves past the next `n` slices (n >= 0) without handing them out: the next readSlice() gives
+  /// the slice after them. Returns how many were skipped, fewer than `n` only when the source ends
+  /// first. The default reads them into a scratch slice and drops them. Readers that can find a
+  /// slice without reading the ones before it override it and neither read nor decode the skipped
+  /// slices: raw, NRRD, MetaImage and NIfTI data that is not compressed seek past them, per-slice
+  /// files (raw, NRRD and MetaImage lists, DICOM, image stacks) are not opened, and phantoms
+  /// compute nothing. A skipping reader therefore finds no fault in the slices it skips. Throws
+  /// isoslab::Error as readSlice() does.
+  virtual std::int64_t skipSlices(std::int64_t n);
+
   /// Whether the source holds its slices in memory as float and can lend them (lendSlice)
   /// instead of copying them, as a volume already in memory can.
   virtual bool lendsSlices() const noexcept { return false; }
@@ -41,7 +51,8 @@ class SliceSource {
   /// Problems with the data that are not errors, one line each without a prefix, for the user
   /// (for example bytes left over after the last slice, which suggest wrong dims or type). Call it
   /// after reading every slice: a reader may then read what is left of a compressed stream to
-  /// count it. Empty for most sources.
+  /// count it. A source whose last slices were never read (see CropSource) gives only the warnings
+  /// found so far. Empty for most sources.
   virtual std::vector<std::string> warnings() { return {}; }
 };
 

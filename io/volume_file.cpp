@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/limits.h"
+#include "io/interrupt.h"
 
 namespace fs = std::filesystem;
 
@@ -125,7 +126,16 @@ class ByteStream {
     return rest;
   }
 
+  /// Moves on by n bytes: a plain file seeks (its length was checked when it was opened), a
+  /// compressed stream inflates them into a scratch buffer.
   void skip(std::int64_t n, std::int64_t expected) {
+    if (!inflating_) {
+      if (fseeko(file_.get(), static_cast<off_t>(n), SEEK_CUR) != 0) {
+        throw Error(fmt::format("{}: cannot seek to byte {}: {}", path_, position_ + n, std::strerror(errno)));
+      }
+      position_ += n;
+      return;
+    }
     std::vector<unsigned char> scratch(static_cast<std::size_t>(std::min<std::int64_t>(n, 1 << 20)));
     while (n > 0) {
       const std::int64_t k = std::min<std::int64_t>(n, static_cast<std::int64_t>(scratch.size()));
@@ -280,23 +290,39 @@ class VolumeFileSource final : public SliceSource {
 
   std::vector<std::string> warnings() override { return warnings_; }
 
+  // Per-slice files are not opened; a plain volume file seeks; a compressed one is inflated (and,
+  // once it has been skipped to its end, checked as readSlice checks it).
+  std::int64_t skipSlices(std::int64_t n) override {
+    const std::int64_t count = std::clamp<std::int64_t>(n, 0, info_.dims[2] - next_);
+    if (count == 0 || layout_.perSlice) {
+      next_ += count;
+      return count;
+    }
+    const std::int64_t expected = layout_.skipBytes + sliceBytes_ * info_.dims[2];
+    openVolumeStream(expected);
+    if (!stream_->inflating()) {
+      stream_->skip(sliceBytes_ * count, expected);
+      next_ += count;
+      return count;
+    }
+    for (std::int64_t k = 0; k < count; ++k) {
+      throwIfInterrupted();
+      stream_->skip(sliceBytes_, expected);
+      ++next_;
+    }
+    if (next_ == info_.dims[2]) finishStream(expected);
+    return count;
+  }
+
   bool readSlice(std::span<float> slice) override {
     if (next_ >= info_.dims[2]) return false;
     const bool perSlice = layout_.perSlice;
     const std::size_t f = perSlice ? static_cast<std::size_t>(next_) : 0;
     const std::int64_t expected = layout_.skipBytes + sliceBytes_ * (perSlice ? 1 : info_.dims[2]);
-    if (!stream_ || perSlice) {
-      stream_ = std::make_unique<ByteStream>(layout_.files[f], layout_.fileOffset, layout_.compression);
-      if (layout_.skipBytes > 0) stream_->skip(layout_.skipBytes, expected);
-    }
+    if (!stream_ || perSlice) openStream(layout_.files[f], expected);
     stream_->read(bytes_.data(), sliceBytes_, expected);
     // The last slice of a compressed stream: read it to its end, where zlib checks its CRC.
-    if (stream_->inflating() && (perSlice || next_ + 1 == info_.dims[2])) {
-      const std::int64_t rest = stream_->finish();
-      if (layout_.warnExtraBytes && !perSlice && rest > 0) {
-        warnings_.push_back(extraBytesWarning(layout_.files.front(), expected + rest, true));
-      }
-    }
+    if (stream_->inflating() && (perSlice || next_ + 1 == info_.dims[2])) finishStream(expected);
     std::span<const std::byte> data(bytes_);
     if (layout_.components > 1) {
       const std::size_t size = voxelSize(layout_.type);
@@ -337,6 +363,24 @@ class VolumeFileSource final : public SliceSource {
                        size, inflated ? " once inflated" : "", size - need, dimsText(info_.dims),
                        voxelTypeName(layout_.type), headerText(),
                        extraBytesHint(size - header, info_.dims, layout_.type, false));
+  }
+
+  void openStream(const std::string& path, std::int64_t expected) {
+    stream_ = std::make_unique<ByteStream>(path, layout_.fileOffset, layout_.compression);
+    if (layout_.skipBytes > 0) stream_->skip(layout_.skipBytes, expected);
+  }
+
+  // The whole-volume file's stream, opened on first use.
+  void openVolumeStream(std::int64_t expected) {
+    if (!stream_) openStream(layout_.files.front(), expected);
+  }
+
+  // Reads a compressed stream to its end (zlib checks its CRC there) and counts what is left over.
+  void finishStream(std::int64_t expected) {
+    const std::int64_t rest = stream_->finish();
+    if (layout_.warnExtraBytes && !layout_.perSlice && rest > 0) {
+      warnings_.push_back(extraBytesWarning(layout_.files.front(), expected + rest, true));
+    }
   }
 
   std::unique_ptr<ByteStream> stream_;

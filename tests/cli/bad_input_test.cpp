@@ -236,6 +236,12 @@ struct Case {
 const std::string kMha = "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\n";
 const std::string kNrrd = "NRRD0004\ntype: uint8\nencoding: raw\n";
 
+// A 4x4x4 NRRD of ones.
+std::string nrrd4(const std::string& dir) {
+  write(dir + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\n\n" + voxels(64));
+  return dir + "/v.nrrd";
+}
+
 const Case kCases[] = {
     // --- Crashes ---------------------------------------------------------------------------------
     {"MetaImageZeroChannels",
@@ -1178,6 +1184,40 @@ const Case kCases[] = {
      },
      "extract {dir}/series --channel 2 -o {dir}/out.ply"},
     // (end of fuzz section)
+    // --- Regions of interest (--roi) -------------------------------------------------------------
+    {"RoiOutsideTheVolume", [](const std::string& d) { return nrrd4(d); },
+     "extract {in} --iso 1 --roi 0,0,10,3,3,12 -o {dir}/out.ply"},
+    {"RoiOneSliceThick", [](const std::string& d) { return nrrd4(d); },
+     "extract {in} --iso 1 --roi 0,0,2,3,3,2 -o {dir}/out.ply"},
+    {"RoiOneSliceThickOnceClipped", [](const std::string& d) { return nrrd4(d); },
+     "extract {in} --iso 1 --roi 0,0,3,3,3,9 -o {dir}/out.glb"},
+    {"RoiPhysicalHoldsNoLatticePoint", [](const std::string& d) { return nrrd4(d); },
+     "extract {in} --iso 1 --roi 0.2,0,0,0.8,3,3 --roi-space physical -o {dir}/out.ply --report {dir}/r.json"},
+    {"RoiReversed", [](const std::string& d) {
+       nrrd4(d);
+       return std::string("--roi");
+     },
+     "extract {dir}/v.nrrd --iso 1 --roi 0,0,3,3,3,1 -o {dir}/out.ply", 2},
+    {"RoiFiveNumbers", [](const std::string& d) {
+       nrrd4(d);
+       return std::string("--roi");
+     },
+     "extract {dir}/v.nrrd --iso 1 --roi 0,0,0,3,3 -o {dir}/out.ply", 2},
+    {"RoiFractionalIndex", [](const std::string& d) {
+       nrrd4(d);
+       return std::string("--roi");
+     },
+     "extract {dir}/v.nrrd --iso 1 --roi 0,0,0.5,3,3,3 -o {dir}/out.ply", 2},
+    {"RoiSpaceWithoutRoi", [](const std::string& d) {
+       nrrd4(d);
+       return std::string("--roi");
+     },
+     "extract {dir}/v.nrrd --iso 1 --roi-space physical -o {dir}/out.ply", 2},
+    {"RoiSpaceUnknown", [](const std::string& d) {
+       nrrd4(d);
+       return std::string("--roi-space");
+     },
+     "extract {dir}/v.nrrd --iso 1 --roi 0,0,0,3,3,3 --roi-space world -o {dir}/out.ply", 2},
     // --- Usage errors ------------------------------------------------------------------------------
     {"UsageUnknownOption",
      [](const std::string& d) {

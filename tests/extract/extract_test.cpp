@@ -719,6 +719,68 @@ TEST(ExtractSliceOrigins, UnevenSlicesPutVerticesInTheirSlicesPlanes) {
   EXPECT_EQ(between, 20u);
 }
 
+// --roi-space physical: the lattice box of the points inside a box equals the one found by testing
+// every lattice point, for an axis-aligned frame (whose answer is worked out by hand), for a
+// rotated one, and for tilted, unevenly spaced slices.
+TEST(ExtractFrame, LatticeBoxHoldsExactlyThePointsInsideTheBox) {
+  const std::array<std::int64_t, 3> dims{30, 25, 20};
+  auto bruteForce = [&](const LatticeFrame& frame, const std::array<double, 6>& box) {
+    std::optional<LatticeBox> found;
+    for (std::int64_t k = 0; k < dims[2]; ++k)
+      for (std::int64_t j = 0; j < dims[1]; ++j)
+        for (std::int64_t i = 0; i < dims[0]; ++i) {
+          const Vec3d p = frame.map(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
+          if (!(box[0] <= p[0] && p[0] <= box[3] && box[1] <= p[1] && p[1] <= box[4] && box[2] <= p[2] &&
+                p[2] <= box[5]))
+            continue;
+          if (!found) found = LatticeBox{{i, j, k}, {i, j, k}};
+          found->lo = {std::min(found->lo[0], i), std::min(found->lo[1], j), std::min(found->lo[2], k)};
+          found->hi = {std::max(found->hi[0], i), std::max(found->hi[1], j), std::max(found->hi[2], k)};
+        }
+    return found;
+  };
+  VolumeInfo info;
+  info.dims = dims;
+  info.origin = {-3, 1, 10};
+  info.spacing = {0.5, 0.75, 2};
+  const LatticeFrame aligned = LatticeFrame::physical(info);
+  // x = -3 + 0.5 i: 2.1 .. 7 gives i = 11 .. 20 (7 exactly on a point); y = 1 + 0.75 j: -50 .. 5.5
+  // gives j = 0 .. 6; z = 10 + 2 k: 13 .. 99 gives k = 2 .. 19.
+  EXPECT_EQ(aligned.latticeBox({2.1, -50, 13, 7, 5.5, 99}, dims), (LatticeBox{{11, 0, 2}, {20, 6, 19}}));
+  EXPECT_EQ(aligned.latticeBox({2.1, -50, 13, 2.4, 5.5, 99}, dims), std::nullopt);  // between two points
+  EXPECT_EQ(aligned.latticeBox({100, 0, 0, 200, 1, 1}, dims), std::nullopt);
+  // The voxel frame: a box of indices, rounded inwards.
+  EXPECT_EQ(LatticeFrame::voxel().latticeBox({-0.5, 2.5, 3, 4, 7.99, 1e9}, dims), (LatticeBox{{0, 3, 3}, {4, 7, 19}}));
+
+  VolumeInfo rotated = info;
+  const double c = std::cos(0.3), s = std::sin(0.3);
+  rotated.direction = {c, -s, 0, s, c, 0, 0, 0, 1};
+  VolumeInfo tilted = info;
+  tilted.direction = {1, 0, 0, 0, 0.948, -0.317, 0, 0.317, 0.948};
+  for (std::int64_t k = 0; k < dims[2]; ++k) {
+    const double z = 2.0 * static_cast<double>(k) + (k > 12 ? 3.5 : 0);  // one wider gap
+    tilted.sliceOrigins.push_back({-3, 1 - 0.317 * z * 0.3, 10 + z});
+  }
+  std::mt19937 random(17);
+  std::uniform_real_distribution<double> coordinate(-15, 45);
+  for (const VolumeInfo& frameInfo : {info, rotated, tilted}) {
+    const LatticeFrame frame = LatticeFrame::physical(frameInfo);
+    int nonEmpty = 0;
+    for (int n = 0; n < 200; ++n) {
+      std::array<double, 6> box{};
+      for (std::size_t a = 0; a < 3; ++a) {
+        box[a] = coordinate(random);
+        box[a + 3] = coordinate(random);
+        if (box[a] > box[a + 3]) std::swap(box[a], box[a + 3]);
+      }
+      const auto expected = bruteForce(frame, box);
+      nonEmpty += expected.has_value();
+      ASSERT_EQ(frame.latticeBox(box, dims), expected) << n;
+    }
+    EXPECT_GT(nonEmpty, 50);
+  }
+}
+
 // A single voxel of 1 among zeros, at iso 1: every vertex lies on the voxel itself, where the
 // central differences cancel. The fallback (the one-sided difference along the vertex's edge) must
 // give unit normals pointing out of the voxel along its edges: for mc, exactly the six axis
