@@ -129,7 +129,7 @@ TEST(Cli, UsageErrorsExitWithTwoAndOneLine) {
       {"extract " + raw + " --spacing 1,1 --iso 1" + out, "--spacing: '1,1' needs three values"},
       {"extract " + raw + " --iso 1 --sphere 1,2,3" + out, "--sphere: '1,2,3' needs cx,cy,cz,r with r > 0"},
       {"extract " + raw + out, dir + "/v.raw: --iso is required for this input, whose values range from 0 to 189"},
-      {"extract " + raw + " --iso abc" + out, "Could not convert: --iso = abc (see isoslab extract --help)"},
+      {"extract " + raw + " --iso abc" + out, "--iso: 'abc' is not a number, auto, bone or skin"},
       {"phantom 'sphere?n=8' -o " + dir + "/p.raw", "sphere?n=8: not a phantom spec (phantom:NAME?key=value&...)"},
       {"extrct 'phantom:sphere?n=16'" + out, "unknown command 'extrct'; did you mean 'extract'?"},
       {"inf x", "unknown command 'inf'; did you mean 'info'?"},
