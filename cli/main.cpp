@@ -220,7 +220,7 @@ std::string missingIsoMessage(const std::string& input, SliceSource& source) {
   if (CLI::detail::to_lower(info.modality) == "ct" || range[0] <= -1000) {
     text += "; for CT in Hounsfield units try about 300..400 for bone, -500..-200 for skin or 40 for soft tissue";
   }
-  return text;
+  return text + "; --iso auto takes Otsu's threshold";
 }
 
 // The iso value of a run: --iso's number, auto or name, else the input's suggestion. "auto" reads
