@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <optional>
 
+#include "stream/iso_choice.h"
+
 namespace isoslab::cli {
 namespace {
 
@@ -90,6 +92,26 @@ CLI::Validator finiteNumber() {
       "");
 }
 
+CLI::Validator isoValue() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        if (const auto request = parseIsoRequest(value)) {
+          if (request->kind == IsoRequest::Kind::kAuto) value = "auto";
+          if (request->kind == IsoRequest::Kind::kNamed) value = request->named.name;
+          return {};
+        }
+        char* end = nullptr;
+        std::strtod(value.c_str(), &end);
+        if (!value.empty() && end == value.c_str() + value.size()) {
+          return fmt::format("'{}' is not a finite number", value);
+        }
+        std::vector<std::string> names{"auto"};
+        for (const NamedIso& named : kNamedIsos) names.emplace_back(named.name);
+        return fmt::format("'{}' is not a number, {}", value, alternatives(names));
+      },
+      "");
+}
+
 CLI::Validator integerIn(std::int64_t lo, std::int64_t hi, const std::string& meaning) {
   return CLI::Validator(
       [lo, hi, meaning](std::string& value) -> std::string {
@@ -123,9 +145,9 @@ std::vector<double> parseList(const std::string& text, const std::string& option
 
 std::string withFlags(const std::string& text) {
   // The settings of SourceOptions and WriterOptions that have an option of the same name.
-  static const char* const kSettings[] = {"series",      "strict",     "skip_bad",        "channel",    "nifti_xform",
-                                          "raw_dims",    "raw_type",   "raw_endian",      "raw_offset", "spacing",
-                                          "draco_level", "quant_bits", "chunk_triangles", "roi"};
+  static const char* const kSettings[] = {"iso",         "series",      "strict",     "skip_bad",       "channel",
+                                          "nifti_xform", "raw_dims",    "raw_type",   "raw_endian",     "raw_offset",
+                                          "spacing",     "draco_level", "quant_bits", "chunk_triangles", "roi"};
   std::string out;
   std::size_t at = 0;
   while (at < text.size()) {

@@ -35,6 +35,11 @@ CLI::Validator listOf(const std::string& what, const std::vector<std::string>& n
 /// Other text is CLI11's to refuse.
 CLI::Validator finiteNumber();
 
+/// --iso: a finite number, `auto`, or a named CT value (stream/iso_choice.h: bone, skin), names in any
+/// case and rewritten in lower case; otherwise "'TEXT' is not a number, auto, bone or skin" ("'nan' is
+/// not a finite number" for a number that is not finite).
+CLI::Validator isoValue();
+
 /// An integer option: the whole text, within [lo, hi]; `meaning` follows the range in the message.
 CLI::Validator integerIn(std::int64_t lo, std::int64_t hi, const std::string& meaning = "");
 

@@ -43,8 +43,10 @@
 #include "metrics/mesh_stats.h"
 #include "metrics/report.h"
 #include "metrics/sphere_metrics.h"
+#include "stream/iso_choice.h"
 #include "stream/pipeline.h"
 #include "stream/progress.h"
+#include "stream/value_histogram.h"
 
 namespace isoslab {
 namespace {
@@ -53,6 +55,7 @@ using cli::alternatives;
 using cli::editDistance;
 using cli::finiteNumber;
 using cli::integerIn;
+using cli::isoValue;
 using cli::numberList;
 using cli::oneOf;
 using cli::parseList;
@@ -61,6 +64,8 @@ using cli::UsageError;
 constexpr const char* kVersion = ISOSLAB_VERSION;
 /// --threads: more would fail to start (EAGAIN) long before it helped.
 constexpr std::int64_t kMaxThreads = 256;
+/// info --bins: 2^24 bins are 128 MiB of counts.
+constexpr std::int64_t kMaxHistogramBins = std::int64_t{1} << 24;
 
 struct RawArgs {
   std::string series;
@@ -181,7 +186,7 @@ Sphere parseSphere(const std::string& text) {
 struct ExtractArgs {
   std::vector<std::string> inputs;
   std::string space = "physical";
-  std::optional<double> iso;
+  std::string iso;  // a number, auto, bone or skin (checked by isoValue()); empty: the input's suggestion
   std::string method = "mc";
   std::string output;
   bool normals = false;
@@ -292,16 +297,40 @@ std::string missingIsoMessage(const std::string& input, SliceSource& source) {
   if (CLI::detail::to_lower(info.modality) == "ct" || range[0] <= -1000) {
     text += "; for CT in Hounsfield units try about 300..400 for bone, -500..-200 for skin or 40 for soft tissue";
   }
-  return text;
+  return text + "; --iso auto takes Otsu's threshold";
+}
+
+// The iso value of a run: --iso's number, auto or name, else the input's suggestion. "auto" reads
+// the source to its end (stream/iso_choice.h), so `source` is then opened again (and cut to the
+// same --roi box: the histogram is the box's).
+IsoChoice chooseIsoValue(const ExtractArgs& args, std::unique_ptr<SliceSource>& source, const RoiChoice* roi) {
+  if (args.iso.empty()) {
+    if (!source->info().suggestedIso) throw UsageError(missingIsoMessage(args.inputs.front(), *source));
+    IsoChoice choice;
+    choice.value = *source->info().suggestedIso;
+    choice.source = "suggested by the input";
+    return choice;
+  }
+  const auto request = parseIsoRequest(args.iso);
+  if (!request) throw UsageError(fmt::format("--iso: '{}' is not a number, auto, bone or skin", args.iso));
+  const SourceOptions options = sourceOptions(args.raw);
+  const SourceOpener reopen = [&]() -> std::unique_ptr<SliceSource> {
+    auto opened = openSource(args.inputs, options);
+    if (roi != nullptr) return std::make_unique<CropSource>(std::move(opened), roi->box);
+    return opened;
+  };
+  IsoChoice choice = chooseIso(*request, args.inputs.front(), *source, reopen);
+  if (choice.sourceRead) source = reopen();
+  return choice;
 }
 
 // Why a run wrote no triangles, which would otherwise pass for success (an empty mesh is
-// "closed"): one warning naming the cause, or none when there are triangles.
-std::optional<std::string> emptySurfaceWarning(double iso, bool isoGiven,
+// "closed"): one warning naming the cause (`name` names the iso value), or none when there are
+// triangles.
+std::optional<std::string> emptySurfaceWarning(double iso, const std::string& name,
                                                const std::optional<std::array<double, 2>>& range,
                                                std::uint64_t triangles) {
   if (triangles > 0) return std::nullopt;
-  const std::string name = isoGiven ? fmt::format("--iso {}", iso) : fmt::format("the suggested iso {}", iso);
   if (!range) return "0 triangles: the input holds no values but NaN";
   const double lo = asFloat((*range)[0]);
   const double hi = asFloat((*range)[1]);
@@ -371,15 +400,15 @@ int runExtract(const ExtractArgs& args) {
     }
   }
   if (!args.roi.empty()) source = cropToRoi(std::move(source), args, roi.emplace());
+  const IsoChoice isoChoice = chooseIsoValue(args, source, roi ? &*roi : nullptr);
+  if (!isoChoice.note.empty() && !args.quiet)
+    std::fprintf(stderr, "isoslab: %s\n", cli::withFlags(isoChoice.note).c_str());
   const VolumeInfo& info = source->info();
-  double iso = 0;
-  if (args.iso) {
-    iso = *args.iso;
-  } else if (info.suggestedIso) {
-    iso = *info.suggestedIso;
-  } else {
-    throw UsageError(missingIsoMessage(args.inputs.front(), *source));
-  }
+  const double iso = isoChoice.value;
+  const bool isoNumber = isoChoice.source == "value";
+  const std::string isoName = args.iso.empty() ? fmt::format("the suggested iso {}", iso)
+                              : isoNumber      ? fmt::format("--iso {}", iso)
+                                               : fmt::format("--iso {} ({})", args.iso, iso);
 
   const LatticeFrame frame = LatticeFrame::forSpace(info, args.space);
   const int threads =
@@ -442,7 +471,7 @@ int runExtract(const ExtractArgs& args) {
   const MeshStats& s = stats.stats();
   const std::size_t readerWarnings = warnings.size();
   for (std::string& w : source->warnings()) warnings.push_back(std::move(w));
-  if (auto w = emptySurfaceWarning(iso, args.iso.has_value(), run.valueRange, s.triangles)) warnings.push_back(*w);
+  if (auto w = emptySurfaceWarning(iso, isoName, run.valueRange, s.triangles)) warnings.push_back(*w);
   for (std::size_t n = readerWarnings; n < warnings.size(); ++n) printWarning(warnings[n]);
 
   if (!args.report.empty()) {
@@ -453,6 +482,16 @@ int runExtract(const ExtractArgs& args) {
     r["reader"] = info.reader;
     r["method"] = header.method;
     r["iso"] = iso;
+    r["iso_source"] = isoChoice.source;
+    if (!isoChoice.note.empty()) r["iso_note"] = cli::withFlags(isoChoice.note);
+    if (isoChoice.histogram && isoChoice.split) {
+      const ValueHistogram& h = *isoChoice.histogram;
+      r["iso_histogram"] = {{"bins", h.bins()},
+                            {"range", {h.lo, h.hi}},
+                            {"range_from", h.rangeFromReader ? "reader" : "data"},
+                            {"passes", h.passes},
+                            {"first_inside_bin", isoChoice.split->firstUpperBin}};
+    }
     r["dims"] = {info.dims[0], info.dims[1], info.dims[2]};
     if (roi) {
       r["roi"] = {
@@ -492,7 +531,10 @@ int runExtract(const ExtractArgs& args) {
   outputs.commit();
   if (!args.quiet) {
     std::fprintf(stderr, "isoslab: %s at iso %g%s: %llu triangles, %llu vertices, %s, %.2f s -> %s\n",
-                 header.method.c_str(), iso, args.iso ? "" : " (the input's suggestion)",
+                 header.method.c_str(), iso,
+                 args.iso.empty() ? " (the input's suggestion)"
+                 : isoNumber      ? ""
+                                  : fmt::format(" (--iso {})", args.iso).c_str(),
                  static_cast<unsigned long long>(s.triangles), static_cast<unsigned long long>(s.vertices),
                  s.closed() ? "closed" : fmt::format("{} boundary edges", s.boundaryEdges).c_str(), run.totalSeconds,
                  args.output.c_str());
@@ -525,7 +567,35 @@ void printGeometry(const VolumeInfo& info) {
   std::printf("frame      %s\n", info.frame.c_str());
 }
 
-int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
+// `info --histogram`: every bin (empty ones too), the values no bin holds, and Otsu's threshold.
+// Labels take `width` columns after `indent`, as the lines around them do.
+void printHistogram(const ValueHistogram& h, const std::string& indent, int width) {
+  const auto line = [&](const std::string& label, const std::string& text) {
+    std::printf("%s\n", fmt::format("{}{:<{}}{}", indent, label, width, text).c_str());
+  };
+  line("histogram", fmt::format("{} bins of {} over {} .. {} ({}); {} {} over the input", h.bins(),
+                                (h.hi - h.lo) / static_cast<double>(h.bins()), h.lo, h.hi,
+                                h.rangeFromReader ? "the reader's value range" : "the finite values' range", h.passes,
+                                h.passes == 1 ? "pass" : "passes"));
+  line("", fmt::format("{:<7}{:<24}{:<24}{}", "bin", "from", "to", "count"));
+  for (std::size_t b = 0; b < h.bins(); ++b) {
+    line("", fmt::format("{:<7}{:<24}{:<24}{}", b, h.edge(b), h.edge(b + 1), h.counts[b]));
+  }
+  line("", "(a bin holds from <= value < to; the last one also holds its upper edge)");
+  line("non-finite", fmt::format("NaN {}, -inf {}, +inf {}", h.nan, h.negativeInfinity, h.positiveInfinity));
+  if (h.below + h.above > 0) {
+    line("outside",
+         fmt::format("{} below {}, {} above {} (outside the reader's value range)", h.below, h.lo, h.above, h.hi));
+  }
+  if (const auto split = otsuSplit(h)) {
+    line("otsu", fmt::format("{} (over these bins: bins {} .. {} are at or above it; --iso auto takes it over {} bins)",
+                             split->iso, split->firstUpperBin, h.bins() - 1, kAutoIsoBins));
+  } else {
+    line("otsu", "none (fewer than two bins hold values)");
+  }
+}
+
+int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw, std::size_t histogramBins) {
   const SourceOptions options = sourceOptions(raw);
   const bool dicom = !options.raw && !PhantomSource::isPhantom(inputs.front()) &&
                      std::all_of(inputs.begin(), inputs.end(), [](const std::string& in) { return isDicomInput(in); });
@@ -534,8 +604,15 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
     auto source = openSource(inputs, options, &notes);
     std::printf("input      %s\n", inputs.front().c_str());
     printGeometry(source->info());
-    const auto range = valueRange(*source);
+    std::optional<ValueHistogram> histogram;
+    if (histogramBins > 0)
+      histogram = streamHistogram(*source, histogramBins, [&] { return openSource(inputs, options); });
+    const auto range = !histogram              ? valueRange(*source)
+                       : histogram->valueRange ? *histogram->valueRange
+                                               : std::array<double, 2>{std::numeric_limits<double>::infinity(),
+                                                                       -std::numeric_limits<double>::infinity()};
     std::printf("range      %g .. %g\n", range[0], range[1]);
+    if (histogram) printHistogram(*histogram, "", 11);
     for (std::string& n : notes) {
       n = cli::withFlags(n);
       const bool warning = n.rfind("warning: ", 0) == 0;
@@ -597,8 +674,17 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw) {
     for (const std::string& note : s.notes) std::printf("  note           %s\n", note.c_str());
     try {
       auto source = openDicomSeries(s, options.dicom);
-      const auto range = valueRange(*source);
-      std::printf("  value range    %g .. %g (after rescale)\n", range[0], range[1]);
+      if (histogramBins > 0) {
+        const ValueHistogram h =
+            streamHistogram(*source, histogramBins, [&] { return openDicomSeries(s, options.dicom); });
+        const auto range = h.valueRange.value_or(
+            std::array<double, 2>{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()});
+        std::printf("  value range    %g .. %g (after rescale)\n", range[0], range[1]);
+        printHistogram(h, "  ", 15);
+      } else {
+        const auto range = valueRange(*source);
+        std::printf("  value range    %g .. %g (after rescale)\n", range[0], range[1]);
+      }
     } catch (const Error& e) {
       std::printf("  unreadable     %s\n", e.what());
     }
@@ -747,8 +833,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   extract
       ->add_option("--iso", ex.iso,
-                   "Iso value; voxels with value >= iso are inside (default: the input's suggestion, for phantoms)")
-      ->check(finiteNumber());
+                   "Iso value; voxels with value >= iso are inside. A number; auto (Otsu's threshold on the input's "
+                   "histogram, one or two extra passes over it); or for CT bone (300 HU) or skin (-400 HU). Default: "
+                   "the input's suggestion, for phantoms")
+      ->transform(isoValue());
   extract->add_option("--method", ex.method, fmt::format("{}", fmt::join(methodNames(), ", ")))
       ->transform(oneOf("method", methodNames()))
       ->capture_default_str();
@@ -885,6 +973,16 @@ int main(int argc, char** argv) {
   RawArgs infoRaw;
   auto* info = app.add_subcommand("info", "Print a volume's geometry and value range; list DICOM series");
   info->add_option("INPUT", infoInputs, "Volume")->required();
+  bool infoHistogram = false;
+  std::size_t infoBins = kAutoIsoBins;
+  auto* histogramFlag = info->add_flag(
+      "--histogram", infoHistogram,
+      "Also count the values in equal bins over their range (streamed; NaN and infinities apart) and print "
+      "Otsu's threshold");
+  info->add_option("--bins", infoBins, "--histogram: the number of bins")
+      ->check(integerIn(1, kMaxHistogramBins))
+      ->needs(histogramFlag)
+      ->capture_default_str();
   addRawOptions(info, infoRaw);
 
   std::string phantomSpec;
@@ -950,7 +1048,7 @@ int main(int argc, char** argv) {
 
   try {
     if (*extract) return runExtract(ex);
-    if (*info) return runInfo(infoInputs, infoRaw);
+    if (*info) return runInfo(infoInputs, infoRaw, infoHistogram ? infoBins : 0);
     if (*phantom) return runPhantom(phantomSpec, phantomOut, phantomCompress);
     if (*decode) return runDecode(decodeInput, decodeOutput);
     if (*renderCmd) return cli::runRender(renderInput, renderOutput, renderImage);

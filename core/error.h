@@ -5,7 +5,7 @@
 // printed as it is after "isoslab: error: ". Extraction kernels (extract/) do not throw.
 //
 // A message that concerns one of the caller's settings names it in backticks by its snake_case
-// name (`channel`, `series`, `strict`, `spacing`, `raw_dims`, `raw_type`, `nifti_xform`,
+// name (`iso`, `channel`, `series`, `strict`, `spacing`, `raw_dims`, `raw_type`, `nifti_xform`,
 // `draco_level`, `quant_bits`, `chunk_triangles`), never as a command-line flag: a front end spells
 // it its own way (the isoslab program writes --channel; see cli/arguments.h, withFlags).
 #pragma once

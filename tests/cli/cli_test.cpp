@@ -128,8 +128,10 @@ TEST(Cli, UsageErrorsExitWithTwoAndOneLine) {
        "--raw-endian: unknown byte order 'middle' (use little or big)"},
       {"extract " + raw + " --spacing 1,1 --iso 1" + out, "--spacing: '1,1' needs three values"},
       {"extract " + raw + " --iso 1 --sphere 1,2,3" + out, "--sphere: '1,2,3' needs cx,cy,cz,r with r > 0"},
-      {"extract " + raw + out, dir + "/v.raw: --iso is required for this input, whose values range from 0 to 189"},
-      {"extract " + raw + " --iso abc" + out, "Could not convert: --iso = abc (see isoslab extract --help)"},
+      {"extract " + raw + out,
+       dir + "/v.raw: --iso is required for this input, whose values range from 0 to 189; --iso auto takes Otsu's "
+             "threshold"},
+      {"extract " + raw + " --iso abc" + out, "--iso: 'abc' is not a number, auto, bone or skin"},
       {"phantom 'sphere?n=8' -o " + dir + "/p.raw", "sphere?n=8: not a phantom spec (phantom:NAME?key=value&...)"},
       {"extrct 'phantom:sphere?n=16'" + out, "unknown command 'extrct'; did you mean 'extract'?"},
       {"inf x", "unknown command 'inf'; did you mean 'info'?"},
@@ -183,7 +185,8 @@ TEST(Cli, AMissingIsoForCtSuggestsHounsfieldValues) {
   const auto r = runCli("extract " + dir + "/ct.raw --raw-dims 4,4,4 --raw-type i16 -o " + dir + "/out.ply");
   EXPECT_EQ(r.exitCode, 2);
   const std::string hint =
-      "; for CT in Hounsfield units try about 300..400 for bone, -500..-200 for skin or 40 for soft tissue\n";
+      "; for CT in Hounsfield units try about 300..400 for bone, -500..-200 for skin or 40 for soft tissue; --iso "
+      "auto takes Otsu's threshold\n";
   EXPECT_EQ(r.err, "isoslab: error: " + dir + "/ct.raw: --iso is required for this input, whose values range from " +
                        "-1024 to 103" + hint);
   const std::string philips = testing::sharedData("ct-philips-head");
