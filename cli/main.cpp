@@ -39,6 +39,7 @@
 #include "io/phantom.h"
 #include "io/volume_formats.h"
 #include "io/volume_writer.h"
+#include "metrics/components.h"
 #include "metrics/measure.h"
 #include "metrics/mesh_stats.h"
 #include "metrics/report.h"
@@ -448,6 +449,9 @@ int runExtract(const ExtractArgs& args) {
   MeshStatsSink stats;
   std::optional<SphereErrorSink> sphereErrors;
   std::vector<MeshSink*> sinks{writer.get(), &stats};
+  // The report lists the connected components (memory: the live front and the components).
+  std::optional<ComponentSink> components;
+  if (!args.report.empty()) sinks.push_back(&components.emplace());
   if (sphere) {
     sphereErrors.emplace(*sphere);
     sinks.push_back(&*sphereErrors);
@@ -511,6 +515,7 @@ int runExtract(const ExtractArgs& args) {
                        : nlohmann::ordered_json();
     r["warnings"] = warnings;
     addStatsJson(r, s);
+    r["components"] = componentsJson(components->components());
     if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *sphereErrors));
     r["seconds"] = {{"read", run.readSeconds},
                     {"extract", run.extractSeconds},
@@ -698,8 +703,9 @@ int runMetrics(const std::string& input, const std::string& sphereText, const st
   // The volume's faces tell the surface's cut edges from holes; without them, that is unknown.
   if (meta.volumeFaces) mesh.boundary = volumeFaceFlags(mesh.positions, *meta.volumeFaces, meta.positionTolerance);
   MeshStatsSink stats;
+  ComponentSink components;
   std::optional<SphereErrorSink> errors;
-  std::vector<MeshSink*> sinks{&stats};
+  std::vector<MeshSink*> sinks{&stats, &components};
   std::optional<Sphere> sphere;
   if (!sphereText.empty()) {
     sphere = parseSphere(sphereText);
@@ -717,6 +723,7 @@ int runMetrics(const std::string& input, const std::string& sphereText, const st
   r["volume_bounds"] = meta.volumeBounds ? nlohmann::ordered_json(*meta.volumeBounds) : nlohmann::ordered_json();
   addStatsJson(r, s);
   if (!meta.volumeFaces) r["interior_boundary_edges"] = nullptr;
+  r["components"] = componentsJson(components.components());
   if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *errors));
   const std::string text = r.dump(2) + "\n";
   if (reportPath.empty()) {

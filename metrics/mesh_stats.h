@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/mesh_sink.h"
+#include "metrics/edge_tally.h"
 
 namespace isoslab {
 
@@ -55,23 +56,14 @@ class MeshStatsSink final : public MeshSink {
   const MeshStats& stats() const noexcept { return stats_; }
 
  private:
-  // One triangle's use of the edge lo-hi: packed = (hi - lo) << 2 | forward << 1 | onVolumeFace,
-  // where forward means the triangle runs lo -> hi.
-  struct EdgeUse {
-    VertexId lo;
-    VertexId packed;
-  };
-  void settle(VertexId first, VertexId end);
+  void tally(const EdgeTally::Edge& edge);
 
   MeshStats stats_;
   VertexWindow window_;
   std::vector<std::uint8_t> previousBoundary_, currentBoundary_;
   VertexId previousFirst_ = 0, currentFirst_ = 0;
   VertexId currentEnd_ = 0;
-  std::vector<EdgeUse> ready_;  // uses whose lower end is in the previous chunk: complete
-  std::vector<EdgeUse> held_;   // uses whose lower end is in the current chunk
-  std::vector<VertexId> sorted_;
-  std::vector<std::size_t> offsets_;
+  EdgeTally edges_;
   bool haveBounds_ = false;
 };
 

@@ -1,5 +1,8 @@
 #include "metrics/report.h"
 
+#include <algorithm>
+#include <numeric>
+
 namespace isoslab {
 namespace {
 
@@ -36,6 +39,33 @@ void addStatsJson(nlohmann::ordered_json& r, const MeshStats& s) {
   r["inconsistent_edges"] = s.inconsistentEdges;
   r["euler"] = s.euler;
   r["closed"] = s.closed();
+}
+
+nlohmann::ordered_json componentsJson(const std::vector<Component>& components, std::size_t listed) {
+  nlohmann::ordered_json j;
+  j["count"] = components.size();
+  j["closed"] = std::count_if(components.begin(), components.end(), [](const Component& c) { return c.closed(); });
+  std::vector<std::size_t> order(components.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  const auto shown = static_cast<std::ptrdiff_t>(std::min(listed, order.size()));
+  std::partial_sort(order.begin(), order.begin() + shown, order.end(), [&](std::size_t a, std::size_t b) {
+    return components[a].triangles != components[b].triangles ? components[a].triangles > components[b].triangles
+                                                              : a < b;
+  });
+  nlohmann::ordered_json largest = nlohmann::ordered_json::array();
+  for (auto i = order.begin(); i != order.begin() + shown; ++i) {
+    const Component& c = components[*i];
+    nlohmann::ordered_json e;
+    e["id"] = c.id;
+    e["triangles"] = c.triangles;
+    e["area"] = c.area;
+    e["volume"] = c.volume;
+    e["bounds"] = c.bounds;
+    e["closed"] = c.closed();
+    largest.push_back(std::move(e));
+  }
+  j["largest"] = std::move(largest);
+  return j;
 }
 
 nlohmann::ordered_json sphereJson(const SphereReport& r) {

@@ -3,6 +3,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "metrics/components.h"
 #include "metrics/mesh_stats.h"
 #include "metrics/sphere_metrics.h"
 
@@ -12,6 +13,11 @@ namespace isoslab {
 /// volume, volume_cells (null without tetrahedra), edges, boundary_edges, interior_boundary_edges,
 /// nonmanifold_edges, inconsistent_edges, euler, closed.
 void addStatsJson(nlohmann::ordered_json& r, const MeshStats& s);
+
+/// The connected components: {"count", "closed" (how many are), "largest": up to `listed` of
+/// them by triangle count (ties by id), each {"id", "triangles", "area", "volume", "bounds",
+/// "closed"}}.
+nlohmann::ordered_json componentsJson(const std::vector<Component>& components, std::size_t listed = 10);
 
 /// The paper's measures: {"centre", "radius", "vertex": {...}, "centroid": {...}, "area_error", ...}.
 nlohmann::ordered_json sphereJson(const SphereReport& r);

@@ -41,6 +41,38 @@ TEST(Cli, ExtractWritesMeshAndReport) {
   EXPECT_EQ(testing::fileCount(dir), 2);
 }
 
+TEST(Cli, ReportListsTheComponentsAndMetricsOfTheWrittenMeshAgrees) {
+  const std::string dir = testing::tempDir();
+  for (const char* close : {"", " --close-boundary"}) {
+    SCOPED_TRACE(close);
+    const auto r = runCli("extract 'phantom:head?n=48,40,36' --iso -400 -q -o " + dir + "/h.ply --report " + dir +
+                          "/r.json" + close);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+    const auto& c = report["components"];
+    ASSERT_EQ(c["count"], 1);
+    EXPECT_EQ(c["closed"], *close ? 1 : 0);
+    ASSERT_EQ(c["largest"].size(), 1u);
+    EXPECT_EQ(c["largest"][0]["id"], 0);
+    EXPECT_EQ(c["largest"][0]["triangles"], report["triangles"]);
+    EXPECT_EQ(c["largest"][0]["closed"], report["closed"]);
+    EXPECT_NEAR(c["largest"][0]["area"].get<double>(), report["area"].get<double>(),
+                1e-9 * report["area"].get<double>());
+    EXPECT_EQ(c["largest"][0]["bounds"], report["bounds"]);
+    const auto m = runCli("metrics " + dir + "/h.ply");
+    ASSERT_EQ(m.exitCode, 0) << m.err;
+    // The file is one chunk: the same components, their sums rounded in another order.
+    auto fromFile = nlohmann::json::parse(m.out)["components"];
+    EXPECT_NEAR(fromFile["largest"][0]["area"].get<double>(), c["largest"][0]["area"].get<double>(),
+                1e-9 * c["largest"][0]["area"].get<double>());
+    EXPECT_NEAR(fromFile["largest"][0]["volume"].get<double>(), c["largest"][0]["volume"].get<double>(),
+                1e-9 * std::abs(c["largest"][0]["volume"].get<double>()));
+    fromFile["largest"][0]["area"] = c["largest"][0]["area"];
+    fromFile["largest"][0]["volume"] = c["largest"][0]["volume"];
+    EXPECT_EQ(fromFile, c);
+  }
+}
+
 TEST(Cli, PhantomStreamedFromMemoryOrFromItsRawFileGivesTheSameBytes) {
   const std::string dir = testing::tempDir();
   const std::string spec = "'phantom:head?n=48,40,36'";

@@ -1,0 +1,226 @@
+// Connected components of a streamed mesh by union-find over the live front (see components.h).
+// Union-find with path halving (Tarjan, "Efficiency of a good but not linear set union
+// algorithm", 1975); the front is rebased after every chunk, so ids stay small and dense.
+#include "metrics/components.h"
+
+#include <algorithm>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "metrics/triangle_measure.h"
+
+namespace isoslab {
+namespace {
+
+void extend(std::array<double, 6>& bounds, const Vec3f& p) {
+  const double c[3] = {p.x, p.y, p.z};
+  for (std::size_t a = 0; a < 3; ++a) {
+    bounds[a] = std::min(bounds[a], c[a]);
+    bounds[a + 3] = std::max(bounds[a + 3], c[a]);
+  }
+}
+
+// Adds the measures of `from` to `into` (the records of two parts that a triangle joins).
+void merge(Component& into, const Component& from) {
+  into.firstVertex = std::min(into.firstVertex, from.firstVertex);
+  into.triangles += from.triangles;
+  into.area += from.area;
+  into.volume += from.volume;
+  for (std::size_t a = 0; a < 3; ++a) {
+    into.bounds[a] = std::min(into.bounds[a], from.bounds[a]);
+    into.bounds[a + 3] = std::max(into.bounds[a + 3], from.bounds[a + 3]);
+  }
+  into.boundaryEdges += from.boundaryEdges;
+  into.interiorBoundaryEdges += from.interiorBoundaryEdges;
+  into.nonManifoldEdges += from.nonManifoldEdges;
+}
+
+}  // namespace
+
+void ComponentSink::begin(const MeshHeader&) {
+  window_ = VertexWindow{};
+  previousBoundary_.clear();
+  currentBoundary_.clear();
+  previousFirst_ = currentFirst_ = currentEnd_ = 0;
+  edges_.clear();
+  frontFirst_ = 0;
+  parent_.clear();
+  record_.clear();
+  live_.clear();
+  inUse_.clear();
+  freeRecords_.clear();
+  touched_.clear();
+  chunks_ = 0;
+  finished_.clear();
+  liveCount_ = peakLive_ = 0;
+}
+
+std::uint32_t ComponentSink::find(std::uint32_t slot) noexcept {
+  while (parent_[slot] != slot) {
+    parent_[slot] = parent_[parent_[slot]];
+    slot = parent_[slot];
+  }
+  return slot;
+}
+
+// Joins the parts rooted at a and b under a; their records, if both have one, merge into a's.
+void ComponentSink::join(std::uint32_t a, std::uint32_t b) {
+  if (a == b) return;
+  parent_[b] = a;
+  const std::uint32_t from = std::exchange(record_[b], kNoRecord);
+  if (from == kNoRecord) return;
+  if (record_[a] == kNoRecord) {
+    record_[a] = from;
+    return;
+  }
+  merge(live_[record_[a]], live_[from]);
+  inUse_[from] = 0;
+  freeRecords_.push_back(from);
+  --liveCount_;
+}
+
+void ComponentSink::consume(const MeshChunk& chunk) {
+  if (chunk.firstVertex != currentEnd_) {
+    throw Error(fmt::format("slab {}: the chunk's vertices start at id {}, not at {} where the previous chunk's ended",
+                            chunk.slab, chunk.firstVertex, currentEnd_));
+  }
+  window_.push(chunk);
+  std::swap(previousBoundary_, currentBoundary_);
+  currentBoundary_ = chunk.boundary;
+  previousFirst_ = currentFirst_;
+  currentFirst_ = chunk.firstVertex;
+  currentEnd_ = chunk.endVertex();
+  auto boundaryOf = [&](VertexId v) -> std::uint8_t {
+    if (v >= currentFirst_) return currentBoundary_.empty() ? 0 : currentBoundary_[v - currentFirst_];
+    return previousBoundary_.empty() ? 0 : previousBoundary_[v - previousFirst_];
+  };
+
+  // The front gains the chunk's vertices, each a part of its own without a record.
+  for (VertexId v = currentFirst_; v < currentEnd_; ++v) {
+    parent_.push_back(slotOf(v));
+    record_.push_back(kNoRecord);
+  }
+
+  for (const Triangle& t : chunk.triangles) {
+    for (VertexId v : t) {
+      if (v < previousFirst_ || v >= currentEnd_) {
+        throw Error(
+            fmt::format("slab {}: a triangle uses vertex {}, outside this chunk and the previous one", chunk.slab, v));
+      }
+    }
+    const std::uint32_t root = find(slotOf(t[0]));
+    join(root, find(slotOf(t[1])));
+    join(root, find(slotOf(t[2])));
+    const Vec3f& a = window_.position(t[0]);
+    const Vec3f& b = window_.position(t[1]);
+    const Vec3f& c = window_.position(t[2]);
+    if (record_[root] == kNoRecord) {
+      if (freeRecords_.empty()) {
+        freeRecords_.push_back(static_cast<std::uint32_t>(live_.size()));
+        live_.emplace_back();
+        inUse_.push_back(0);
+        touched_.push_back(0);
+      }
+      record_[root] = freeRecords_.back();
+      freeRecords_.pop_back();
+      Component& fresh = live_[record_[root]];
+      fresh = Component{};
+      fresh.firstVertex = t[0];
+      fresh.bounds = {a.x, a.y, a.z, a.x, a.y, a.z};
+      inUse_[record_[root]] = 1;
+      ++liveCount_;
+    }
+    Component& part = live_[record_[root]];
+    part.firstVertex = std::min({part.firstVertex, t[0], t[1], t[2]});
+    ++part.triangles;
+    const TriangleMeasure m = measureTriangle(a, b, c);
+    part.area += 0.5 * m.twiceArea;
+    part.volume += m.volume;
+    extend(part.bounds, a);
+    extend(part.bounds, b);
+    extend(part.bounds, c);
+    for (std::size_t k = 0; k < 3; ++k) {
+      const VertexId from = t[k];
+      const VertexId to = t[(k + 1) % 3];
+      edges_.add(from, to, (boundaryOf(from) & boundaryOf(to)) != 0, currentFirst_);
+    }
+  }
+  peakLive_ = std::max(peakLive_, liveCount_);
+  // The previous chunk's edges are complete, and so is every part that this chunk did not reach.
+  edges_.settle(previousFirst_, currentFirst_, [this](const EdgeTally::Edge& e) { settleEdge(e); });
+  retire();
+}
+
+void ComponentSink::settleEdge(const EdgeTally::Edge& e) {
+  const std::uint32_t r = record_[find(slotOf(e.lo))];
+  assert(r != kNoRecord);
+  Component& part = live_[r];
+  if (e.uses == 1) {
+    ++part.boundaryEdges;
+    if (!e.onVolumeFace) ++part.interiorBoundaryEdges;
+  } else if (e.uses > 2) {
+    ++part.nonManifoldEdges;
+  }
+}
+
+// Moves the components that the current chunk did not reach to the finished list, then drops the
+// previous chunk from the front: each part still live gets a root among the current chunk's
+// vertices (the first of them that it holds).
+void ComponentSink::retire() {
+  ++chunks_;
+  const std::uint32_t offset = slotOf(currentFirst_);
+  const auto count = static_cast<std::uint32_t>(parent_.size()) - offset;
+  roots_.resize(count);
+  for (std::uint32_t s = 0; s < count; ++s) {
+    roots_[s] = find(offset + s);
+    if (record_[roots_[s]] != kNoRecord) touched_[record_[roots_[s]]] = chunks_;
+  }
+  for (std::uint32_t r = 0; r < live_.size(); ++r) {
+    if (inUse_[r] && touched_[r] != chunks_) {
+      finished_.push_back(live_[r]);
+      inUse_[r] = 0;
+      freeRecords_.push_back(r);
+      --liveCount_;
+    }
+  }
+  remap_.assign(offset, kNoRecord);
+  nextParent_.resize(count);
+  nextRecord_.assign(count, kNoRecord);
+  for (std::uint32_t s = 0; s < count; ++s) {
+    const std::uint32_t r = roots_[s];
+    if (r >= offset) {
+      nextParent_[s] = r - offset;
+      if (r == offset + s) nextRecord_[s] = record_[r];
+    } else if (remap_[r] == kNoRecord) {
+      remap_[r] = s;
+      nextParent_[s] = s;
+      nextRecord_[s] = record_[r];
+    } else {
+      nextParent_[s] = remap_[r];
+    }
+  }
+  std::swap(parent_, nextParent_);
+  std::swap(record_, nextRecord_);
+  frontFirst_ = currentFirst_;
+}
+
+void ComponentSink::finish() {
+  edges_.settle(currentFirst_, currentEnd_, [this](const EdgeTally::Edge& e) { settleEdge(e); });
+  for (std::uint32_t r = 0; r < live_.size(); ++r) {
+    if (inUse_[r]) finished_.push_back(live_[r]);
+  }
+  std::sort(finished_.begin(), finished_.end(),
+            [](const Component& a, const Component& b) { return a.firstVertex < b.firstVertex; });
+  for (std::size_t i = 0; i < finished_.size(); ++i) finished_[i].id = i;
+  parent_.clear();
+  record_.clear();
+  live_.clear();
+  inUse_.clear();
+  freeRecords_.clear();
+  touched_.clear();
+  liveCount_ = 0;
+}
+
+}  // namespace isoslab

@@ -1,0 +1,87 @@
+// A sink that finds the connected components of the mesh streaming past (triangles joined through
+// shared vertices) and measures each one, with memory that follows the live front of the stream
+// and the number of components, never the mesh.
+//
+// Union-find runs over the front only: the vertices of the last two chunks, since a triangle uses
+// only vertices of its own chunk and the one before (core/mesh_sink.h). Each root of the front
+// that some triangle uses owns a component record. After a chunk, a component none of whose
+// vertices lies in that chunk can grow no more: its edges have all been settled (EdgeTally), so
+// it is final, and its record moves to the finished list. The front then drops the older chunk.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/mesh_sink.h"
+#include "metrics/edge_tally.h"
+
+namespace isoslab {
+
+struct Component {
+  /// The component's number: its rank by firstVertex, so the same for every thread count and for
+  /// any split of the stream into chunks (`isoslab metrics` of a written PLY gives the same ids).
+  std::uint64_t id = 0;
+  /// The smallest vertex id that a triangle of the component uses.
+  VertexId firstVertex = 0;
+  std::uint64_t triangles = 0;
+  double area = 0;
+  /// Enclosed volume by the divergence theorem, signed as MeshStats::volume.
+  double volume = 0;
+  /// xmin ymin zmin xmax ymax zmax of its triangles' vertices.
+  std::array<double, 6> bounds{};
+  /// Its edges used by one triangle, those of them not on a face of the volume, and those used by
+  /// more than two (as in MeshStats).
+  std::uint64_t boundaryEdges = 0;
+  std::uint64_t interiorBoundaryEdges = 0;
+  std::uint64_t nonManifoldEdges = 0;
+
+  bool closed() const noexcept { return boundaryEdges == 0 && nonManifoldEdges == 0; }
+  friend bool operator==(const Component&, const Component&) = default;
+};
+
+class ComponentSink final : public MeshSink {
+ public:
+  void begin(const MeshHeader& header) override;
+  /// Throws isoslab::Error when the chunk breaks the streaming contract.
+  void consume(const MeshChunk& chunk) override;
+  void finish() override;
+
+  /// Every component, by id (ascending firstVertex); complete after finish().
+  const std::vector<Component>& components() const noexcept { return finished_; }
+  /// The most components that were live (not yet final) at once: what memory follows.
+  std::size_t peakLive() const noexcept { return peakLive_; }
+
+ private:
+  static constexpr std::uint32_t kNoRecord = 0xffffffffu;
+
+  std::uint32_t find(std::uint32_t slot) noexcept;
+  std::uint32_t slotOf(VertexId v) const noexcept { return v - frontFirst_; }
+  void join(std::uint32_t a, std::uint32_t b);
+  void settleEdge(const EdgeTally::Edge& e);
+  void retire();
+
+  VertexWindow window_;
+  std::vector<std::uint8_t> previousBoundary_, currentBoundary_;
+  VertexId previousFirst_ = 0, currentFirst_ = 0, currentEnd_ = 0;
+  EdgeTally edges_;
+  // The front: union-find over vertex ids frontFirst_ .. frontFirst_ + parent_.size() - 1 (the
+  // previous and the current chunk), indexed by slot = id - frontFirst_. record_[root] is the index
+  // in live_ of the component that the root stands for, or kNoRecord (a vertex no triangle uses).
+  VertexId frontFirst_ = 0;
+  std::vector<std::uint32_t> parent_;
+  std::vector<std::uint32_t> record_;
+  std::vector<Component> live_;      // records; merged-away ones are recycled through freeRecords_
+  std::vector<std::uint8_t> inUse_;  // per record of live_: 1 while it stands for a component
+  std::vector<std::uint32_t> freeRecords_;
+  std::vector<std::uint32_t> touched_;  // per record: the chunk count when a vertex of it was last seen
+  std::uint32_t chunks_ = 0;
+  std::vector<Component> finished_;
+  // Scratch of retire().
+  std::vector<std::uint32_t> roots_, remap_, nextParent_, nextRecord_;
+  std::size_t liveCount_ = 0;
+  std::size_t peakLive_ = 0;
+};
+
+}  // namespace isoslab
