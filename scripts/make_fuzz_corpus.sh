@@ -125,6 +125,9 @@ for m in range(6):  # the method index: bits 0-1 and 6 of the flags
     put("extract", f"ball_m{m}", bytes([4, 4, 4, bits | 4 | 8, 128 + 20]) + ball)
     put("extract", f"saddle_m{m}", bytes([3, 3, 3, bits | 16, 128]) + saddle)
     put("extract", f"special_m{m}", bytes([2, 2, 2, bits | 32 | 8, 1]) + special)
+# --close-boundary (bit 7) with every method, on the ball cut by the volume's faces.
+for m in range(6):
+    put("extract", f"capped_m{m}", bytes([4, 4, 4, (m & 3) | (m & 4) << 4 | 4 | 8 | 128, 128 + 20]) + ball)
 # mc33 (method 5) on an 8^3 field of few levels around iso 0: many ambiguous faces and tunnels.
 levels = [100, 156, 120, 136, 128, 129, 127]
 put("extract", "mc33_saddles", bytes([6, 6, 6, 1 | 64 | 8, 128]) +

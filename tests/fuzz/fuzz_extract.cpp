@@ -8,8 +8,9 @@
 //
 // Input:
 //   0..2  dims: 2 + byte % 7 (2..8)
-//   3     bits 0-1 and 6 the method (an index into kMethods, modulo their count); bit 2 normals; bit 3 compare with 2 threads; bits 4-5 the frame: voxel,
-//         anisotropic spacing, a left-handed direction, uneven slice origins
+//   3     bits 0-1 and 6 the method (an index into kMethods, modulo their count); bit 2 normals;
+//         bit 7 --close-boundary (then no boundary edge at all); bit 3 compare with 2 threads; bits 4-5 the frame:
+//         voxel, anisotropic spacing, a left-handed direction, uneven slice origins
 //   4     iso: 0 NaN, 1 +inf, 2 -inf, 3 the next 8 bytes as a double, 4 FLT_MAX, else (b - 128) / 4
 //   then one byte per voxel, x fastest (missing bytes are 0): 255 NaN, 254 +inf, 253 -inf,
 //   252 FLT_MAX, 251 -FLT_MAX, 250 the smallest subnormal, else (b - 128) / 4
@@ -24,6 +25,7 @@
 #include "extract/extractor.h"
 #include "extract/frame.h"
 #include "fuzz_support.h"
+#include "io/pad_source.h"
 #include "metrics/mesh_stats.h"
 #include "stream/pipeline.h"
 
@@ -113,10 +115,11 @@ float voxel(std::uint8_t b) {
 
 IndexedMesh run(const VolumeInfo& info, const std::vector<float>& values, const ExtractOptions& options, int threads,
                 bool check) {
-  MemorySource source(info, values);
+  std::unique_ptr<SliceSource> source = std::make_unique<MemorySource>(info, values);
   const LatticeFrame frame = LatticeFrame::physical(info);
   auto extractor = makeExtractor(options, info, frame);
   const MeshHeader header = extractionHeader(options, info, frame, *extractor);
+  if (options.closeBoundary) source = std::make_unique<PadSource>(std::move(source));
   MemoryMeshSink memory;
   MeshStatsSink stats;
   CheckSink checks(frame.bounds(info.dims), options.normals);
@@ -124,16 +127,18 @@ IndexedMesh run(const VolumeInfo& info, const std::vector<float>& values, const 
   PipelineOptions pipeline;
   pipeline.threads = threads;
   try {
-    runPipeline(source, *extractor, tee, header, pipeline);
+    runPipeline(*source, *extractor, tee, header, pipeline);
   } catch (const Error& e) {
     fuzz::fail(fmt::format("extraction threw: {}", e.what()));
   }
   if (check) {
     const MeshStats& s = stats.stats();
-    if (s.nonManifoldEdges != 0 || s.inconsistentEdges != 0 || s.interiorBoundaryEdges != 0) {
-      fuzz::fail(fmt::format("{} iso {}: {} non-manifold, {} inconsistent and {} interior boundary edges",
-                             methodName(options.method), options.iso, s.nonManifoldEdges, s.inconsistentEdges,
-                             s.interiorBoundaryEdges));
+    if (s.nonManifoldEdges != 0 || s.inconsistentEdges != 0 || s.interiorBoundaryEdges != 0 ||
+        (options.closeBoundary && s.boundaryEdges != 0)) {
+      fuzz::fail(
+          fmt::format("{} iso {}{}: {} non-manifold, {} inconsistent, {} interior boundary and {} boundary edges",
+                      methodName(options.method), options.iso, options.closeBoundary ? " capped" : "",
+                      s.nonManifoldEdges, s.inconsistentEdges, s.interiorBoundaryEdges, s.boundaryEdges));
     }
   }
   return memory.mesh();
@@ -153,6 +158,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const unsigned methodIndex = (flags & 3u) | ((flags >> 4) & 4u);
   options.method = kMethods[methodIndex % std::size(kMethods)];
   options.normals = (flags & 4) != 0;
+  options.closeBoundary = (flags & 128) != 0;
   const bool compareThreads = (flags & 8) != 0;
   switch ((flags >> 4) & 3) {
     case 0:
