@@ -431,6 +431,32 @@ TEST(Cli, InfoShowsTheTiltFirstPositionExtentAndThicknessOfDicomSeries) {
   }
 }
 
+// --close-boundary caps at the --roi box's faces: a box through the middle of a sphere gives one
+// closed piece, whose volume is the sphere's inside the box (a half ball: 2/3 pi r^3, within the
+// extraction's error), and the same bytes for 1 and 3 threads.
+TEST(Cli, CloseBoundaryCapsAtTheRoiFaces) {
+  const std::string dir = testing::tempDir();
+  std::string first;
+  for (int threads : {1, 3}) {
+    const auto r = testing::runCli(
+        fmt::format("extract 'phantom:sphere?n=48&r=15&c=24,24,24&field=distance' --iso 850 --roi 0,0,24,47,47,47 "
+                    "--close-boundary --threads {} -q -o {}/h{}.ply --report {}/r{}.json",
+                    threads, dir, threads, dir, threads));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto report = nlohmann::json::parse(slurp(fmt::format("{}/r{}.json", dir, threads)));
+    EXPECT_EQ(report["boundary_edges"], 0);
+    EXPECT_EQ(report["nonmanifold_edges"], 0);
+    EXPECT_EQ(report["euler"], 2);
+    EXPECT_EQ(report["components"]["count"], 1);
+    EXPECT_NEAR(report["volume"].get<double>() / (2.0 / 3.0 * 3.14159265358979 * 15 * 15 * 15), 1.0, 0.01);
+    const std::string bytes = slurp(fmt::format("{}/h{}.ply", dir, threads));
+    if (threads == 1)
+      first = bytes;
+    else
+      EXPECT_TRUE(bytes == first);
+  }
+}
+
 TEST(Cli, OutputBytesAreTheSameForEveryThreadCount) {
   const std::string dir = testing::tempDir();
   for (const std::string& method : methodNames()) {
