@@ -145,8 +145,8 @@ std::vector<double> parseList(const std::string& text, const std::string& option
 
 std::string withFlags(const std::string& text) {
   // The settings of SourceOptions and WriterOptions that have an option of the same name.
-  static const char* const kSettings[] = {"iso",         "series",      "strict",     "skip_bad",       "channel",
-                                          "nifti_xform", "raw_dims",    "raw_type",   "raw_endian",     "raw_offset",
+  static const char* const kSettings[] = {"iso",         "series",      "strict",     "skip_bad",        "channel",
+                                          "nifti_xform", "raw_dims",    "raw_type",   "raw_endian",      "raw_offset",
                                           "spacing",     "draco_level", "quant_bits", "chunk_triangles", "roi"};
   std::string out;
   std::size_t at = 0;
