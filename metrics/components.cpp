@@ -40,21 +40,23 @@ void merge(Component& into, const Component& from) {
 }  // namespace
 
 void ComponentSink::begin(const MeshHeader&) {
-  window_ = VertexWindow{};
-  previousBoundary_.clear();
-  currentBoundary_.clear();
-  previousFirst_ = currentFirst_ = currentEnd_ = 0;
+  front_.reset();
   edges_.clear();
   frontFirst_ = 0;
+  clearLive();
+  chunks_ = 0;
+  finished_.clear();
+  peakLive_ = 0;
+}
+
+void ComponentSink::clearLive() {
   parent_.clear();
   record_.clear();
   live_.clear();
   inUse_.clear();
   freeRecords_.clear();
   touched_.clear();
-  chunks_ = 0;
-  finished_.clear();
-  liveCount_ = peakLive_ = 0;
+  liveCount_ = 0;
 }
 
 std::uint32_t ComponentSink::find(std::uint32_t slot) noexcept {
@@ -82,30 +84,20 @@ void ComponentSink::join(std::uint32_t a, std::uint32_t b) {
 }
 
 void ComponentSink::consume(const MeshChunk& chunk) {
-  if (chunk.firstVertex != currentEnd_) {
-    throw Error(fmt::format("slab {}: the chunk's vertices start at id {}, not at {} where the previous chunk's ended",
-                            chunk.slab, chunk.firstVertex, currentEnd_));
-  }
-  window_.push(chunk);
-  std::swap(previousBoundary_, currentBoundary_);
-  currentBoundary_ = chunk.boundary;
-  previousFirst_ = currentFirst_;
-  currentFirst_ = chunk.firstVertex;
-  currentEnd_ = chunk.endVertex();
-  auto boundaryOf = [&](VertexId v) -> std::uint8_t {
-    if (v >= currentFirst_) return currentBoundary_.empty() ? 0 : currentBoundary_[v - currentFirst_];
-    return previousBoundary_.empty() ? 0 : previousBoundary_[v - previousFirst_];
-  };
+  front_.advance(chunk);
+  const VertexId previousFirst = front_.previousFirst();
+  const VertexId currentFirst = front_.currentFirst();
+  const VertexId currentEnd = front_.currentEnd();
 
   // The front gains the chunk's vertices, each a part of its own without a record.
-  for (VertexId v = currentFirst_; v < currentEnd_; ++v) {
+  for (VertexId v = currentFirst; v < currentEnd; ++v) {
     parent_.push_back(slotOf(v));
     record_.push_back(kNoRecord);
   }
 
   for (const Triangle& t : chunk.triangles) {
     for (VertexId v : t) {
-      if (v < previousFirst_ || v >= currentEnd_) {
+      if (v < previousFirst || v >= currentEnd) {
         throw Error(
             fmt::format("slab {}: a triangle uses vertex {}, outside this chunk and the previous one", chunk.slab, v));
       }
@@ -113,9 +105,9 @@ void ComponentSink::consume(const MeshChunk& chunk) {
     const std::uint32_t root = find(slotOf(t[0]));
     join(root, find(slotOf(t[1])));
     join(root, find(slotOf(t[2])));
-    const Vec3f& a = window_.position(t[0]);
-    const Vec3f& b = window_.position(t[1]);
-    const Vec3f& c = window_.position(t[2]);
+    const Vec3f& a = front_.position(t[0]);
+    const Vec3f& b = front_.position(t[1]);
+    const Vec3f& c = front_.position(t[2]);
     if (record_[root] == kNoRecord) {
       if (freeRecords_.empty()) {
         freeRecords_.push_back(static_cast<std::uint32_t>(live_.size()));
@@ -144,12 +136,12 @@ void ComponentSink::consume(const MeshChunk& chunk) {
     for (std::size_t k = 0; k < 3; ++k) {
       const VertexId from = t[k];
       const VertexId to = t[(k + 1) % 3];
-      edges_.add(from, to, (boundaryOf(from) & boundaryOf(to)) != 0, currentFirst_);
+      edges_.add(from, to, (front_.boundary(from) & front_.boundary(to)) != 0, currentFirst);
     }
   }
   peakLive_ = std::max(peakLive_, liveCount_);
   // The previous chunk's edges are complete, and so is every part that this chunk did not reach.
-  edges_.settle(previousFirst_, currentFirst_, [this](const EdgeTally::Edge& e) { settleEdge(e); });
+  edges_.settle(previousFirst, currentFirst, [this](const EdgeTally::Edge& e) { settleEdge(e); });
   retire();
 }
 
@@ -170,7 +162,7 @@ void ComponentSink::settleEdge(const EdgeTally::Edge& e) {
 // vertices (the first of them that it holds).
 void ComponentSink::retire() {
   ++chunks_;
-  const std::uint32_t offset = slotOf(currentFirst_);
+  const std::uint32_t offset = slotOf(front_.currentFirst());
   const auto count = static_cast<std::uint32_t>(parent_.size()) - offset;
   roots_.resize(count);
   for (std::uint32_t s = 0; s < count; ++s) {
@@ -203,24 +195,18 @@ void ComponentSink::retire() {
   }
   std::swap(parent_, nextParent_);
   std::swap(record_, nextRecord_);
-  frontFirst_ = currentFirst_;
+  frontFirst_ = front_.currentFirst();
 }
 
 void ComponentSink::finish() {
-  edges_.settle(currentFirst_, currentEnd_, [this](const EdgeTally::Edge& e) { settleEdge(e); });
+  edges_.settle(front_.currentFirst(), front_.currentEnd(), [this](const EdgeTally::Edge& e) { settleEdge(e); });
   for (std::uint32_t r = 0; r < live_.size(); ++r) {
     if (inUse_[r]) finished_.push_back(live_[r]);
   }
   std::sort(finished_.begin(), finished_.end(),
             [](const Component& a, const Component& b) { return a.firstVertex < b.firstVertex; });
   for (std::size_t i = 0; i < finished_.size(); ++i) finished_[i].id = i;
-  parent_.clear();
-  record_.clear();
-  live_.clear();
-  inUse_.clear();
-  freeRecords_.clear();
-  touched_.clear();
-  liveCount_ = 0;
+  clearLive();
 }
 
 }  // namespace isoslab

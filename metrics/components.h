@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/mesh_sink.h"
+#include "metrics/chunk_front.h"
 #include "metrics/edge_tally.h"
 
 namespace isoslab {
@@ -61,10 +62,9 @@ class ComponentSink final : public MeshSink {
   void join(std::uint32_t a, std::uint32_t b);
   void settleEdge(const EdgeTally::Edge& e);
   void retire();
+  void clearLive();
 
-  VertexWindow window_;
-  std::vector<std::uint8_t> previousBoundary_, currentBoundary_;
-  VertexId previousFirst_ = 0, currentFirst_ = 0, currentEnd_ = 0;
+  ChunkFront front_;
   EdgeTally edges_;
   // The front: union-find over vertex ids frontFirst_ .. frontFirst_ + parent_.size() - 1 (the
   // previous and the current chunk), indexed by slot = id - frontFirst_. record_[root] is the index

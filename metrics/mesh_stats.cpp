@@ -12,29 +12,15 @@ namespace isoslab {
 
 void MeshStatsSink::begin(const MeshHeader& header) {
   stats_ = MeshStats{};
-  window_ = VertexWindow{};
-  previousBoundary_.clear();
-  currentBoundary_.clear();
-  previousFirst_ = currentFirst_ = currentEnd_ = 0;
+  front_.reset();
   edges_.clear();
   haveBounds_ = false;
   if (header.cellVolumes) stats_.cellVolume = 0.0;
 }
 
 void MeshStatsSink::consume(const MeshChunk& chunk) {
-  if (chunk.firstVertex != currentEnd_) {
-    throw Error(fmt::format("slab {}: the chunk's vertices start at id {}, not at {} where the previous chunk's ended",
-                            chunk.slab, chunk.firstVertex, currentEnd_));
-  }
-  window_.push(chunk);
-  std::swap(previousBoundary_, currentBoundary_);
-  currentBoundary_ = chunk.boundary;
-  previousFirst_ = currentFirst_;
-  currentFirst_ = chunk.firstVertex;
-  auto boundaryOf = [&](VertexId v) -> std::uint8_t {
-    if (v >= currentFirst_) return currentBoundary_.empty() ? 0 : currentBoundary_[v - currentFirst_];
-    return previousBoundary_.empty() ? 0 : previousBoundary_[v - previousFirst_];
-  };
+  front_.advance(chunk);
+  const VertexId previousFirst = front_.previousFirst();
 
   stats_.vertices += chunk.positions.size();
   for (const Vec3f& p : chunk.positions) {
@@ -51,25 +37,24 @@ void MeshStatsSink::consume(const MeshChunk& chunk) {
 
   for (const Triangle& t : chunk.triangles) {
     for (VertexId v : t) {
-      if (v < previousFirst_ || v >= chunk.endVertex()) {
+      if (v < previousFirst || v >= chunk.endVertex()) {
         throw Error(
             fmt::format("slab {}: a triangle uses vertex {}, outside this chunk and the previous one", chunk.slab, v));
       }
     }
-    const TriangleMeasure m = measureTriangle(window_.position(t[0]), window_.position(t[1]), window_.position(t[2]));
+    const TriangleMeasure m = measureTriangle(front_.position(t[0]), front_.position(t[1]), front_.position(t[2]));
     stats_.area += 0.5 * m.twiceArea;
     if (m.twiceArea == 0) ++stats_.degenerateTriangles;
     stats_.volume += m.volume;
     for (int k = 0; k < 3; ++k) {
       const VertexId from = t[static_cast<std::size_t>(k)];
       const VertexId to = t[static_cast<std::size_t>((k + 1) % 3)];
-      edges_.add(from, to, (boundaryOf(from) & boundaryOf(to)) != 0, chunk.firstVertex);
+      edges_.add(from, to, (front_.boundary(from) & front_.boundary(to)) != 0, chunk.firstVertex);
     }
   }
   stats_.triangles += chunk.triangles.size();
   // No later triangle uses the previous chunk's vertices: their edges are complete.
-  edges_.settle(previousFirst_, chunk.firstVertex, [this](const EdgeTally::Edge& e) { tally(e); });
-  currentEnd_ = chunk.endVertex();
+  edges_.settle(previousFirst, chunk.firstVertex, [this](const EdgeTally::Edge& e) { tally(e); });
 }
 
 void MeshStatsSink::tally(const EdgeTally::Edge& e) {
@@ -85,7 +70,7 @@ void MeshStatsSink::tally(const EdgeTally::Edge& e) {
 }
 
 void MeshStatsSink::finish() {
-  edges_.settle(currentFirst_, currentEnd_, [this](const EdgeTally::Edge& e) { tally(e); });
+  edges_.settle(front_.currentFirst(), front_.currentEnd(), [this](const EdgeTally::Edge& e) { tally(e); });
   stats_.euler = static_cast<std::int64_t>(stats_.vertices) - static_cast<std::int64_t>(stats_.edges) +
                  static_cast<std::int64_t>(stats_.triangles);
 }

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/mesh_sink.h"
+#include "metrics/chunk_front.h"
 #include "metrics/edge_tally.h"
 
 namespace isoslab {
@@ -59,10 +60,7 @@ class MeshStatsSink final : public MeshSink {
   void tally(const EdgeTally::Edge& edge);
 
   MeshStats stats_;
-  VertexWindow window_;
-  std::vector<std::uint8_t> previousBoundary_, currentBoundary_;
-  VertexId previousFirst_ = 0, currentFirst_ = 0;
-  VertexId currentEnd_ = 0;
+  ChunkFront front_;
   EdgeTally edges_;
   bool haveBounds_ = false;
 };
