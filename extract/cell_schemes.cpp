@@ -28,6 +28,15 @@ void addTet(CellScheme& s, std::vector<Tetrahedron>& list, int a, int b, int c, 
                    static_cast<std::uint8_t>(d)}});
 }
 
+// The corners of the cell's face (axis, side) in cyclic order (u, v) = (0,0), (1,0), (1,1), (0,1),
+// with u = (axis + 1) % 3 and v = (axis + 2) % 3.
+std::array<int, 4> faceRing(int axis, int side) {
+  const int u = 1 << ((axis + 1) % 3);
+  const int v = 1 << ((axis + 2) % 3);
+  const int base = side << axis;
+  return {base, base | u, base | u | v, base | v};
+}
+
 void addCorners(CellScheme& s) {
   for (int c = 0; c < 8; ++c) s.nodes.push_back(cornerNode(c));
 }
@@ -91,15 +100,11 @@ CellScheme makeBcc12Scheme() {
   for (int mask = 0; mask < 64; ++mask) {
     auto& list = s.variants[static_cast<std::size_t>(mask)];
     for (int axis = 0; axis < 3; ++axis) {
-      const int u = (axis + 1) % 3;
-      const int v = (axis + 2) % 3;
       for (int side = 0; side < 2; ++side) {
         const bool onBoundary = ((mask >> (2 * axis + side)) & 1) != 0;
         // The -axis face belongs to the previous cell unless it is on the volume boundary.
         if (side == 0 && !onBoundary) continue;
-        // Face corners in cyclic order (u, v) = (0,0), (1,0), (1,1), (0,1).
-        const int base = side << axis;
-        const std::array<int, 4> fc{base, base | (1 << u), base | (1 << u) | (1 << v), base | (1 << v)};
+        const std::array<int, 4> fc = faceRing(axis, side);
         if (onBoundary) {
           // Pyramid from the own centre, split along the diagonal fc[0]-fc[2].
           addTet(s, list, kOwnCentre, fc[0], fc[1], fc[2]);
@@ -131,11 +136,8 @@ CellScheme makeTetra24Scheme() {
   s.nodes.push_back({1, 1, 1});
   s.variants.resize(1);
   for (int axis = 0; axis < 3; ++axis) {
-    const int u = (axis + 1) % 3;
-    const int v = (axis + 2) % 3;
     for (int side = 0; side < 2; ++side) {
-      const int base = side << axis;
-      const std::array<int, 4> fc{base, base | (1 << u), base | (1 << u) | (1 << v), base | (1 << v)};
+      const std::array<int, 4> fc = faceRing(axis, side);
       const int faceCentre = 8 + 2 * axis + side;
       for (int m = 0; m < 4; ++m) addTet(s, s.variants[0], kCubeCentre, faceCentre, fc[m], fc[(m + 1) % 4]);
     }
