@@ -39,6 +39,7 @@
 #include "io/phantom.h"
 #include "io/volume_formats.h"
 #include "io/volume_writer.h"
+#include "metrics/component_filter.h"
 #include "metrics/components.h"
 #include "metrics/measure.h"
 #include "metrics/mesh_stats.h"
@@ -206,7 +207,30 @@ struct ExtractArgs {
   RawArgs raw;
   std::string roi;  // i0,j0,k0,i1,j1,k1 or, with roiSpace "physical", x0,y0,z0,x1,y1,z1
   std::string roiSpace = "voxel";
+  // Component filters (0 or empty: not given).
+  std::uint64_t keepLargest = 0;
+  std::string componentMeasure = "triangles";
+  std::uint64_t minTriangles = 0;
+  double minVolume = -1;
+  std::string seed;  // x,y,z in output coordinates
 };
+
+// The component filters of a run (any() false when none is given).
+ComponentRules componentRules(const ExtractArgs& args, const VolumeInfo& info) {
+  ComponentRules rules;
+  if (args.keepLargest > 0) rules.keepLargest = args.keepLargest;
+  rules.measure = args.componentMeasure == "volume" ? ComponentMeasure::kVolume : ComponentMeasure::kTriangles;
+  if (args.minTriangles > 0) rules.minTriangles = args.minTriangles;
+  if (args.minVolume >= 0) rules.minVolume = args.minVolume;
+  if (!args.seed.empty()) {
+    const auto v = parseList(args.seed, "--seed");
+    rules.seed = Vec3f{static_cast<float>(v.at(0)), static_cast<float>(v.at(1)), static_cast<float>(v.at(2))};
+  }
+  // A seed may miss a component's bounds by one voxel diagonal.
+  const auto& sp = info.spacing;
+  rules.seedReach = args.space == "voxel" ? std::sqrt(3.0) : std::sqrt(sp[0] * sp[0] + sp[1] * sp[1] + sp[2] * sp[2]);
+  return rules;
+}
 
 // --roi as run: the box as given, the lattice points it selected (the input's indices, inclusive)
 // and the input's dims.
@@ -404,7 +428,7 @@ int runExtract(const ExtractArgs& args) {
   const IsoChoice isoChoice = chooseIsoValue(args, source, roi ? &*roi : nullptr);
   if (!isoChoice.note.empty() && !args.quiet)
     std::fprintf(stderr, "isoslab: %s\n", cli::withFlags(isoChoice.note).c_str());
-  const VolumeInfo& info = source->info();
+  const VolumeInfo info = source->info();  // a copy: a component filter reopens the source
   const double iso = isoChoice.value;
   const bool isoNumber = isoChoice.source == "value";
   const std::string isoName = args.iso.empty() ? fmt::format("the suggested iso {}", iso)
@@ -445,13 +469,36 @@ int runExtract(const ExtractArgs& args) {
   // The caps need the field beyond the faces: one NaN point around the volume (the header, frame
   // and value range stay the volume's own).
   if (args.closeBoundary) source = std::make_unique<PadSource>(std::move(source));
+  PipelineOptions pipelineOptions;
+  pipelineOptions.progress = !args.quiet;
+  pipelineOptions.threads = threads;
+
+  // Component filters: a first pass finds and measures the components, and chooses; the second
+  // (the run below) extracts again from the input reopened, and keeps only the chosen ones.
+  const ComponentRules rules = componentRules(args, info);
+  std::optional<ComponentSink> components;
+  std::vector<bool> keptComponents;
+  std::optional<ComponentFilterSink> filter;
+  double firstPassSeconds = 0;
+  if (rules.any()) {
+    ComponentSink& found = components.emplace();
+    found.setSeed(rules.seed);
+    firstPassSeconds = runPipeline(*source, *extractor, found, header, pipelineOptions).totalSeconds;
+    throwIfInterrupted();
+    keptComponents = selectComponents(found.components(), rules);
+    auto reopened = openSource(args.inputs, sourceOptions(args.raw));
+    if (roi) reopened = std::make_unique<CropSource>(std::move(reopened), roi->box);
+    if (args.closeBoundary) reopened = std::make_unique<PadSource>(std::move(reopened));
+    source = std::move(reopened);
+    extractor = makeExtractor(options, info, frame);
+  }
 
   MeshStatsSink stats;
   std::optional<SphereErrorSink> sphereErrors;
   std::vector<MeshSink*> sinks{writer.get(), &stats};
-  // The report lists the connected components (memory: the live front and the components).
-  std::optional<ComponentSink> components;
-  if (!args.report.empty()) sinks.push_back(&components.emplace());
+  // The report lists the connected components (memory: the live front and the components); with
+  // filters, those of the first pass.
+  if (!args.report.empty() && !components) sinks.push_back(&components.emplace());
   if (sphere) {
     sphereErrors.emplace(*sphere);
     sinks.push_back(&*sphereErrors);
@@ -464,10 +511,12 @@ int runExtract(const ExtractArgs& args) {
     sinks.push_back(&*preview);
   }
   TeeSink tee(sinks);
-  PipelineOptions pipelineOptions;
-  pipelineOptions.progress = !args.quiet;
-  pipelineOptions.threads = threads;
-  const PipelineResult run = runPipeline(*source, *extractor, tee, header, pipelineOptions);
+  MeshSink* target = &tee;
+  if (rules.any()) {
+    ComponentSink& found = *components;
+    target = &filter.emplace(tee, keptParts(found, keptComponents));
+  }
+  const PipelineResult run = runPipeline(*source, *extractor, *target, header, pipelineOptions);
   if (preview) {
     const render::Image image = preview->image();
     writePng(args.preview, image.width, image.height, image.rgb);
@@ -515,12 +564,14 @@ int runExtract(const ExtractArgs& args) {
                        : nlohmann::ordered_json();
     r["warnings"] = warnings;
     addStatsJson(r, s);
-    r["components"] = componentsJson(components->components());
+    r["components"] = componentsJson(components->components(), 10, rules.any() ? &keptComponents : nullptr);
+    if (rules.any()) r["component_filter"] = componentFilterJson(rules, components->components(), keptComponents);
     if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *sphereErrors));
     r["seconds"] = {{"read", run.readSeconds},
                     {"extract", run.extractSeconds},
                     {"write", run.writeSeconds},
-                    {"total", run.totalSeconds}};
+                    {"total", run.totalSeconds + firstPassSeconds}};
+    if (rules.any()) r["seconds"]["component_pass"] = firstPassSeconds;
     r["ring_bytes"] = run.ringBytes;
     r["peak_rss_mib"] = peakRssMib();
     nlohmann::ordered_json output = {{"path", args.output}, {"bytes", writer->bytes()}};
@@ -914,6 +965,32 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->needs(roiOption)
       ->group("Region of interest");
+
+  const std::string componentsGroup = "Connected components (a second pass over the input)";
+  extract->add_option("--keep-largest", ex.keepLargest, "Keep only the N largest components (by --component-measure)")
+      ->check(CLI::Range(std::uint64_t{1}, std::numeric_limits<std::uint64_t>::max()))
+      ->group(componentsGroup);
+  extract
+      ->add_option("--component-measure", ex.componentMeasure,
+                   "--keep-largest by triangles or by volume (|enclosed volume|; use --close-boundary for objects "
+                   "that the faces cut)")
+      ->transform(oneOf("component measure", {"triangles", "volume"}))
+      ->capture_default_str()
+      ->group(componentsGroup);
+  extract->add_option("--min-triangles", ex.minTriangles, "Drop components of fewer triangles")
+      ->check(CLI::Range(std::uint64_t{1}, std::numeric_limits<std::uint64_t>::max()))
+      ->group(componentsGroup);
+  extract
+      ->add_option("--min-volume", ex.minVolume,
+                   "Drop components enclosing less volume (output units cubed, |enclosed volume|)")
+      ->check(CLI::NonNegativeNumber)
+      ->group(componentsGroup);
+  extract
+      ->add_option("--seed", ex.seed,
+                   "Keep the component nearest to the point x,y,z (output coordinates), as a pick in Slicer; it must "
+                   "lie within a voxel of some component's bounds")
+      ->check(numberList([](const std::vector<double>& v) { return v.size() == 3 ? "" : "needs x,y,z"; }))
+      ->group(componentsGroup);
 
   extract->add_option("--preview", ex.preview, "Also render the mesh to this PNG as it streams (memory: the image)")
       ->group("Preview");

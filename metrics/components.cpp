@@ -4,6 +4,8 @@
 #include "metrics/components.h"
 
 #include <algorithm>
+#include <cassert>
+#include <cmath>
 #include <utility>
 
 #include <fmt/format.h>
@@ -35,6 +37,7 @@ void merge(Component& into, const Component& from) {
   into.boundaryEdges += from.boundaryEdges;
   into.interiorBoundaryEdges += from.interiorBoundaryEdges;
   into.nonManifoldEdges += from.nonManifoldEdges;
+  into.seedDistance = std::min(into.seedDistance, from.seedDistance);
 }
 
 }  // namespace
@@ -47,6 +50,11 @@ void ComponentSink::begin(const MeshHeader&) {
   chunks_ = 0;
   finished_.clear();
   peakLive_ = 0;
+  partParent_.clear();
+  finishedSerial_.clear();
+  partComponents_.clear();
+  settledFirst_ = 0;
+  settledParts_.clear();
 }
 
 void ComponentSink::clearLive() {
@@ -56,7 +64,27 @@ void ComponentSink::clearLive() {
   inUse_.clear();
   freeRecords_.clear();
   touched_.clear();
+  serial_.clear();
   liveCount_ = 0;
+}
+
+std::uint32_t ComponentSink::rootPart(std::uint32_t serial) noexcept {
+  while (partParent_[serial] != serial) {
+    partParent_[serial] = partParent_[partParent_[serial]];
+    serial = partParent_[serial];
+  }
+  return serial;
+}
+
+// The part serial of each vertex first .. end - 1, all of them in the front.
+void ComponentSink::label(VertexId first, VertexId end) {
+  settledFirst_ = first;
+  settledParts_.clear();
+  if (!labelVertices_) return;
+  for (VertexId v = first; v < end; ++v) {
+    const std::uint32_t r = record_[find(slotOf(v))];
+    settledParts_.push_back(r == kNoRecord ? kNoPart : serial_[r]);
+  }
 }
 
 std::uint32_t ComponentSink::find(std::uint32_t slot) noexcept {
@@ -78,6 +106,7 @@ void ComponentSink::join(std::uint32_t a, std::uint32_t b) {
     return;
   }
   merge(live_[record_[a]], live_[from]);
+  partParent_[serial_[from]] = serial_[record_[a]];
   inUse_[from] = 0;
   freeRecords_.push_back(from);
   --liveCount_;
@@ -114,6 +143,7 @@ void ComponentSink::consume(const MeshChunk& chunk) {
         live_.emplace_back();
         inUse_.push_back(0);
         touched_.push_back(0);
+        serial_.push_back(0);
       }
       record_[root] = freeRecords_.back();
       freeRecords_.pop_back();
@@ -121,6 +151,10 @@ void ComponentSink::consume(const MeshChunk& chunk) {
       fresh = Component{};
       fresh.firstVertex = t[0];
       fresh.bounds = {a.x, a.y, a.z, a.x, a.y, a.z};
+      const auto serial = static_cast<std::uint32_t>(partParent_.size());
+      if (serial == kNoPart) throw Error("the mesh has more parts than component labels can count (2^32 - 1)");
+      partParent_.push_back(serial);
+      serial_[record_[root]] = serial;
       inUse_[record_[root]] = 1;
       ++liveCount_;
     }
@@ -133,6 +167,14 @@ void ComponentSink::consume(const MeshChunk& chunk) {
     extend(part.bounds, a);
     extend(part.bounds, b);
     extend(part.bounds, c);
+    if (seed_) {
+      for (const Vec3f* p : {&a, &b, &c}) {
+        const double dx = double{p->x} - seed_->x;
+        const double dy = double{p->y} - seed_->y;
+        const double dz = double{p->z} - seed_->z;
+        part.seedDistance = std::min(part.seedDistance, dx * dx + dy * dy + dz * dz);  // squared until finish()
+      }
+    }
     for (std::size_t k = 0; k < 3; ++k) {
       const VertexId from = t[k];
       const VertexId to = t[(k + 1) % 3];
@@ -142,6 +184,7 @@ void ComponentSink::consume(const MeshChunk& chunk) {
   peakLive_ = std::max(peakLive_, liveCount_);
   // The previous chunk's edges are complete, and so is every part that this chunk did not reach.
   edges_.settle(previousFirst, currentFirst, [this](const EdgeTally::Edge& e) { settleEdge(e); });
+  label(previousFirst, currentFirst);
   retire();
 }
 
@@ -172,6 +215,7 @@ void ComponentSink::retire() {
   for (std::uint32_t r = 0; r < live_.size(); ++r) {
     if (inUse_[r] && touched_[r] != chunks_) {
       finished_.push_back(live_[r]);
+      finishedSerial_.push_back(serial_[r]);
       inUse_[r] = 0;
       freeRecords_.push_back(r);
       --liveCount_;
@@ -200,12 +244,30 @@ void ComponentSink::retire() {
 
 void ComponentSink::finish() {
   edges_.settle(front_.currentFirst(), front_.currentEnd(), [this](const EdgeTally::Edge& e) { settleEdge(e); });
+  label(front_.currentFirst(), front_.currentEnd());
   for (std::uint32_t r = 0; r < live_.size(); ++r) {
-    if (inUse_[r]) finished_.push_back(live_[r]);
+    if (inUse_[r]) {
+      finished_.push_back(live_[r]);
+      finishedSerial_.push_back(serial_[r]);
+    }
   }
-  std::sort(finished_.begin(), finished_.end(),
-            [](const Component& a, const Component& b) { return a.firstVertex < b.firstVertex; });
-  for (std::size_t i = 0; i < finished_.size(); ++i) finished_[i].id = i;
+  std::vector<std::uint32_t> order(finished_.size());
+  for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return finished_[a].firstVertex < finished_[b].firstVertex; });
+  std::vector<Component> sorted;
+  sorted.reserve(finished_.size());
+  partComponents_.assign(partParent_.size(), kNoPart);
+  for (std::uint32_t id = 0; id < order.size(); ++id) {
+    sorted.push_back(finished_[order[id]]);
+    Component& c = sorted.back();
+    c.id = id;
+    if (seed_) c.seedDistance = std::sqrt(c.seedDistance);
+    partComponents_[finishedSerial_[order[id]]] = id;
+  }
+  finished_ = std::move(sorted);
+  for (std::uint32_t s = 0; s < partComponents_.size(); ++s) partComponents_[s] = partComponents_[rootPart(s)];
+  finishedSerial_.clear();
   clearLive();
 }
 

@@ -12,6 +12,8 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
+#include <optional>
 #include <vector>
 
 #include "core/mesh_sink.h"
@@ -37,6 +39,9 @@ struct Component {
   std::uint64_t boundaryEdges = 0;
   std::uint64_t interiorBoundaryEdges = 0;
   std::uint64_t nonManifoldEdges = 0;
+  /// The distance from the seed point (ComponentSink::setSeed) to its nearest vertex; +inf without
+  /// a seed.
+  double seedDistance = std::numeric_limits<double>::infinity();
 
   bool closed() const noexcept { return boundaryEdges == 0 && nonManifoldEdges == 0; }
   friend bool operator==(const Component&, const Component&) = default;
@@ -44,6 +49,14 @@ struct Component {
 
 class ComponentSink final : public MeshSink {
  public:
+  /// No part: a vertex that no triangle uses.
+  static constexpr std::uint32_t kNoPart = 0xffffffffu;
+
+  /// Measures, for each component, the distance from `seed` to its nearest vertex (in begin()).
+  void setSeed(std::optional<Vec3f> seed) { seed_ = seed; }
+  /// Whether consume() and finish() label the vertices that they settle (settledParts()).
+  void labelVertices(bool on) { labelVertices_ = on; }
+
   void begin(const MeshHeader& header) override;
   /// Throws isoslab::Error when the chunk breaks the streaming contract.
   void consume(const MeshChunk& chunk) override;
@@ -54,6 +67,18 @@ class ComponentSink final : public MeshSink {
   /// The most components that were live (not yet final) at once: what memory follows.
   std::size_t peakLive() const noexcept { return peakLive_; }
 
+  /// Parts: a triangle that joins no part yet starts one and gives it the next serial, so two runs
+  /// over the same stream number their parts alike (the second pass of a component filter relies on
+  /// this). After finish(), the component id of every part serial; parts() serials in all.
+  const std::vector<std::uint32_t>& partComponents() const noexcept { return partComponents_; }
+  std::uint32_t parts() const noexcept { return static_cast<std::uint32_t>(partParent_.size()); }
+
+  /// With labelVertices(true): after consume(), the part serial (or kNoPart) of each vertex of the
+  /// chunk before it, whose uses are then all known; after finish(), those of the last chunk. Any
+  /// serial of a part's history may stand for it: they all map to one component.
+  VertexId settledFirst() const noexcept { return settledFirst_; }
+  const std::vector<std::uint32_t>& settledParts() const noexcept { return settledParts_; }
+
  private:
   static constexpr std::uint32_t kNoRecord = 0xffffffffu;
 
@@ -63,6 +88,8 @@ class ComponentSink final : public MeshSink {
   void settleEdge(const EdgeTally::Edge& e);
   void retire();
   void clearLive();
+  void label(VertexId first, VertexId end);
+  std::uint32_t rootPart(std::uint32_t serial) noexcept;
 
   ChunkFront front_;
   EdgeTally edges_;
@@ -78,6 +105,13 @@ class ComponentSink final : public MeshSink {
   std::vector<std::uint32_t> touched_;  // per record: the chunk count when a vertex of it was last seen
   std::uint32_t chunks_ = 0;
   std::vector<Component> finished_;
+  // Part serials: serial_[record] is the serial that a live record stands for (a root of
+  // partParent_, the union-find over serials); finishedSerial_ runs beside finished_.
+  std::vector<std::uint32_t> serial_, partParent_, finishedSerial_, partComponents_;
+  std::optional<Vec3f> seed_;
+  bool labelVertices_ = false;
+  VertexId settledFirst_ = 0;
+  std::vector<std::uint32_t> settledParts_;
   // Scratch of retire().
   std::vector<std::uint32_t> roots_, remap_, nextParent_, nextRecord_;
   std::size_t liveCount_ = 0;

@@ -41,7 +41,8 @@ void addStatsJson(nlohmann::ordered_json& r, const MeshStats& s) {
   r["closed"] = s.closed();
 }
 
-nlohmann::ordered_json componentsJson(const std::vector<Component>& components, std::size_t listed) {
+nlohmann::ordered_json componentsJson(const std::vector<Component>& components, std::size_t listed,
+                                      const std::vector<bool>* kept) {
   nlohmann::ordered_json j;
   j["count"] = components.size();
   j["closed"] = std::count_if(components.begin(), components.end(), [](const Component& c) { return c.closed(); });
@@ -62,9 +63,35 @@ nlohmann::ordered_json componentsJson(const std::vector<Component>& components, 
     e["volume"] = c.volume;
     e["bounds"] = c.bounds;
     e["closed"] = c.closed();
+    if (kept != nullptr) e["kept"] = static_cast<bool>((*kept)[*i]);
     largest.push_back(std::move(e));
   }
   j["largest"] = std::move(largest);
+  return j;
+}
+
+nlohmann::ordered_json componentFilterJson(const ComponentRules& rules, const std::vector<Component>& components,
+                                           const std::vector<bool>& kept) {
+  struct Sum {
+    std::uint64_t count = 0, triangles = 0;
+    double area = 0, volume = 0;
+  } sums[2];
+  for (std::size_t i = 0; i < components.size(); ++i) {
+    Sum& s = sums[kept[i] ? 0 : 1];
+    ++s.count;
+    s.triangles += components[i].triangles;
+    s.area += components[i].area;
+    s.volume += components[i].volume;
+  }
+  const auto json = [](const Sum& s) {
+    return nlohmann::ordered_json{
+        {"count", s.count}, {"triangles", s.triangles}, {"area", s.area}, {"volume", s.volume}};
+  };
+  nlohmann::ordered_json j;
+  j["rules"] = rules.text();
+  j["passes"] = 2;
+  j["kept"] = json(sums[0]);
+  j["dropped"] = json(sums[1]);
   return j;
 }
 

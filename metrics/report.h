@@ -3,6 +3,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "metrics/component_filter.h"
 #include "metrics/components.h"
 #include "metrics/mesh_stats.h"
 #include "metrics/sphere_metrics.h"
@@ -16,8 +17,15 @@ void addStatsJson(nlohmann::ordered_json& r, const MeshStats& s);
 
 /// The connected components: {"count", "closed" (how many are), "largest": up to `listed` of
 /// them by triangle count (ties by id), each {"id", "triangles", "area", "volume", "bounds",
-/// "closed"}}.
-nlohmann::ordered_json componentsJson(const std::vector<Component>& components, std::size_t listed = 10);
+/// "closed"}}. With `kept` (per id, from a component filter), each listed one also says whether it
+/// was kept.
+nlohmann::ordered_json componentsJson(const std::vector<Component>& components, std::size_t listed = 10,
+                                      const std::vector<bool>* kept = nullptr);
+
+/// A component filter's work: {"rules", "passes": 2, "kept": {"count", "triangles", "area",
+/// "volume"}, "dropped": {the same}}.
+nlohmann::ordered_json componentFilterJson(const ComponentRules& rules, const std::vector<Component>& components,
+                                           const std::vector<bool>& kept);
 
 /// The paper's measures: {"centre", "radius", "vertex": {...}, "centroid": {...}, "area_error", ...}.
 nlohmann::ordered_json sphereJson(const SphereReport& r);

@@ -489,5 +489,65 @@ TEST(Cli, InfoPrintsGeometryAndRange) {
   EXPECT_NE(r.out.find("type       u8\n"), std::string::npos) << r.out;
 }
 
+TEST(Cli, KeepLargestKeepsOneComponentInTwoPasses) {
+  const std::string dir = testing::tempDir();
+  const std::string input = "'phantom:head?n=48,44,40&noise=60'";
+  std::string first;
+  for (int threads : {1, 3}) {
+    const auto r = testing::runCli(fmt::format(
+        "extract {} --iso 0 --close-boundary --keep-largest 1 --threads {} -q -o {}/k{}.ply --report {}/k{}.json",
+        input, threads, dir, threads, dir, threads));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.err, "");
+    const auto report = nlohmann::json::parse(slurp(fmt::format("{}/k{}.json", dir, threads)));
+    const auto& components = report["components"];
+    const auto& filter = report["component_filter"];
+    ASSERT_GT(components["count"].get<int>(), 1) << "the noise should leave islands";
+    EXPECT_EQ(filter["rules"], "--keep-largest 1");
+    EXPECT_EQ(filter["passes"], 2);
+    EXPECT_EQ(filter["kept"]["count"], 1);
+    EXPECT_EQ(filter["dropped"]["count"].get<int>(), components["count"].get<int>() - 1);
+    EXPECT_EQ(components["largest"][0]["kept"], true);
+    EXPECT_EQ(components["largest"][1]["kept"], false);
+    // The output is the largest component, closed, and nothing else.
+    EXPECT_EQ(report["triangles"], components["largest"][0]["triangles"]);
+    EXPECT_EQ(report["triangles"], filter["kept"]["triangles"]);
+    EXPECT_EQ(report["boundary_edges"], 0);
+    EXPECT_NEAR(report["volume"].get<double>(), components["largest"][0]["volume"].get<double>(),
+                1e-9 * std::abs(report["volume"].get<double>()));
+    const auto m = testing::runCli(fmt::format("metrics {}/k{}.ply", dir, threads));
+    ASSERT_EQ(m.exitCode, 0) << m.err;
+    EXPECT_EQ(nlohmann::json::parse(m.out)["components"]["count"], 1);
+    const std::string bytes = slurp(fmt::format("{}/k{}.ply", dir, threads));
+    if (threads == 1)
+      first = bytes;
+    else
+      EXPECT_TRUE(bytes == first);
+  }
+  // Keeping every component gives the plain run's file.
+  ASSERT_EQ(testing::runCli(fmt::format("extract {} --iso 0 --normals -q -o {}/all.ply", input, dir)).exitCode, 0);
+  ASSERT_EQ(
+      testing::runCli(fmt::format("extract {} --iso 0 --normals --min-triangles 1 -q -o {}/kept.ply", input, dir)).exitCode,
+      0);
+  EXPECT_TRUE(slurp(dir + "/all.ply") == slurp(dir + "/kept.ply"));
+}
+
+TEST(Cli, SeedOutsideEveryComponentLeavesNoOutput) {
+  const std::string dir = testing::tempDir();
+  const auto r = testing::runCli(
+      fmt::format("extract 'phantom:sphere?n=32&r=8&c=16,16,16' --iso 900 --seed 30,30,30 --space voxel -o {}/s.glb "
+                  "--report {}/s.json",
+                  dir, dir));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_EQ(r.err,
+            "isoslab: error: --seed 30,30,30 lies outside every component's bounds (grown by 1.73205): the one "
+            "component lies within x 6 .. 26, y 6 .. 26, z 6 .. 26\n");
+  EXPECT_EQ(testing::fileCount(dir), 0);
+  // Within a voxel of its bounds, the seed picks the sphere.
+  const auto near = testing::runCli(fmt::format(
+      "extract 'phantom:sphere?n=32&r=8&c=16,16,16' --iso 900 --seed 25,16,16 --space voxel -q -o {}/s.glb", dir));
+  EXPECT_EQ(near.exitCode, 0) << near.err;
+}
+
 }  // namespace
 }  // namespace isoslab

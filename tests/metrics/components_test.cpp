@@ -1,5 +1,7 @@
 #include "metrics/components.h"
 
+#include "metrics/component_filter.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -306,6 +308,250 @@ TEST(Components, SameForChunksSplitDifferently) {
       SCOPED_TRACE(group);
       expectSameComponents(r.components, rechunked(r.chunks, r.header, group));
     }
+  }
+}
+
+// --- Keeping components: the two passes of component_filter.h ---
+
+struct FilterRun {
+  std::vector<Component> found;  // the first pass's
+  std::vector<bool> kept;
+  IndexedMesh mesh;  // the second pass's output
+  MeshHeader header;
+};
+
+using Field = std::function<float(std::int64_t, std::int64_t, std::int64_t)>;
+
+// Both passes through the pipeline, each over a source of its own.
+FilterRun filterRun(const Field& field, std::array<std::int64_t, 3> dims, Method method, double iso,
+                    const ComponentRules& rules, int threads = 1) {
+  ExtractOptions options;
+  options.method = method;
+  options.iso = iso;
+  PipelineOptions pipeline;
+  pipeline.threads = threads;
+  testing::VectorSource first(dims, field);
+  const LatticeFrame frame = LatticeFrame::physical(first.info());
+  auto extractor = makeExtractor(options, first.info(), frame);
+  const MeshHeader header = extractionHeader(options, first.info(), frame, *extractor);
+  ComponentSink found;
+  found.setSeed(rules.seed);
+  runPipeline(first, *extractor, found, header, pipeline);
+  FilterRun r;
+  r.found = found.components();
+  r.kept = selectComponents(r.found, rules);
+  testing::VectorSource second(dims, field);
+  extractor = makeExtractor(options, second.info(), frame);
+  MemoryMeshSink memory;
+  ComponentFilterSink filter(memory, keptParts(found, r.kept));
+  runPipeline(second, *extractor, filter, header, pipeline);
+  r.mesh = memory.mesh();
+  r.header = memory.header();
+  return r;
+}
+
+// The reference: the whole mesh's components by union-find (roots are smallest vertices), and the
+// mesh cut to the triangles of the roots `keep`, its used vertices renumbered in id order.
+IndexedMesh wholeMeshKeep(const IndexedMesh& mesh, const std::function<bool(VertexId root)>& keep) {
+  std::vector<VertexId> parent(mesh.positions.size());
+  std::iota(parent.begin(), parent.end(), VertexId{0});
+  auto find = [&](VertexId v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (const Triangle& t : mesh.triangles) {
+    for (std::size_t k = 1; k < 3; ++k) {
+      const VertexId a = find(t[0]);
+      const VertexId b = find(t[k]);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  }
+  std::vector<VertexId> newId(mesh.positions.size(), ~VertexId{0});
+  std::vector<bool> used(mesh.positions.size(), false);
+  for (const Triangle& t : mesh.triangles) {
+    if (keep(find(t[0]))) used[t[0]] = used[t[1]] = used[t[2]] = true;
+  }
+  IndexedMesh out;
+  for (VertexId v = 0; v < mesh.positions.size(); ++v) {
+    if (!used[v]) continue;
+    newId[v] = static_cast<VertexId>(out.positions.size());
+    out.positions.push_back(mesh.positions[v]);
+  }
+  for (const Triangle& t : mesh.triangles) {
+    if (keep(find(t[0]))) out.triangles.push_back({newId[t[0]], newId[t[1]], newId[t[2]]});
+  }
+  return out;
+}
+
+Field ballsField(const std::vector<Ball>& balls) {
+  return [balls](std::int64_t i, std::int64_t j, std::int64_t k) {
+    float v = -1e9f;
+    for (const Ball& b : balls) v = std::max(v, ballField(b, i, j, k));
+    return v;
+  };
+}
+
+void expectSameMesh(const IndexedMesh& expected, const IndexedMesh& actual) {
+  ASSERT_EQ(expected.positions.size(), actual.positions.size());
+  ASSERT_EQ(expected.triangles.size(), actual.triangles.size());
+  EXPECT_TRUE(expected.positions == actual.positions);
+  EXPECT_TRUE(expected.triangles == actual.triangles);
+}
+
+const std::vector<Ball> kAllBalls(kBalls.begin(), kBalls.end());
+
+TEST(ComponentFilter, KeepLargestGivesTheLargestSphereAsIfExtractedAlone) {
+  for (Method method : {Method::kMarchingCubes, Method::kTetra6, Method::kBcc12, Method::kMarchingCubes33}) {
+    SCOPED_TRACE(std::string(methodName(method)));
+    for (const ComponentMeasure measure : {ComponentMeasure::kTriangles, ComponentMeasure::kVolume}) {
+      ComponentRules rules;
+      rules.keepLargest = 1;
+      rules.measure = measure;
+      const FilterRun r = filterRun(ballsField(kAllBalls), kBallDims, method, 0.0, rules);
+      ASSERT_EQ(r.found.size(), 4u);
+      const std::size_t largest =
+          std::max_element(r.found.begin(), r.found.end(),
+                           [](const Component& a, const Component& b) { return a.triangles < b.triangles; }) -
+          r.found.begin();
+      EXPECT_EQ(std::count(r.kept.begin(), r.kept.end(), true), 1);
+      EXPECT_TRUE(r.kept[largest]);
+      const IndexedMesh alone = run(ballsField({kBalls[3]}), kBallDims, method, 0.0).mesh;
+      expectSameMesh(alone, r.mesh);
+      EXPECT_FALSE(r.header.cellVolumes);
+    }
+  }
+}
+
+TEST(ComponentFilter, MinVolumeKeepsExactlyThoseAboveTheCut) {
+  // Analytic volumes 333, 1260, 3262 and 4577: a cut at 2000 keeps the two largest balls, at 300
+  // all four, at 5000 none.
+  for (Method method : {Method::kMarchingCubes, Method::kTetra5}) {
+    SCOPED_TRACE(std::string(methodName(method)));
+    ComponentRules rules;
+    rules.minVolume = 2000;
+    FilterRun r = filterRun(ballsField(kAllBalls), kBallDims, method, 0.0, rules);
+    expectSameMesh(run(ballsField({kBalls[2], kBalls[3]}), kBallDims, method, 0.0).mesh, r.mesh);
+    rules.minVolume = 300;
+    r = filterRun(ballsField(kAllBalls), kBallDims, method, 0.0, rules);
+    expectSameMesh(run(ballsField(kAllBalls), kBallDims, method, 0.0).mesh, r.mesh);
+    rules.minVolume = 5000;
+    r = filterRun(ballsField(kAllBalls), kBallDims, method, 0.0, rules);
+    EXPECT_TRUE(r.mesh.positions.empty());
+    EXPECT_TRUE(r.mesh.triangles.empty());
+  }
+}
+
+TEST(ComponentFilter, SeedKeepsTheNearestComponent) {
+  ComponentRules rules;
+  // Just outside ball 1's surface, nearer to it than to any other.
+  rules.seed = Vec3f{24.6f + 6.7f + 1.5f, 22.2f, 17.7f};
+  rules.seedReach = std::sqrt(3.0);
+  FilterRun r = filterRun(ballsField(kAllBalls), kBallDims, Method::kMarchingCubes, 0.0, rules);
+  expectSameMesh(run(ballsField({kBalls[1]}), kBallDims, Method::kMarchingCubes, 0.0).mesh, r.mesh);
+  for (const Component& c : r.found) EXPECT_TRUE(std::isfinite(c.seedDistance));
+  // With a threshold that drops ball 1, the nearest remaining one.
+  rules.minTriangles = r.mesh.triangles.size() + 1;
+  r = filterRun(ballsField(kAllBalls), kBallDims, Method::kMarchingCubes, 0.0, rules);
+  expectSameMesh(run(ballsField({kBalls[2]}), kBallDims, Method::kMarchingCubes, 0.0).mesh, r.mesh);
+}
+
+TEST(ComponentFilter, SeedOutsideEveryComponentIsAnError) {
+  ComponentRules rules;
+  rules.seed = Vec3f{90, 2, 2};
+  rules.seedReach = 1;
+  try {
+    filterRun(ballsField(kAllBalls), kBallDims, Method::kMarchingCubes, 0.0, rules);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message, "--seed 90,2,2 lies outside every component's bounds (grown by 1): the 4 components lie "
+                       "within x 4.00582 .. 84.2917, y 4.81525 .. 30.6995, z 5.91169 .. 31.3922");
+  }
+  try {
+    selectComponents({}, rules);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "--seed 90,2,2 lies outside every component's bounds (grown by 1): the surface is empty");
+  }
+}
+
+TEST(ComponentFilter, SelectionAppliesThresholdsThenSeedThenLargest) {
+  std::vector<Component> c(5);
+  const std::uint64_t triangles[5] = {10, 50, 30, 50, 5};
+  const double volumes[5] = {-100, 1, 40, 20, 7};
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    c[i].id = i;
+    c[i].triangles = triangles[i];
+    c[i].volume = volumes[i];
+  }
+  ComponentRules rules;
+  rules.keepLargest = 2;
+  EXPECT_EQ(selectComponents(c, rules), (std::vector<bool>{false, true, false, true, false}));  // a tie: both 50
+  rules.keepLargest = 1;
+  EXPECT_EQ(selectComponents(c, rules), (std::vector<bool>{false, true, false, false, false}));  // the lower id
+  rules.measure = ComponentMeasure::kVolume;  // |volume|: an inside-out part counts by its size
+  EXPECT_EQ(selectComponents(c, rules), (std::vector<bool>{true, false, false, false, false}));
+  rules.keepLargest = 3;
+  rules.minTriangles = 11;
+  EXPECT_EQ(selectComponents(c, rules), (std::vector<bool>{false, true, true, true, false}));
+  rules.minVolume = 20;
+  EXPECT_EQ(selectComponents(c, rules), (std::vector<bool>{false, false, true, true, false}));
+  EXPECT_EQ(rules.text(), "--min-triangles 11 --min-volume 20 --keep-largest 3 --component-measure volume");
+}
+
+// Foams join parts late (U shapes) and touch the faces: the filter's output equals the whole mesh
+// cut to the chosen components by a union-find over it, for every method and two thread counts.
+TEST(ComponentFilter, FoamEqualsAWholeMeshCut) {
+  for (const double iso : {0.5, 0.8}) {
+    for (Method method : kMethods) {
+      SCOPED_TRACE(std::string(methodName(method)) + " iso " + std::to_string(iso));
+      const ComponentRun whole = run(foam(23), {40, 40, 40}, method, iso);
+      const std::map<VertexId, Reference> reference = wholeMeshComponents(whole.mesh);
+      // The 3 largest of those with at least 4 triangles, by a sort of the reference.
+      std::vector<std::pair<std::uint64_t, VertexId>> bySize;
+      for (const auto& [root, ref] : reference) {
+        if (ref.triangles >= 4) bySize.emplace_back(ref.triangles, root);
+      }
+      std::sort(bySize.begin(), bySize.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first > b.first : a.second < b.second;
+      });
+      bySize.resize(std::min<std::size_t>(3, bySize.size()));
+      const auto keep = [&](VertexId root) {
+        return std::any_of(bySize.begin(), bySize.end(), [&](const auto& e) { return e.second == root; });
+      };
+      const IndexedMesh expected = wholeMeshKeep(whole.mesh, keep);
+      ComponentRules rules;
+      rules.keepLargest = 3;
+      rules.minTriangles = 4;
+      for (int threads : {1, 3}) {
+        SCOPED_TRACE(threads);
+        const FilterRun r = filterRun(foam(23), {40, 40, 40}, method, iso, rules, threads);
+        expectSameMesh(expected, r.mesh);
+      }
+    }
+  }
+}
+
+TEST(ComponentFilter, RefusesAStreamThatIsNotTheFirstPasss) {
+  ComponentRun first = run(foam(3), {40, 40, 40}, Method::kMarchingCubes, 0.8);
+  ComponentSink found;
+  found.begin(first.header);
+  for (const MeshChunk& c : first.chunks) found.consume(c);
+  found.finish();
+  ASSERT_GT(found.parts(), 10u);
+  const std::vector<bool> all(found.components().size(), true);
+  // Another foam streams into the filter built for this one.
+  const ComponentRun other = run(foam(4), {40, 40, 40}, Method::kMarchingCubes, 0.8);
+  MemoryMeshSink memory;
+  ComponentFilterSink filter(memory, keptParts(found, all));
+  filter.begin(other.header);
+  try {
+    for (const MeshChunk& c : other.chunks) filter.consume(c);
+    filter.finish();
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("the input changed between the two passes of the component filter (", 0), 0u)
+        << e.what();
   }
 }
 
