@@ -477,7 +477,8 @@ int runExtract(const ExtractArgs& args) {
   // (the run below) extracts again from the input reopened, and keeps only the chosen ones.
   const ComponentRules rules = componentRules(args, info);
   std::optional<ComponentSink> components;
-  std::vector<bool> keptComponents;
+  std::vector<bool> keptComponents, keepPart;
+  nlohmann::ordered_json componentReport, filterReport;
   std::optional<ComponentFilterSink> filter;
   double firstPassSeconds = 0;
   if (rules.any()) {
@@ -486,6 +487,11 @@ int runExtract(const ExtractArgs& args) {
     firstPassSeconds = runPipeline(*source, *extractor, found, header, pipelineOptions).totalSeconds;
     throwIfInterrupted();
     keptComponents = selectComponents(found.components(), rules);
+    keepPart = keptParts(found, keptComponents);
+    // The report's pieces now, so that the second pass holds a bit per part and no list.
+    componentReport = componentsJson(found.components(), 10, &keptComponents);
+    filterReport = componentFilterJson(rules, found.components(), keptComponents, found.parts());
+    components.reset();
     auto reopened = openSource(args.inputs, sourceOptions(args.raw));
     if (roi) reopened = std::make_unique<CropSource>(std::move(reopened), roi->box);
     if (args.closeBoundary) reopened = std::make_unique<PadSource>(std::move(reopened));
@@ -498,7 +504,7 @@ int runExtract(const ExtractArgs& args) {
   std::vector<MeshSink*> sinks{writer.get(), &stats};
   // The report lists the connected components (memory: the live front and the components); with
   // filters, those of the first pass.
-  if (!args.report.empty() && !components) sinks.push_back(&components.emplace());
+  if (!args.report.empty() && !rules.any()) sinks.push_back(&components.emplace());
   if (sphere) {
     sphereErrors.emplace(*sphere);
     sinks.push_back(&*sphereErrors);
@@ -512,10 +518,7 @@ int runExtract(const ExtractArgs& args) {
   }
   TeeSink tee(sinks);
   MeshSink* target = &tee;
-  if (rules.any()) {
-    ComponentSink& found = *components;
-    target = &filter.emplace(tee, keptParts(found, keptComponents));
-  }
+  if (rules.any()) target = &filter.emplace(tee, std::move(keepPart));
   const PipelineResult run = runPipeline(*source, *extractor, *target, header, pipelineOptions);
   if (preview) {
     const render::Image image = preview->image();
@@ -564,8 +567,12 @@ int runExtract(const ExtractArgs& args) {
                        : nlohmann::ordered_json();
     r["warnings"] = warnings;
     addStatsJson(r, s);
-    r["components"] = componentsJson(components->components(), 10, rules.any() ? &keptComponents : nullptr);
-    if (rules.any()) r["component_filter"] = componentFilterJson(rules, components->components(), keptComponents);
+    if (rules.any()) {
+      r["components"] = componentReport;
+      r["component_filter"] = filterReport;
+    } else {
+      r["components"] = componentsJson(components->components());
+    }
     if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *sphereErrors));
     r["seconds"] = {{"read", run.readSeconds},
                     {"extract", run.extractSeconds},

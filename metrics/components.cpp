@@ -51,6 +51,7 @@ void ComponentSink::begin(const MeshHeader&) {
   finished_.clear();
   peakLive_ = 0;
   partParent_.clear();
+  partCount_ = 0;
   finishedSerial_.clear();
   partComponents_.clear();
   settledFirst_ = 0;
@@ -106,7 +107,7 @@ void ComponentSink::join(std::uint32_t a, std::uint32_t b) {
     return;
   }
   merge(live_[record_[a]], live_[from]);
-  partParent_[serial_[from]] = serial_[record_[a]];
+  if (!labelVertices_) partParent_[serial_[from]] = serial_[record_[a]];
   inUse_[from] = 0;
   freeRecords_.push_back(from);
   --liveCount_;
@@ -151,9 +152,10 @@ void ComponentSink::consume(const MeshChunk& chunk) {
       fresh = Component{};
       fresh.firstVertex = t[0];
       fresh.bounds = {a.x, a.y, a.z, a.x, a.y, a.z};
-      const auto serial = static_cast<std::uint32_t>(partParent_.size());
+      const std::uint32_t serial = partCount_;
       if (serial == kNoPart) throw Error("the mesh has more parts than component labels can count (2^32 - 1)");
-      partParent_.push_back(serial);
+      ++partCount_;
+      if (!labelVertices_) partParent_.push_back(serial);
       serial_[record_[root]] = serial;
       inUse_[record_[root]] = 1;
       ++liveCount_;
@@ -214,8 +216,10 @@ void ComponentSink::retire() {
   }
   for (std::uint32_t r = 0; r < live_.size(); ++r) {
     if (inUse_[r] && touched_[r] != chunks_) {
-      finished_.push_back(live_[r]);
-      finishedSerial_.push_back(serial_[r]);
+      if (!labelVertices_) {
+        finished_.push_back(live_[r]);
+        finishedSerial_.push_back(serial_[r]);
+      }
       inUse_[r] = 0;
       freeRecords_.push_back(r);
       --liveCount_;
@@ -245,29 +249,51 @@ void ComponentSink::retire() {
 void ComponentSink::finish() {
   edges_.settle(front_.currentFirst(), front_.currentEnd(), [this](const EdgeTally::Edge& e) { settleEdge(e); });
   label(front_.currentFirst(), front_.currentEnd());
+  if (labelVertices_) {
+    clearLive();
+    return;
+  }
   for (std::uint32_t r = 0; r < live_.size(); ++r) {
     if (inUse_[r]) {
       finished_.push_back(live_[r]);
       finishedSerial_.push_back(serial_[r]);
     }
   }
-  std::vector<std::uint32_t> order(finished_.size());
-  for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  // Sorts by firstVertex in place (the list can be long: a foam has hundreds of thousands), through
+  // the permutation's cycles: position i receives the record at order[i].
+  const auto n = static_cast<std::uint32_t>(finished_.size());
+  std::vector<std::uint32_t> order(n);
+  for (std::uint32_t i = 0; i < n; ++i) order[i] = i;
   std::sort(order.begin(), order.end(),
             [&](std::uint32_t a, std::uint32_t b) { return finished_[a].firstVertex < finished_[b].firstVertex; });
-  std::vector<Component> sorted;
-  sorted.reserve(finished_.size());
+  std::vector<bool> placed(n, false);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    if (placed[i]) continue;
+    const Component first = finished_[i];
+    const std::uint32_t firstSerial = finishedSerial_[i];
+    for (std::uint32_t j = i;;) {
+      placed[j] = true;
+      const std::uint32_t k = order[j];
+      if (k == i) {
+        finished_[j] = first;
+        finishedSerial_[j] = firstSerial;
+        break;
+      }
+      finished_[j] = finished_[k];
+      finishedSerial_[j] = finishedSerial_[k];
+      j = k;
+    }
+  }
   partComponents_.assign(partParent_.size(), kNoPart);
-  for (std::uint32_t id = 0; id < order.size(); ++id) {
-    sorted.push_back(finished_[order[id]]);
-    Component& c = sorted.back();
+  for (std::uint32_t id = 0; id < n; ++id) {
+    Component& c = finished_[id];
     c.id = id;
     if (seed_) c.seedDistance = std::sqrt(c.seedDistance);
-    partComponents_[finishedSerial_[order[id]]] = id;
+    partComponents_[finishedSerial_[id]] = id;
   }
-  finished_ = std::move(sorted);
   for (std::uint32_t s = 0; s < partComponents_.size(); ++s) partComponents_[s] = partComponents_[rootPart(s)];
-  finishedSerial_.clear();
+  finishedSerial_ = {};
+  partParent_ = {};
   clearLive();
 }
 

@@ -54,7 +54,9 @@ class ComponentSink final : public MeshSink {
 
   /// Measures, for each component, the distance from `seed` to its nearest vertex (in begin()).
   void setSeed(std::optional<Vec3f> seed) { seed_ = seed; }
-  /// Whether consume() and finish() label the vertices that they settle (settledParts()).
+  /// Labelling, for the second pass of a component filter: consume() and finish() label the
+  /// vertices that they settle (settledParts()), and parts() counts the parts; components() and
+  /// partComponents() stay empty, so memory is the front's alone.
   void labelVertices(bool on) { labelVertices_ = on; }
 
   void begin(const MeshHeader& header) override;
@@ -71,7 +73,7 @@ class ComponentSink final : public MeshSink {
   /// over the same stream number their parts alike (the second pass of a component filter relies on
   /// this). After finish(), the component id of every part serial; parts() serials in all.
   const std::vector<std::uint32_t>& partComponents() const noexcept { return partComponents_; }
-  std::uint32_t parts() const noexcept { return static_cast<std::uint32_t>(partParent_.size()); }
+  std::uint32_t parts() const noexcept { return partCount_; }
 
   /// With labelVertices(true): after consume(), the part serial (or kNoPart) of each vertex of the
   /// chunk before it, whose uses are then all known; after finish(), those of the last chunk. Any
@@ -108,6 +110,7 @@ class ComponentSink final : public MeshSink {
   // Part serials: serial_[record] is the serial that a live record stands for (a root of
   // partParent_, the union-find over serials); finishedSerial_ runs beside finished_.
   std::vector<std::uint32_t> serial_, partParent_, finishedSerial_, partComponents_;
+  std::uint32_t partCount_ = 0;
   std::optional<Vec3f> seed_;
   bool labelVertices_ = false;
   VertexId settledFirst_ = 0;

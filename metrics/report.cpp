@@ -71,7 +71,7 @@ nlohmann::ordered_json componentsJson(const std::vector<Component>& components, 
 }
 
 nlohmann::ordered_json componentFilterJson(const ComponentRules& rules, const std::vector<Component>& components,
-                                           const std::vector<bool>& kept) {
+                                           const std::vector<bool>& kept, std::uint64_t parts) {
   struct Sum {
     std::uint64_t count = 0, triangles = 0;
     double area = 0, volume = 0;
@@ -90,6 +90,7 @@ nlohmann::ordered_json componentFilterJson(const ComponentRules& rules, const st
   nlohmann::ordered_json j;
   j["rules"] = rules.text();
   j["passes"] = 2;
+  j["parts"] = parts;
   j["kept"] = json(sums[0]);
   j["dropped"] = json(sums[1]);
   return j;

@@ -1,6 +1,9 @@
 // JSON pieces shared by the isoslab commands' reports.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include <nlohmann/json.hpp>
 
 #include "metrics/component_filter.h"
@@ -22,10 +25,10 @@ void addStatsJson(nlohmann::ordered_json& r, const MeshStats& s);
 nlohmann::ordered_json componentsJson(const std::vector<Component>& components, std::size_t listed = 10,
                                       const std::vector<bool>* kept = nullptr);
 
-/// A component filter's work: {"rules", "passes": 2, "kept": {"count", "triangles", "area",
-/// "volume"}, "dropped": {the same}}.
+/// A component filter's work: {"rules", "passes": 2, "parts" (the first pass's part serials), "kept":
+/// {"count", "triangles", "area", "volume"}, "dropped": {the same}}.
 nlohmann::ordered_json componentFilterJson(const ComponentRules& rules, const std::vector<Component>& components,
-                                           const std::vector<bool>& kept);
+                                           const std::vector<bool>& kept, std::uint64_t parts);
 
 /// The paper's measures: {"centre", "radius", "vertex": {...}, "centroid": {...}, "area_error", ...}.
 nlohmann::ordered_json sphereJson(const SphereReport& r);

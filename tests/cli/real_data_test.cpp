@@ -1,6 +1,10 @@
 // Real scans from ../shared/data; every test skips when the data is absent.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
+#include <nlohmann/json.hpp>
+
 #include "io/open_source.h"
 #include "test_support.h"
 
@@ -39,6 +43,30 @@ TEST(RealData, PhilipsHeadWithCloseBoundaryHasNoBoundaryEdges) {
   EXPECT_EQ(x.stats.interiorBoundaryEdges, 0u);
   EXPECT_EQ(x.stats.nonManifoldEdges, 0u);
   EXPECT_EQ(x.stats.inconsistentEdges, 0u);
+}
+
+// The head without its holder: one closed component, checked by `isoslab metrics` on the file
+// written. The holder is the second largest (about 715,000 triangles of 2.56 million).
+TEST(RealData, PhilipsHeadKeepLargestIsOneClosedComponent) {
+  const std::string philips = testing::sharedData("ct-philips-head");
+  if (philips.empty()) GTEST_SKIP() << "../shared/data/ct-philips-head is absent";
+  const std::string dir = testing::tempDir();
+  const auto r = testing::runCli(fmt::format(
+      "extract {} --iso -400 --close-boundary --keep-largest 1 -q -o {}/head.ply --report {}/r.json", philips, dir, dir));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto report = nlohmann::json::parse(testing::slurp(dir + "/r.json"));
+  EXPECT_GT(report["components"]["count"].get<int>(), 10);
+  EXPECT_EQ(report["component_filter"]["kept"]["count"], 1);
+  EXPECT_GT(report["component_filter"]["dropped"]["triangles"].get<double>(), 500000);
+  const auto m = testing::runCli(fmt::format("metrics {}/head.ply", dir));
+  ASSERT_EQ(m.exitCode, 0) << m.err;
+  const auto metrics = nlohmann::json::parse(m.out);
+  EXPECT_EQ(metrics["components"]["count"], 1);
+  EXPECT_EQ(metrics["components"]["closed"], 1);
+  EXPECT_EQ(metrics["boundary_edges"], 0);
+  EXPECT_EQ(metrics["nonmanifold_edges"], 0);
+  EXPECT_EQ(metrics["triangles"], report["components"]["largest"][0]["triangles"]);
+  EXPECT_GT(metrics["triangles"].get<double>(), 1500000);
 }
 
 TEST(RealData, CtHeadBigEndianSlicesAtIso600IsClosedWhereInterior) {
