@@ -14,6 +14,7 @@ declare -A allowed=(
   [stream]="io extract core"
   [metrics]="stream io extract core"
   [render]="core"
+  [process]="core"
 )
 # Libraries that core/ and extract/ must not use: the kernels build with the compiler alone.
 thirdParty='^#include <(fmt|nlohmann|draco|dcmtk|OpenImageIO|openjpeg|zlib\.h|CLI|Eigen)'
@@ -50,7 +51,7 @@ for module in "${!allowed[@]}"; do
     done
   fi
 done
-for module in core extract render; do
+for module in core extract render process; do
   if grep -HnE "$thirdParty" "$module"/*.h "$module"/*.cpp; then
     echo "check_layers: $module/ uses a third-party library (above); it must build with the standard library alone"
     bad=1

@@ -1,0 +1,368 @@
+// Streamed Laplacian smoothing (see smoothing.h). Taubin's lambda|mu: G. Taubin, "A signal
+// processing approach to fair surface design", SIGGRAPH 1995. The windowed sinc: G. Taubin,
+// T. Zhang and G. Golub, "Optimal surface smoothing as filter design", ECCV 1996; its
+// coefficients and recurrence as documented for VTK's vtkWindowedSincPolyDataFilter.
+#include "process/smoothing.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <utility>
+
+#include "core/error.h"
+
+namespace isoslab {
+namespace {
+
+using Vec3d = std::array<double, 3>;
+
+Vec3d toDouble(const Vec3f& p) { return {p.x, p.y, p.z}; }
+Vec3f toFloat(const Vec3d& p) {
+  return {static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])};
+}
+double dot(const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+}  // namespace
+
+double taubinMu(double lambda, double passBand) { return 1.0 / (passBand - 1.0 / lambda); }
+
+std::string checkSmoothOptions(const SmoothOptions& o) {
+  if (o.iterations < 0 || o.iterations > kMaxSmoothIterations) {
+    return "`smooth_iterations` must be 0 to " + std::to_string(kMaxSmoothIterations) + ", not " +
+           std::to_string(o.iterations);
+  }
+  if (!(o.passBand > 0 && o.passBand < 2)) return "`pass_band` must be above 0 and below 2";
+  if (!(o.lambda > 0 && o.lambda < 1)) return "`lambda` must be above 0 and below 1";
+  if (o.method == SmoothMethod::kTaubin && !(o.passBand < 1.0 / o.lambda)) {
+    return "`pass_band` must be below 1 / `lambda` for Taubin smoothing";
+  }
+  return {};
+}
+
+SmoothRecurrence smoothRecurrence(const SmoothOptions& o) {
+  const auto n = static_cast<std::size_t>(o.iterations);
+  SmoothRecurrence r;
+  r.a.assign(n, 1.0);
+  r.b.assign(n, 0.0);
+  r.c.assign(n, 0.0);
+  r.w.assign(n + 1, 0.0);
+  if (o.method == SmoothMethod::kTaubin) {
+    const double mu = taubinMu(o.lambda, o.passBand);
+    for (std::size_t i = 0; i < n; ++i) r.b[i] = i % 2 == 0 ? o.lambda : mu;
+    r.w[n] = 1.0;
+    return r;
+  }
+  // Chebyshev polynomials T_i(1 - k/2) of the operator I + L/2 (k: the Laplacian's eigenvalue):
+  // x^1 = x + L(x)/2, x^(i+1) = 2 x^i + L(x^i) - x^(i-1).
+  for (std::size_t i = 0; i < n; ++i) {
+    r.a[i] = i == 0 ? 1.0 : 2.0;
+    r.b[i] = i == 0 ? 0.5 : 1.0;
+    r.c[i] = i == 0 ? 0.0 : -1.0;
+  }
+  // The low-pass filter's Chebyshev coefficients in the Hamming window, as VTK's
+  // vtkWindowedSincPolyDataFilter (9.1) computes them: the pass band's angle theta is shifted by
+  // sigma, found by Newton's method (VTK's slope and its 1e-3 tolerance), until the gain at the pass
+  // band is 1. VTK leaves the gain at frequency 0 (where every T_i is 1) a little off 1 (0.9984 for
+  // 20 iterations), which shrinks the mesh towards the coordinates' origin; isoslab divides by it,
+  // so that its result is VTK's up to that factor, and independent of where the origin lies.
+  const double pi = std::numbers::pi;
+  const double y = 1.0 - 0.5 * o.passBand;
+  const double theta = std::acos(y);
+  std::vector<double> window(n + 1), slope(n + 1);
+  for (std::size_t i = 0; i <= n; ++i) {
+    window[i] = 0.54 + 0.46 * std::cos(static_cast<double>(i) * pi / static_cast<double>(n + 1));
+  }
+  const auto chebyshevAt = [&](std::size_t i) { return i == 1 ? y : std::cos(static_cast<double>(i) * theta); };
+  double sigma = 0;
+  for (int step = 0; step < 500; ++step) {
+    r.w[0] = window[0] * (theta + sigma) / pi;
+    for (std::size_t i = 1; i <= n; ++i) {
+      const double di = static_cast<double>(i);
+      r.w[i] = 2.0 * window[i] * std::sin(di * (theta + sigma)) / (di * pi);
+    }
+    if (n < 2) break;
+    // The Chebyshev coefficients of the polynomial's derivative.
+    slope[n] = slope[n - 1] = 0;
+    slope[n - 2] = 2.0 * static_cast<double>(n - 1) * r.w[n - 1];
+    for (std::size_t i = n - 2; i-- > 0;) slope[i] = slope[i + 2] + 2.0 * static_cast<double>(i + 1) * r.w[i + 1];
+    double gain = r.w[0];
+    double derivative = slope[0];
+    for (std::size_t i = 1; i <= n; ++i) {
+      gain += r.w[i] * chebyshevAt(i);
+      derivative += slope[i] * chebyshevAt(i);
+    }
+    if (std::abs(gain - 1.0) < 1e-3) break;
+    sigma -= (gain - 1.0) / derivative;
+  }
+  double total = 0;
+  for (double w : r.w) total += w;
+  for (double& w : r.w) w /= total;
+  return r;
+}
+
+SmoothingSink::SmoothingSink(MeshSink& next, const SmoothOptions& options)
+    : next_(next), options_(options), recurrence_(smoothRecurrence(options)) {
+  if (const std::string e = checkSmoothOptions(options); !e.empty()) throw Error(e);
+}
+
+void SmoothingSink::begin(const MeshHeader& header) {
+  header_ = header;
+  chunks_.clear();
+  finished_ = false;
+  peakChunks_ = 0;
+  MeshHeader out = header;
+  out.cellVolumes = false;  // the slabs' tetrahedron volumes were the unsmoothed surface's
+  next_.begin(out);
+}
+
+SmoothingSink::Chunk* SmoothingSink::chunkOf(VertexId v) {
+  // The chunks are contiguous in ids; v lies in one of the last few.
+  for (auto it = chunks_.rbegin(); it != chunks_.rend(); ++it) {
+    if (v >= it->mesh.firstVertex) return v < it->mesh.endVertex() ? &*it : nullptr;
+  }
+  return nullptr;
+}
+
+void SmoothingSink::consume(const MeshChunk& chunk) {
+  const VertexId expected = chunks_.empty() ? 0 : chunks_.back().mesh.endVertex();
+  if (!chunks_.empty() && chunk.firstVertex != expected) {
+    throw Error("smoothing: the chunk's vertices do not continue the previous chunk's");
+  }
+  Chunk& c = chunks_.emplace_back();
+  c.mesh = chunk;
+  c.current.resize(chunk.positions.size());
+  for (std::size_t v = 0; v < chunk.positions.size(); ++v) c.current[v] = toDouble(chunk.positions[v]);
+  if (options_.method == SmoothMethod::kSinc) {
+    c.sum.resize(c.current.size());
+    for (std::size_t v = 0; v < c.current.size(); ++v) {
+      for (std::size_t k = 0; k < 3; ++k) c.sum[v][k] = recurrence_.w[0] * c.current[v][k];
+    }
+  }
+  // Each edge makes its two ends neighbours; the ends lie in this chunk or the one before.
+  for (const Triangle& t : chunk.triangles) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const VertexId a = t[k];
+      const VertexId b = t[(k + 1) % 3];
+      if (a == b) continue;
+      Chunk* ca = chunkOf(a);
+      Chunk* cb = chunkOf(b);
+      if (ca == nullptr || cb == nullptr || ca->linked || cb->linked) {
+        throw Error("smoothing: a triangle uses a vertex outside this chunk and the previous one");
+      }
+      ca->pairs.emplace_back(a - ca->mesh.firstVertex, b);
+      cb->pairs.emplace_back(b - cb->mesh.firstVertex, a);
+    }
+  }
+  // The chunk before this one has all its neighbours now.
+  if (chunks_.size() >= 2) link(chunks_[chunks_.size() - 2]);
+  peakChunks_ = std::max(peakChunks_, chunks_.size());
+  sweep();
+  emitReady(false);
+}
+
+void SmoothingSink::finish() {
+  if (!chunks_.empty()) link(chunks_.back());
+  finished_ = true;
+  for (int round = 0; round <= options_.iterations + 1; ++round) sweep();
+  emitReady(true);
+  chunks_.clear();
+  next_.finish();
+}
+
+// Turns the chunk's edge pairs into neighbour lists, each neighbour once.
+void SmoothingSink::link(Chunk& chunk) {
+  if (chunk.linked) return;
+  std::sort(chunk.pairs.begin(), chunk.pairs.end());
+  chunk.pairs.erase(std::unique(chunk.pairs.begin(), chunk.pairs.end()), chunk.pairs.end());
+  const std::size_t n = chunk.mesh.positions.size();
+  chunk.offsets.assign(n + 1, 0);
+  for (const auto& [v, u] : chunk.pairs) ++chunk.offsets[v + 1];
+  for (std::size_t v = 0; v < n; ++v) chunk.offsets[v + 1] += chunk.offsets[v];
+  chunk.neighbours.resize(chunk.pairs.size());
+  for (std::size_t i = 0; i < chunk.pairs.size(); ++i) chunk.neighbours[i] = chunk.pairs[i].second;
+  chunk.pairs = {};
+  chunk.linked = true;
+}
+
+// Whether the chunk at `index` can go from iteration L to L + 1: its neighbour lists are complete,
+// and the chunks on either side hold iterate L (as their current or previous one).
+bool SmoothingSink::canAdvance(std::size_t index) const {
+  const Chunk& c = chunks_[index];
+  const int level = c.level;
+  if (level >= options_.iterations || !c.linked) return false;
+  const auto holds = [&](const Chunk& other) { return other.level == level || other.level == level + 1; };
+  if (index + 1 < chunks_.size()) {
+    if (!holds(chunks_[index + 1])) return false;
+  } else if (!finished_) {
+    return false;
+  }
+  return index == 0 || holds(chunks_[index - 1]);
+}
+
+void SmoothingSink::advance(std::size_t index) {
+  Chunk& c = chunks_[index];
+  const auto level = static_cast<std::size_t>(c.level);
+  const double a = recurrence_.a[level];
+  const double b = recurrence_.b[level];
+  const double cc = recurrence_.c[level];
+  // Iterate `level` of a vertex: current in a chunk at this level, previous in one a step ahead.
+  const auto iterate = [&](VertexId v) -> const Vec3d& {
+    const Chunk& owner = chunks_[index];
+    const Chunk* o = &owner;
+    if (v < owner.mesh.firstVertex) {
+      o = &chunks_[index - 1];
+    } else if (v >= owner.mesh.endVertex()) {
+      o = &chunks_[index + 1];
+    }
+    const std::size_t local = v - o->mesh.firstVertex;
+    return o->level == c.level ? o->current[local] : o->previous[local];
+  };
+  const std::size_t n = c.current.size();
+  scratch_.resize(n);
+  for (std::size_t v = 0; v < n; ++v) {
+    const Vec3d& x = c.current[v];
+    Vec3d lap{0, 0, 0};
+    const std::uint32_t begin = c.offsets[v];
+    const std::uint32_t end = c.offsets[v + 1];
+    if (end > begin) {
+      for (std::uint32_t k = begin; k < end; ++k) {
+        const Vec3d& u = iterate(c.neighbours[k]);
+        for (std::size_t d = 0; d < 3; ++d) lap[d] += u[d];
+      }
+      const double inv = 1.0 / static_cast<double>(end - begin);
+      for (std::size_t d = 0; d < 3; ++d) lap[d] = lap[d] * inv - x[d];
+    }
+    Vec3d next;
+    for (std::size_t d = 0; d < 3; ++d) {
+      next[d] = a * x[d] + b * lap[d];
+      if (cc != 0) next[d] += cc * c.previous[v][d];
+    }
+    scratch_[v] = constrain(c, v, next);
+  }
+  std::swap(c.previous, c.current);
+  std::swap(c.current, scratch_);
+  ++c.level;
+  if (options_.method == SmoothMethod::kSinc) {
+    const double w = recurrence_.w[level + 1];
+    for (std::size_t v = 0; v < n; ++v) {
+      for (std::size_t d = 0; d < 3; ++d) c.sum[v][d] += w * c.current[v][d];
+    }
+  }
+}
+
+// Newest to oldest, so that each chunk sees its successor's step of this round.
+void SmoothingSink::sweep() {
+  for (std::size_t i = chunks_.size(); i-- > 0;) {
+    if (canAdvance(i)) advance(i);
+  }
+}
+
+// Keeps a vertex on the volume's faces that it lies on: projected into its face, onto the line
+// where its two faces meet, or (a corner, a locked vertex, faces that are not planes) back where
+// it was.
+SmoothingSink::Vec3d SmoothingSink::constrain(const Chunk& chunk, std::size_t local, const Vec3d& p) const {
+  const std::uint8_t bits = chunk.mesh.boundary.empty() ? 0 : chunk.mesh.boundary[local];
+  if (bits == 0) return p;
+  const Vec3d origin = toDouble(chunk.mesh.positions[local]);
+  const int faces = std::popcount(static_cast<unsigned>(bits));
+  if (options_.faces == FaceVertices::kLock || !header_.volumeFaces || faces >= 3) return origin;
+  std::array<Vec3d, 2> normal{};
+  std::size_t found = 0;
+  for (std::size_t f = 0; f < 6 && found < 2; ++f) {
+    if (bits & (1u << f)) {
+      const FacePlane& plane = (*header_.volumeFaces)[f];
+      normal[found++] = {plane[0], plane[1], plane[2]};
+    }
+  }
+  const Vec3d delta{p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]};
+  if (faces == 1) {
+    const double along = dot(delta, normal[0]);
+    return {p[0] - along * normal[0][0], p[1] - along * normal[0][1], p[2] - along * normal[0][2]};
+  }
+  Vec3d t{normal[0][1] * normal[1][2] - normal[0][2] * normal[1][1],
+          normal[0][2] * normal[1][0] - normal[0][0] * normal[1][2],
+          normal[0][0] * normal[1][1] - normal[0][1] * normal[1][0]};
+  const double length = std::sqrt(dot(t, t));
+  if (length == 0) return origin;
+  for (double& x : t) x /= length;
+  const double along = dot(delta, t);
+  return {origin[0] + along * t[0], origin[1] + along * t[1], origin[2] + along * t[2]};
+}
+
+// Sends on, in order, the chunks that have done every iteration and whose normals can be made:
+// those need the next chunk's triangles at their final positions too.
+void SmoothingSink::emitReady(bool finished) {
+  const bool normals = header_.normals && options_.recomputeNormals;
+  for (std::size_t i = 0; i < chunks_.size(); ++i) {
+    Chunk& c = chunks_[i];
+    if (c.emitted) continue;
+    if (c.level < options_.iterations) break;
+    if (normals) {
+      const bool last = i + 1 == chunks_.size();
+      if (last ? !finished : chunks_[i + 1].level < options_.iterations) break;
+    }
+    emit(i);
+  }
+  // A chunk is needed until the one after it has left (for that one's iterates and normals).
+  while (chunks_.size() >= 2 && chunks_[0].emitted && chunks_[1].emitted) chunks_.pop_front();
+}
+
+// The chunk's final positions (constrained once more: a sum of constrained iterates may leave its
+// face by rounding).
+void SmoothingSink::finalize(Chunk& c) {
+  if (c.output.size() == c.mesh.positions.size()) return;
+  const std::vector<Vec3d>& result = options_.method == SmoothMethod::kSinc ? c.sum : c.current;
+  c.output.resize(result.size());
+  for (std::size_t v = 0; v < result.size(); ++v) c.output[v] = toFloat(constrain(c, v, result[v]));
+}
+
+const Vec3f& SmoothingSink::finalPosition(VertexId v) {
+  const Chunk* c = chunkOf(v);
+  return c->output[v - c->mesh.firstVertex];
+}
+
+void SmoothingSink::emit(std::size_t index) {
+  Chunk& c = chunks_[index];
+  finalize(c);
+  if (index + 1 < chunks_.size()) finalize(chunks_[index + 1]);
+  out_.clear();
+  out_.slab = c.mesh.slab;
+  out_.firstVertex = c.mesh.firstVertex;
+  out_.positions = c.output;
+  out_.boundary = c.mesh.boundary;
+  out_.triangles = c.mesh.triangles;
+  if (header_.normals) {
+    out_.normals = c.mesh.normals;
+    if (options_.recomputeNormals) {
+      // Area-weighted face normals of the triangles that use the chunk's vertices: its own, and the
+      // next chunk's.
+      std::vector<Vec3d> sum(c.output.size(), Vec3d{0, 0, 0});
+      const auto add = [&](const std::vector<Triangle>& triangles) {
+        for (const Triangle& t : triangles) {
+          const Vec3d p0 = toDouble(finalPosition(t[0]));
+          const Vec3d p1 = toDouble(finalPosition(t[1]));
+          const Vec3d p2 = toDouble(finalPosition(t[2]));
+          const Vec3d e1{p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+          const Vec3d e2{p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+          const Vec3d n{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+          for (VertexId v : t) {
+            if (v < c.mesh.firstVertex || v >= c.mesh.endVertex()) continue;
+            for (std::size_t d = 0; d < 3; ++d) sum[v - c.mesh.firstVertex][d] += n[d];
+          }
+        }
+      };
+      add(c.mesh.triangles);
+      if (index + 1 < chunks_.size()) add(chunks_[index + 1].mesh.triangles);
+      for (std::size_t v = 0; v < sum.size(); ++v) {
+        const double length = std::sqrt(dot(sum[v], sum[v]));
+        if (length > 0) out_.normals[v] = toFloat({sum[v][0] / length, sum[v][1] / length, sum[v][2] / length});
+      }
+    }
+  }
+  c.emitted = true;
+  next_.consume(out_);
+}
+
+}  // namespace isoslab

@@ -1,0 +1,111 @@
+// Smoothing a streamed mesh: N iterations of a non-shrinking Laplacian filter, Taubin's lambda|mu
+// or a windowed sinc as in VTK's vtkWindowedSincPolyDataFilter, run as a wavefront over the chunks.
+//
+// One iteration moves a vertex by the umbrella operator, the mean of its edge neighbours minus
+// itself, taken over the previous iterate (Jacobi order). A vertex's position after i iterations
+// therefore depends on its i-ring. Its neighbours lie in its own chunk and the ones on either side
+// (core/mesh_sink.h: a triangle uses its own chunk's and the previous chunk's vertices), so
+// iteration i of chunk z can run once chunk z + i has arrived: after chunk c arrives, chunk c - 1
+// goes to iteration 1, c - 2 to 2, ..., and a chunk that has done all N leaves. The sink holds
+// about N + 2 chunks; its result is the whole-mesh filter's, to rounding.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "core/mesh_sink.h"
+
+namespace isoslab {
+
+enum class SmoothMethod { kTaubin, kSinc };
+
+/// What happens to vertices on the volume's faces (the caps of --close-boundary and the rims of
+/// open surfaces): they slide within their faces (along the edge where two faces meet; a corner
+/// stays), or they stay where they are.
+enum class FaceVertices { kSlide, kLock };
+
+struct SmoothOptions {
+  /// Laplacian iterations (0: off). For sinc, the polynomial's degree, as VTK's NumberOfIterations.
+  int iterations = 0;
+  SmoothMethod method = SmoothMethod::kSinc;
+  /// The pass band k_PB in (0, 2): sinc's cut-off, and Taubin's 1/lambda + 1/mu = k_PB.
+  double passBand = 0.1;
+  /// Taubin's lambda (mu follows from the pass band).
+  double lambda = 0.5;
+  FaceVertices faces = FaceVertices::kSlide;
+  /// Normals from the smoothed mesh (area-weighted face normals), or the field's as extracted.
+  bool recomputeNormals = true;
+};
+
+/// The most iterations allowed: the sink holds N + 2 chunks.
+inline constexpr int kMaxSmoothIterations = 500;
+
+/// Taubin's mu for a lambda and pass band: 1/lambda + 1/mu = k_PB.
+double taubinMu(double lambda, double passBand);
+
+/// The filter as a linear recurrence over iterates x^0 = x, x^1, ... x^N:
+///   x^(n+1) = a[n] x^n + b[n] L(x^n) + c[n] x^(n-1)     (L: the umbrella operator)
+/// and the output  sum_n w[n] x^n. Taubin: a = 1, b alternating lambda and mu, c = 0, w = (0..0, 1).
+/// Sinc: Chebyshev polynomials of the windowed low-pass filter.
+struct SmoothRecurrence {
+  std::vector<double> a, b, c, w;
+};
+SmoothRecurrence smoothRecurrence(const SmoothOptions& options);
+
+/// Checks the options; returns an error message naming the option, or empty when they are valid.
+std::string checkSmoothOptions(const SmoothOptions& options);
+
+class SmoothingSink final : public MeshSink {
+ public:
+  SmoothingSink(MeshSink& next, const SmoothOptions& options);
+
+  void begin(const MeshHeader& header) override;
+  void consume(const MeshChunk& chunk) override;
+  void finish() override;
+
+  /// The most chunks held at once.
+  std::size_t peakChunks() const noexcept { return peakChunks_; }
+
+ private:
+  using Vec3d = std::array<double, 3>;
+  struct Chunk {
+    MeshChunk mesh;  // as it arrived
+    // Edge pairs (local vertex, neighbour id) gathered until the neighbours are all known, then the
+    // neighbour lists: neighbours[offsets[v] .. offsets[v + 1]).
+    std::vector<std::pair<std::uint32_t, VertexId>> pairs;
+    std::vector<std::uint32_t> offsets;
+    std::vector<VertexId> neighbours;
+    bool linked = false;
+    int level = 0;
+    std::vector<Vec3d> current, previous, sum;
+    std::vector<Vec3f> output;  // the final positions, once every iteration is done
+    bool emitted = false;
+  };
+
+  Chunk* chunkOf(VertexId v);
+  void link(Chunk& chunk);
+  bool canAdvance(std::size_t index) const;
+  void advance(std::size_t index);
+  void sweep();
+  void emitReady(bool finished);
+  void emit(std::size_t index);
+  void finalize(Chunk& chunk);
+  const Vec3f& finalPosition(VertexId v);
+  Vec3d constrain(const Chunk& chunk, std::size_t local, const Vec3d& p) const;
+
+  MeshSink& next_;
+  SmoothOptions options_;
+  SmoothRecurrence recurrence_;
+  MeshHeader header_;
+  std::deque<Chunk> chunks_;
+  bool finished_ = false;
+  std::size_t peakChunks_ = 0;
+  MeshChunk out_;
+  std::vector<Vec3d> scratch_;
+};
+
+}  // namespace isoslab
