@@ -3,7 +3,7 @@
 
 Usage: plot_precision.py RESULTS.csv OUT_DIR   (Debian: /usr/bin/python3 with python3-matplotlib)
 Writes chart1_triangles.png .. chart7_volume_error.png, each with the binary and the distance
-field side by side and one line per method.
+field side by side and one line per method (smoothed runs, "mc+sinc20", dashed).
 """
 import csv
 import math
@@ -41,7 +41,9 @@ def main():
     for r in rows:
         series[(r["field"], r["method"])].append(r)
     fields = [f for f in ("binary", "distance") if any(k[0] == f for k in series)]
-    methods = [m for m in STYLE if any(k[1] == m for k in series)]
+    # Smoothed rows ("mc+sinc20") are drawn dashed, in their method's colour.
+    base = lambda m: m.split("+")[0]
+    methods = sorted({k[1] for k in series if base(k[1]) in STYLE}, key=lambda m: (list(STYLE).index(base(m)), m))
     for name, column, title, ylabel in CHARTS:
         fig, axes = plt.subplots(1, len(fields), figsize=(6 * len(fields), 4.2), squeeze=False)
         for ax, field in zip(axes[0], fields):
@@ -49,8 +51,9 @@ def main():
                 data = sorted(series[(field, m)], key=lambda r: float(r["radius"]))
                 xs = [float(r["radius"]) for r in data if r[column] not in ("", "nan")]
                 ys = [float(r[column]) for r in data if r[column] not in ("", "nan")]
-                color, marker = STYLE[m]
-                ax.plot(xs, ys, label=m, color=color, marker=marker, markersize=3, linewidth=1)
+                color, marker = STYLE[base(m)]
+                ax.plot(xs, ys, label=m, color=color, marker=marker, markersize=3, linewidth=1,
+                        linestyle="--" if "+" in m else "-")
             ax.set_title(f"{field} field")
             ax.set_xlabel("radius (voxels)")
             ax.set_ylabel(ylabel)

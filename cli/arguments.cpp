@@ -147,7 +147,8 @@ std::string withFlags(const std::string& text) {
   // The settings of SourceOptions and WriterOptions that have an option of the same name.
   static const char* const kSettings[] = {"iso",         "series",      "strict",     "skip_bad",        "channel",
                                           "nifti_xform", "raw_dims",    "raw_type",   "raw_endian",      "raw_offset",
-                                          "spacing",     "draco_level", "quant_bits", "chunk_triangles", "roi"};
+                                          "spacing",     "draco_level", "quant_bits", "chunk_triangles", "roi",
+                                          "smooth",      "pass_band"};
   std::string out;
   std::size_t at = 0;
   while (at < text.size()) {

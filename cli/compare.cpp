@@ -21,6 +21,7 @@
 #include "io/open_source.h"
 #include "io/phantom.h"
 #include "metrics/measure.h"
+#include "process/smoothing.h"
 
 namespace fs = std::filesystem;
 
@@ -81,6 +82,15 @@ int runSpheres(const CompareArgs& args) {
     offset = {c[0], c[1], c[2]};
   }
   const auto methods = methodsOf(args.methods);
+  // Each method, and with --smooth each method smoothed too.
+  std::vector<std::pair<Method, bool>> runs;
+  for (Method m : methods) {
+    runs.emplace_back(m, false);
+    if (args.smooth > 0) runs.emplace_back(m, true);
+  }
+  SmoothOptions smoothOptions;
+  smoothOptions.iterations = args.smooth;
+  smoothOptions.method = args.smoothMethod == "taubin" ? SmoothMethod::kTaubin : SmoothMethod::kSinc;
   std::string csv =
       "method,field,radius,n,iso,triangles,vertices,seconds,"
       "vertex_error_sum,vertex_error_sum_per_triangle,vertex_error_mean,vertex_error_mean_abs,vertex_error_rms,"
@@ -102,19 +112,26 @@ int runSpheres(const CompareArgs& args) {
       const std::string spec = fmt::format("phantom:sphere?n={}&r={}&c={},{},{}&field={}", n, r, c0 + offset[0],
                                            c0 + offset[1], c0 + offset[2], field);
       const double iso = std::string(field) == "binary" ? 50.0 : 1000.0 - 10.0 * r;
-      for (Method m : methods) {
+      for (const auto& [m, smooth] : runs) {
         auto source = PhantomSource::open(spec);
         ExtractOptions o;
         o.method = m;
         o.iso = iso;
-        const Measurement x = measureExtraction(*source, o, phantomSphere(source->info()));
+        std::optional<SmoothingSink> smoothing;
+        SinkWrapper through;
+        if (smooth) {
+          through = [&](MeshSink& into) -> MeshSink& { return smoothing.emplace(into, smoothOptions); };
+        }
+        const Measurement x = measureExtraction(*source, o, phantomSphere(source->info()), {}, through);
+        const std::string label = smooth ? fmt::format("{}+{}{}", methodName(m), args.smoothMethod, args.smooth)
+                                         : std::string(methodName(m));
         const SphereReport& s = *x.sphere;
         const double t = static_cast<double>(s.triangles);
         const auto& v = s.vertex;
         const auto& g = s.centroid;
         const bool empty = s.triangles == 0;
         auto val = [empty](double d) { return empty ? std::nan("") : d; };
-        csv += fmt::format("{},{},{},{},{},{},{},{},", methodName(m), field, r, n, iso, s.triangles, s.vertices,
+        csv += fmt::format("{},{},{},{},{},{},{},{},", label, field, r, n, iso, s.triangles, s.vertices,
                            num(x.run.totalSeconds));
         csv += fmt::format("{},{},{},{},{},{},", num(val(v.sum)), num(val(v.sum / t)), num(val(v.mean())),
                            num(val(v.meanAbs())), num(val(v.rms())), num(val(v.maxAbs)));
@@ -124,7 +141,7 @@ int runSpheres(const CompareArgs& args) {
                            s.volumeCellsError ? num(val(*s.volumeCellsError)) : "", x.stats.closed() ? 1 : 0,
                            x.stats.euler);
         if (!empty && r >= 5) {
-          Totals& tot = totals[{field, std::string(methodName(m))}];
+          Totals& tot = totals[{field, label}];
           tot.area += std::abs(s.areaError);
           tot.volume += std::abs(s.volumeError);
           tot.vertex += v.meanAbs();
@@ -223,6 +240,15 @@ int runPaper(const CompareArgs& args) {
                            "no --cthead given: head phantom 256x256x109, iso -400"));
   }
   const auto methods = methodsOf(args.methods);
+  // Each method, and with --smooth each method smoothed too.
+  std::vector<std::pair<Method, bool>> runs;
+  for (Method m : methods) {
+    runs.emplace_back(m, false);
+    if (args.smooth > 0) runs.emplace_back(m, true);
+  }
+  SmoothOptions smoothOptions;
+  smoothOptions.iterations = args.smooth;
+  smoothOptions.method = args.smoothMethod == "taubin" ? SmoothMethod::kTaubin : SmoothMethod::kSinc;
   std::string csv =
       "dataset,method,triangles,seconds,constant_seconds,read_seconds,triangle_ratio_to_mt6,time_ratio_to_mt6\n";
   std::string md = "# paper: the counterparts of the paper's Tables 2 and 3\n\n";
@@ -275,6 +301,15 @@ int runPaper(const CompareArgs& args) {
 
 int runCubes(const CompareArgs& args) {
   const auto methods = methodsOf(args.methods);
+  // Each method, and with --smooth each method smoothed too.
+  std::vector<std::pair<Method, bool>> runs;
+  for (Method m : methods) {
+    runs.emplace_back(m, false);
+    if (args.smooth > 0) runs.emplace_back(m, true);
+  }
+  SmoothOptions smoothOptions;
+  smoothOptions.iterations = args.smooth;
+  smoothOptions.method = args.smoothMethod == "taubin" ? SmoothMethod::kTaubin : SmoothMethod::kSinc;
   std::string csv = "edge,iso,method,triangles,true_edge,area_error,volume_error,closed\n";
   std::string md =
       "# cubes: the paper's appendix cubes\n\nBinary cubes of L inside lattice points per edge (100 inside, 0 "

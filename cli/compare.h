@@ -17,6 +17,8 @@ struct CompareArgs {
   std::string methods = "mc,mt5,mt6,bcc12,mt24,mc33";
   std::string engine;  // paper: ../shared/data/engine/engine_256x256x128_uint8.raw.gz
   std::string cthead;  // paper: ../shared/data/cthead
+  int smooth = 0;                      // spheres51: also rows of each method smoothed with N iterations
+  std::string smoothMethod = "sinc";  // spheres51: of those rows
   bool charts = true;
   bool quiet = false;
 };

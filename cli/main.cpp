@@ -40,6 +40,7 @@
 #include "io/volume_formats.h"
 #include "io/volume_writer.h"
 #include "metrics/component_filter.h"
+#include "process/smoothing.h"
 #include "metrics/components.h"
 #include "metrics/measure.h"
 #include "metrics/mesh_stats.h"
@@ -213,6 +214,12 @@ struct ExtractArgs {
   std::uint64_t minTriangles = 0;
   double minVolume = -1;
   std::string seed;  // x,y,z in output coordinates
+  // Smoothing.
+  int smooth = 0;
+  std::string smoothMethod = "sinc";
+  double passBand = 0.1;
+  std::string smoothFaces = "slide";
+  std::string smoothNormals = "smoothed";
 };
 
 // The component filters of a run (any() false when none is given).
@@ -518,7 +525,19 @@ int runExtract(const ExtractArgs& args) {
   }
   TeeSink tee(sinks);
   MeshSink* target = &tee;
-  if (rules.any()) target = &filter.emplace(tee, std::move(keepPart));
+  // Smoothing runs on what the filter keeps; its output feeds the writer and the measures.
+  std::optional<SmoothingSink> smoothing;
+  if (args.smooth > 0) {
+    SmoothOptions smoothOptions;
+    smoothOptions.iterations = args.smooth;
+    smoothOptions.method = args.smoothMethod == "taubin" ? SmoothMethod::kTaubin : SmoothMethod::kSinc;
+    smoothOptions.passBand = args.passBand;
+    smoothOptions.faces = args.smoothFaces == "lock" ? FaceVertices::kLock : FaceVertices::kSlide;
+    smoothOptions.recomputeNormals = args.smoothNormals == "smoothed";
+    if (const std::string e = checkSmoothOptions(smoothOptions); !e.empty()) throw UsageError(cli::withFlags(e));
+    target = &smoothing.emplace(*target, smoothOptions);
+  }
+  if (rules.any()) target = &filter.emplace(*target, std::move(keepPart));
   const PipelineResult run = runPipeline(*source, *extractor, *target, header, pipelineOptions);
   if (preview) {
     const render::Image image = preview->image();
@@ -567,6 +586,11 @@ int runExtract(const ExtractArgs& args) {
                        : nlohmann::ordered_json();
     r["warnings"] = warnings;
     addStatsJson(r, s);
+    if (args.smooth > 0) {
+      r["smoothing"] = {{"iterations", args.smooth},     {"method", args.smoothMethod},
+                        {"pass_band", args.passBand},     {"faces", args.smoothFaces},
+                        {"normals", args.normals ? args.smoothNormals : "none"}};
+    }
     if (rules.any()) {
       r["components"] = componentReport;
       r["component_filter"] = filterReport;
@@ -999,6 +1023,38 @@ int main(int argc, char** argv) {
       ->check(numberList([](const std::vector<double>& v) { return v.size() == 3 ? "" : "needs x,y,z"; }))
       ->group(componentsGroup);
 
+  const std::string smoothGroup = "Smoothing";
+  extract
+      ->add_option("--smooth", ex.smooth,
+                   fmt::format("Smooth the surface with N iterations of a non-shrinking filter, in the stream "
+                               "(0 to {}; 20 is a common choice)",
+                               kMaxSmoothIterations))
+      ->check(integerIn(0, kMaxSmoothIterations))
+      ->group(smoothGroup);
+  extract
+      ->add_option("--smooth-method", ex.smoothMethod,
+                   "sinc (windowed sinc, as VTK's vtkWindowedSincPolyDataFilter and 3D Slicer) or taubin (lambda|mu)")
+      ->transform(oneOf("smoothing method", {"sinc", "taubin"}))
+      ->capture_default_str()
+      ->group(smoothGroup);
+  extract
+      ->add_option("--pass-band", ex.passBand,
+                   "The filter's pass band in (0, 2): lower smooths more (sinc's cut-off; Taubin's 1/lambda + 1/mu)")
+      ->capture_default_str()
+      ->group(smoothGroup);
+  extract
+      ->add_option("--smooth-faces", ex.smoothFaces,
+                   "Vertices on the volume's faces: slide (stay within their faces) or lock (stay put)")
+      ->transform(oneOf("face vertices", {"slide", "lock"}))
+      ->capture_default_str()
+      ->group(smoothGroup);
+  extract
+      ->add_option("--smooth-normals", ex.smoothNormals,
+                   "With --normals: smoothed (from the smoothed mesh) or field (the field's gradient, as extracted)")
+      ->transform(oneOf("smoothing normals", {"smoothed", "field"}))
+      ->capture_default_str()
+      ->group(smoothGroup);
+
   extract->add_option("--preview", ex.preview, "Also render the mesh to this PNG as it streams (memory: the image)")
       ->group("Preview");
   cli::addImageOptions(extract, ex.previewImage, "preview-", "Preview");
@@ -1031,6 +1087,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   compare->add_option("--engine", cmp.engine, "paper: the engine CT (raw 256x256x128 u8, gzip allowed)");
   compare->add_option("--cthead", cmp.cthead, "paper and figures: the CThead slices folder (u16 big-endian)");
+  compare
+      ->add_option("--smooth", cmp.smooth,
+                   "spheres51: also run each method with extract's --smooth N (rows named method+sincN or +taubinN)")
+      ->check(integerIn(0, kMaxSmoothIterations));
+  compare->add_option("--smooth-method", cmp.smoothMethod, "spheres51: sinc or taubin, for --smooth")
+      ->transform(oneOf("smoothing method", {"sinc", "taubin"}))
+      ->capture_default_str();
   compare->add_flag("!--no-charts", cmp.charts, "spheres51: skip the PNG charts");
   compare->add_flag("-q,--quiet", cmp.quiet, "No notes on stderr");
 

@@ -7,7 +7,7 @@
 namespace isoslab {
 
 Measurement measureExtraction(SliceSource& source, const ExtractOptions& options, const std::optional<Sphere>& sphere,
-                              std::vector<MeshSink*> extraSinks) {
+                              std::vector<MeshSink*> extraSinks, const SinkWrapper& through) {
   const VolumeInfo& info = source.info();
   const LatticeFrame frame = LatticeFrame::physical(info);
   auto extractor = makeExtractor(options, info, frame);
@@ -22,7 +22,7 @@ Measurement measureExtraction(SliceSource& source, const ExtractOptions& options
   TeeSink tee(sinks);
   const MeshHeader header = extractionHeader(options, info, frame, *extractor);
   Measurement m;
-  m.run = runPipeline(source, *extractor, tee, header);
+  m.run = runPipeline(source, *extractor, through ? through(tee) : tee, header);
   m.stats = stats.stats();
   if (sphere) m.sphere = sphereReport(*sphere, m.stats, *errors);
   return m;

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cassert>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -30,7 +31,7 @@ double taubinMu(double lambda, double passBand) { return 1.0 / (passBand - 1.0 /
 
 std::string checkSmoothOptions(const SmoothOptions& o) {
   if (o.iterations < 0 || o.iterations > kMaxSmoothIterations) {
-    return "`smooth_iterations` must be 0 to " + std::to_string(kMaxSmoothIterations) + ", not " +
+    return "`smooth` (iterations) must be 0 to " + std::to_string(kMaxSmoothIterations) + ", not " +
            std::to_string(o.iterations);
   }
   if (!(o.passBand > 0 && o.passBand < 2)) return "`pass_band` must be above 0 and below 2";
@@ -312,6 +313,7 @@ void SmoothingSink::emitReady(bool finished) {
 // The chunk's final positions (constrained once more: a sum of constrained iterates may leave its
 // face by rounding).
 void SmoothingSink::finalize(Chunk& c) {
+  assert(c.level == options_.iterations);
   if (c.output.size() == c.mesh.positions.size()) return;
   const std::vector<Vec3d>& result = options_.method == SmoothMethod::kSinc ? c.sum : c.current;
   c.output.resize(result.size());
@@ -326,7 +328,6 @@ const Vec3f& SmoothingSink::finalPosition(VertexId v) {
 void SmoothingSink::emit(std::size_t index) {
   Chunk& c = chunks_[index];
   finalize(c);
-  if (index + 1 < chunks_.size()) finalize(chunks_[index + 1]);
   out_.clear();
   out_.slab = c.mesh.slab;
   out_.firstVertex = c.mesh.firstVertex;
@@ -336,6 +337,8 @@ void SmoothingSink::emit(std::size_t index) {
   if (header_.normals) {
     out_.normals = c.mesh.normals;
     if (options_.recomputeNormals) {
+      // The next chunk has done every iteration too (emitReady waits for it).
+      if (index + 1 < chunks_.size()) finalize(chunks_[index + 1]);
       // Area-weighted face normals of the triangles that use the chunk's vertices: its own, and the
       // next chunk's.
       std::vector<Vec3d> sum(c.output.size(), Vec3d{0, 0, 0});

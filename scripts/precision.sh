@@ -10,7 +10,8 @@ cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build --target isoslab
 out=${1:-docs/precision}
 bin=./build/cli/isoslab
-"$bin" compare --suite spheres51 --out "$out"
+# Each method also smoothed with extract's --smooth 20 (windowed sinc), as rows "method+sinc20".
+"$bin" compare --suite spheres51 --smooth 20 --out "$out"
 paper=()
 [ -f ../shared/data/engine/engine_256x256x128_uint8.raw.gz ] && paper+=(--engine ../shared/data/engine/engine_256x256x128_uint8.raw.gz)
 [ -d ../shared/data/cthead ] && paper+=(--cthead ../shared/data/cthead)

@@ -549,5 +549,42 @@ TEST(Cli, SeedOutsideEveryComponentLeavesNoOutput) {
   EXPECT_EQ(near.exitCode, 0) << near.err;
 }
 
+TEST(Cli, SmoothingIsTheSameForEveryThreadCountAndKeepsTheMeshClosed) {
+  const std::string dir = testing::tempDir();
+  for (const char* ext : {"ply", "glb"}) {
+    std::string first;
+    for (int threads : {1, 3}) {
+      const std::string out = fmt::format("{}/s{}.{}", dir, threads, ext);
+      const auto r = testing::runCli(
+          fmt::format("extract 'phantom:head?n=48,44,40&noise=60' --iso 0 --normals --close-boundary --keep-largest 2 "
+                      "--smooth 12 --chunk-triangles 3000 -q --threads {} -o {} --report {}/r.json",
+                      threads, out, dir));
+      ASSERT_EQ(r.exitCode, 0) << r.err;
+      const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+      EXPECT_EQ(report["boundary_edges"], 0);
+      EXPECT_EQ(report["nonmanifold_edges"], 0);
+      const std::string bytes = slurp(out);
+      if (threads == 1)
+        first = bytes;
+      else
+        EXPECT_TRUE(bytes == first) << ext;
+    }
+  }
+}
+
+TEST(Cli, SmoothingOptionsOutOfRangeAreUsageErrors) {
+  const std::string dir = testing::tempDir();
+  const std::string input = "'phantom:sphere?n=24' --iso 900 -o " + dir + "/s.ply";
+  auto r = testing::runCli("extract " + input + " --smooth 501");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_EQ(r.err, "isoslab: error: --smooth: '501' is not a whole number from 0 to 500\n");
+  r = testing::runCli("extract " + input + " --smooth 5 --pass-band 2");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_EQ(r.err, "isoslab: error: --pass-band must be above 0 and below 2\n");
+  r = testing::runCli("extract " + input + " --smooth 5 --smooth-method taubin --pass-band 1.99");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(testing::fileCount(dir), 1);
+}
+
 }  // namespace
 }  // namespace isoslab
