@@ -148,7 +148,7 @@ std::string withFlags(const std::string& text) {
   static const char* const kSettings[] = {"iso",         "series",      "strict",     "skip_bad",        "channel",
                                           "nifti_xform", "raw_dims",    "raw_type",   "raw_endian",      "raw_offset",
                                           "spacing",     "draco_level", "quant_bits", "chunk_triangles", "roi",
-                                          "smooth",      "pass_band"};
+                                          "smooth",      "pass_band",   "decimate",   "max_error"};
   std::string out;
   std::size_t at = 0;
   while (at < text.size()) {

@@ -40,6 +40,7 @@
 #include "io/volume_formats.h"
 #include "io/volume_writer.h"
 #include "metrics/component_filter.h"
+#include "process/decimation.h"
 #include "process/smoothing.h"
 #include "metrics/components.h"
 #include "metrics/measure.h"
@@ -220,6 +221,9 @@ struct ExtractArgs {
   double passBand = 0.1;
   std::string smoothFaces = "slide";
   std::string smoothNormals = "smoothed";
+  // Decimation (1 and 0: off).
+  double decimate = 1.0;
+  double maxError = 0;
 };
 
 // The component filters of a run (any() false when none is given).
@@ -525,6 +529,18 @@ int runExtract(const ExtractArgs& args) {
   }
   TeeSink tee(sinks);
   MeshSink* target = &tee;
+  // Decimation, last before the writer and the measures: on the smoothed surface.
+  std::optional<DecimationSink> decimation;
+  if (args.decimate != 1.0 || args.maxError != 0) {
+    DecimateOptions decimateOptions;
+    decimateOptions.ratio = args.decimate;
+    decimateOptions.maxError = args.maxError;
+    // Every decimated triangle stays within --max-error of the surface, or half a voxel.
+    decimateOptions.maxDistance = args.maxError > 0 ? args.maxError : 0.5;
+    decimateOptions.voxelSize = writerOptions.voxelSize;
+    if (const std::string e = checkDecimateOptions(decimateOptions); !e.empty()) throw UsageError(cli::withFlags(e));
+    target = &decimation.emplace(*target, decimateOptions);
+  }
   // Smoothing runs on what the filter keeps; its output feeds the writer and the measures.
   std::optional<SmoothingSink> smoothing;
   if (args.smooth > 0) {
@@ -590,6 +606,27 @@ int runExtract(const ExtractArgs& args) {
       r["smoothing"] = {{"iterations", args.smooth},     {"method", args.smoothMethod},
                         {"pass_band", args.passBand},     {"faces", args.smoothFaces},
                         {"normals", args.normals ? args.smoothNormals : "none"}};
+    }
+    if (decimation) {
+      const DecimationReport& d = decimation->report();
+      r["decimation"] = {{"ratio", args.decimate},
+                         {"max_error", args.maxError},
+                         {"triangles_before", d.trianglesIn},
+                         {"triangles_after", d.trianglesOut},
+                         {"kept_fraction", d.trianglesIn > 0 ? static_cast<double>(d.trianglesOut) /
+                                                                   static_cast<double>(d.trianglesIn)
+                                                             : 1.0},
+                         {"distance_bound_voxels", args.maxError > 0 ? args.maxError : 0.5},
+                         {"blocks", d.blocks},
+                         {"regions", d.regions},
+                         {"regions_repaired", d.repairedRegions},
+                         {"triangles_frozen", d.frozenTriangles},
+                         {"regions_kept_whole", d.keptRegions},
+                         {"distance_mean", d.distanceMean},
+                         {"distance_max", d.distanceMax},
+                         {"distance_mean_voxels", d.distanceMean / writerOptions.voxelSize},
+                         {"distance_max_voxels", d.distanceMax / writerOptions.voxelSize},
+                         {"distance_samples", d.samples}};
     }
     if (rules.any()) {
       r["components"] = componentReport;
@@ -1054,6 +1091,17 @@ int main(int argc, char** argv) {
       ->transform(oneOf("smoothing normals", {"smoothed", "field"}))
       ->capture_default_str()
       ->group(smoothGroup);
+
+  const std::string decimateGroup = "Decimation";
+  extract
+      ->add_option("--decimate", ex.decimate,
+                   "Keep this fraction of the triangles, in (0, 1], by quadric-error edge collapses (meshoptimizer), "
+                   "in the stream; the mesh stays closed and the chunks join")
+      ->group(decimateGroup);
+  extract
+      ->add_option("--max-error", ex.maxError,
+                   "Decimate as far as an error of E voxels allows (alone, or as a bound with --decimate)")
+      ->group(decimateGroup);
 
   extract->add_option("--preview", ex.preview, "Also render the mesh to this PNG as it streams (memory: the image)")
       ->group("Preview");

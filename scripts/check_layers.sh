@@ -51,7 +51,7 @@ for module in "${!allowed[@]}"; do
     done
   fi
 done
-for module in core extract render process; do
+for module in core extract render; do
   if grep -HnE "$thirdParty" "$module"/*.h "$module"/*.cpp; then
     echo "check_layers: $module/ uses a third-party library (above); it must build with the standard library alone"
     bad=1

@@ -586,5 +586,51 @@ TEST(Cli, SmoothingOptionsOutOfRangeAreUsageErrors) {
   EXPECT_EQ(testing::fileCount(dir), 1);
 }
 
+TEST(Cli, DecimationIsTheSameForEveryThreadCountAndJoinsAtChunkSeams) {
+  const std::string dir = testing::tempDir();
+  std::string first;
+  for (int threads : {1, 3}) {
+    const std::string out = fmt::format("{}/d{}.glb", dir, threads);
+    const auto r = testing::runCli(fmt::format(
+        "extract 'phantom:torus?n=64,64,48&R=18&r=7' --iso 900 --normals --close-boundary --smooth 5 --decimate 0.25 "
+        "--chunk-triangles 2000 -q --threads {} -o {} --report {}/r.json",
+        threads, out, dir));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+    EXPECT_EQ(report["boundary_edges"], 0);
+    EXPECT_EQ(report["nonmanifold_edges"], 0);
+    EXPECT_GE(report["output"]["chunks"].get<double>(), 2);
+    EXPECT_LT(report["decimation"]["kept_fraction"].get<double>(), 0.4);
+    const std::string bytes = slurp(out);
+    if (threads == 1) {
+      first = bytes;
+      // The decoded chunks weld into one closed torus: no crack at a chunk seam.
+      ASSERT_EQ(testing::runCli(fmt::format("decode {} -o {}/d.ply", out, dir)).exitCode, 0);
+      const auto m = testing::runCli(fmt::format("metrics {}/d.ply", dir));
+      const auto metrics = nlohmann::json::parse(m.out);
+      EXPECT_EQ(metrics["boundary_edges"], 0);
+      EXPECT_EQ(metrics["euler"], 0);
+      EXPECT_EQ(metrics["triangles"], report["triangles"]);
+    } else {
+      EXPECT_TRUE(bytes == first);
+    }
+  }
+}
+
+TEST(Cli, DecimationOptionsOutOfRangeAreUsageErrors) {
+  const std::string dir = testing::tempDir();
+  const std::string input = "'phantom:sphere?n=24' --iso 900 -o " + dir + "/s.ply";
+  auto r = testing::runCli("extract " + input + " --decimate 0");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_EQ(r.err, "isoslab: error: --decimate must be above 0 and at most 1\n");
+  r = testing::runCli("extract " + input + " --decimate 1.5");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_EQ(r.err, "isoslab: error: --decimate must be above 0 and at most 1\n");
+  r = testing::runCli("extract " + input + " --max-error -0.5");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_EQ(r.err, "isoslab: error: --max-error must be 0 or more\n");
+  EXPECT_EQ(testing::fileCount(dir), 0);
+}
+
 }  // namespace
 }  // namespace isoslab

@@ -1,0 +1,508 @@
+// Streamed decimation by blocks and regions (see decimation.h), with meshoptimizer 0.18's
+// meshopt_simplify (edge collapses ordered by quadric error, Garland and Heckbert 1997) and its
+// meshopt_SimplifyLockBorder option.
+#include "process/decimation.h"
+
+#include <meshoptimizer.h>
+
+#include <algorithm>
+#include <array>
+#include <cfloat>
+#include <cmath>
+#include <unordered_map>
+#include <utility>
+
+#include "core/error.h"
+
+namespace isoslab {
+namespace {
+
+constexpr VertexId kNone = 0xffffffffu;
+// Tries to simplify a region before it is kept whole.
+constexpr int kAttempts = 12;
+
+struct EdgeUse {
+  std::uint32_t uses = 0;
+  std::uint32_t forward = 0;  // uses from the smaller id to the larger
+};
+
+// Every edge of the triangles: its uses and their directions.
+std::unordered_map<std::uint64_t, EdgeUse> tallyEdges(const std::vector<Triangle>& triangles) {
+  std::unordered_map<std::uint64_t, EdgeUse> edges;
+  edges.reserve(triangles.size() * 2);
+  for (const Triangle& t : triangles) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const VertexId a = t[k];
+      const VertexId b = t[(k + 1) % 3];
+      const std::uint64_t key = (std::uint64_t{std::min(a, b)} << 32) | std::max(a, b);
+      EdgeUse& e = edges[key];
+      ++e.uses;
+      if (a < b) ++e.forward;
+    }
+  }
+  return edges;
+}
+
+struct Shape {
+  std::vector<std::uint64_t> border;  // edges used once, sorted
+  std::uint64_t nonManifold = 0;      // edges used more than twice
+  std::uint64_t inconsistent = 0;     // edges used twice in the same direction
+};
+
+Shape shapeOf(const std::vector<Triangle>& triangles) {
+  Shape s;
+  for (const auto& [key, e] : tallyEdges(triangles)) {
+    if (e.uses == 1) s.border.push_back(key);
+    if (e.uses > 2) ++s.nonManifold;
+    if (e.uses == 2 && e.forward != 1) ++s.inconsistent;
+  }
+  std::sort(s.border.begin(), s.border.end());
+  return s;
+}
+
+using Vec3d = std::array<double, 3>;
+
+Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+// Squared distance from p to the triangle abc: the closest point by the triangle's Voronoi regions
+// (vertices, edges, face), from the barycentric conditions.
+double distanceSquared(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const Vec3d ab = sub(b, a), ac = sub(c, a), ap = sub(p, a);
+  const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+  const auto at = [&](const Vec3d& q) {
+    const Vec3d d = sub(p, q);
+    return dot(d, d);
+  };
+  if (d1 <= 0 && d2 <= 0) return at(a);
+  const Vec3d bp = sub(p, b);
+  const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return at(b);
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double v = d1 / (d1 - d3);
+    return at({a[0] + v * ab[0], a[1] + v * ab[1], a[2] + v * ab[2]});
+  }
+  const Vec3d cp = sub(p, c);
+  const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return at(c);
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double w = d2 / (d2 - d6);
+    return at({a[0] + w * ac[0], a[1] + w * ac[1], a[2] + w * ac[2]});
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return at({b[0] + w * (c[0] - b[0]), b[1] + w * (c[1] - b[1]), b[2] + w * (c[2] - b[2])});
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom, w = vc * denom;
+  return at({a[0] + ab[0] * v + ac[0] * w, a[1] + ab[1] * v + ac[1] * w, a[2] + ab[2] * v + ac[2] * w});
+}
+
+Vec3d toDouble(const Vec3f& p) { return {p.x, p.y, p.z}; }
+
+}  // namespace
+
+std::string checkDecimateOptions(const DecimateOptions& o) {
+  if (!(o.ratio > 0 && o.ratio <= 1)) return "`decimate` must be above 0 and at most 1";
+  if (!(o.maxError >= 0) || !std::isfinite(o.maxError)) return "`max_error` must be 0 or more";
+  if (!(o.voxelSize > 0)) return "the voxel size must be above 0";
+  if (o.blockSlabs < 2) return "a block needs at least 2 slabs";
+  return {};
+}
+
+DecimationSink::DecimationSink(MeshSink& next, const DecimateOptions& options) : next_(next), options_(options) {
+  if (const std::string e = checkDecimateOptions(options); !e.empty()) throw Error(e);
+}
+
+void DecimationSink::begin(const MeshHeader& header) {
+  header_ = header;
+  report_ = DecimationReport{};
+  distanceSum_ = 0;
+  base_ = 0;
+  positions_.clear();
+  normals_.clear();
+  boundary_.clear();
+  sent_.clear();
+  nextId_ = 0;
+  chunkBase_ = 0;
+  chunkFirst_.clear();
+  chunkSlab_.clear();
+  chunkTriangles_.clear();
+  chunks_ = 0;
+  blockStart_ = 0;
+  blockTriangles_ = 0;
+  hasPending_ = false;
+  pendingUpper_.clear();
+  MeshHeader out = header;
+  out.cellVolumes = false;
+  next_.begin(out);
+}
+
+void DecimationSink::consume(const MeshChunk& chunk) {
+  if (chunk.firstVertex != base_ + positions_.size()) {
+    throw Error("decimation: the chunk's vertices do not continue the previous chunk's");
+  }
+  positions_.insert(positions_.end(), chunk.positions.begin(), chunk.positions.end());
+  if (header_.normals) normals_.insert(normals_.end(), chunk.normals.begin(), chunk.normals.end());
+  if (chunk.boundary.empty()) {
+    boundary_.resize(boundary_.size() + chunk.positions.size(), 0);
+  } else {
+    boundary_.insert(boundary_.end(), chunk.boundary.begin(), chunk.boundary.end());
+  }
+  sent_.resize(positions_.size(), kNone);
+  chunkFirst_.push_back(chunk.firstVertex);
+  chunkSlab_.push_back(chunk.slab);
+  chunkTriangles_.push_back(chunk.triangles);
+  ++chunks_;
+  report_.trianglesIn += chunk.triangles.size();
+  blockTriangles_ += static_cast<std::int64_t>(chunk.triangles.size());
+  if (static_cast<std::int64_t>(chunks_ - blockStart_) >= options_.blockSlabs &&
+      blockTriangles_ >= options_.blockTriangles) {
+    closeBlock();
+  }
+}
+
+void DecimationSink::finish() {
+  if (chunks_ > blockStart_) closeBlock();
+  if (hasPending_) {
+    emit(pendingUpper_, chunkSlab_.back());
+    hasPending_ = false;
+  }
+  if (report_.samples > 0) report_.distanceMean = distanceSum_ / static_cast<double>(report_.samples);
+  next_.finish();
+}
+
+// The chunk (index in the stream) that holds vertex v.
+std::size_t DecimationSink::chunkOfVertex(VertexId v) const {
+  const auto it = std::upper_bound(chunkFirst_.begin(), chunkFirst_.end(), v);
+  return chunkBase_ + static_cast<std::size_t>(it - chunkFirst_.begin()) - 1;
+}
+
+void DecimationSink::closeBlock() {
+  ++report_.blocks;
+  std::vector<Triangle> block;
+  std::int64_t original = 0;
+  for (std::size_t c = blockStart_; c < chunks_; ++c) {
+    const auto& t = chunkTriangles_[c - chunkBase_];
+    block.insert(block.end(), t.begin(), t.end());
+    original += static_cast<std::int64_t>(t.size());
+  }
+  const std::vector<Triangle> decimated = simplify(block, original);
+  // Split at the middle chunk: a triangle with a vertex below it is the lower half.
+  const std::size_t middle = std::max(blockStart_ + 1, (blockStart_ + chunks_) / 2);
+  const VertexId middleFirst =
+      middle < chunks_ ? chunkFirst_[middle - chunkBase_] : base_ + static_cast<VertexId>(positions_.size());
+  std::vector<Triangle> lower, upper;
+  for (const Triangle& t : decimated) {
+    (std::min({t[0], t[1], t[2]}) < middleFirst ? lower : upper).push_back(t);
+  }
+  if (!hasPending_) {
+    emit(lower, chunkSlab_[middle - 1 - chunkBase_]);
+  } else {
+    // The region across the old seam: the last block's upper half and this block's lower half.
+    std::vector<Triangle> region = std::move(pendingUpper_);
+    region.insert(region.end(), lower.begin(), lower.end());
+    std::int64_t regionOriginal = 0;
+    for (std::size_t c = pendingMiddle_; c < middle; ++c) {
+      regionOriginal += static_cast<std::int64_t>(chunkTriangles_[c - chunkBase_].size());
+    }
+    ++report_.regions;
+    emit(simplify(region, regionOriginal), chunkSlab_[middle - 1 - chunkBase_]);
+  }
+  pendingUpper_ = std::move(upper);
+  pendingMiddle_ = middle;
+  hasPending_ = true;
+  blockStart_ = chunks_;
+  blockTriangles_ = 0;
+  // Later regions use only vertices from the middle chunk on; the error measure also reads the
+  // original triangles of the chunk below it.
+  trim(middle - 1);
+}
+
+void DecimationSink::trim(std::size_t firstChunk) {
+  if (firstChunk <= chunkBase_) return;
+  const std::size_t drop = firstChunk - chunkBase_;
+  const VertexId newBase = chunkFirst_[drop];
+  const std::size_t vertices = newBase - base_;
+  positions_.erase(positions_.begin(), positions_.begin() + static_cast<std::ptrdiff_t>(vertices));
+  if (!normals_.empty()) normals_.erase(normals_.begin(), normals_.begin() + static_cast<std::ptrdiff_t>(vertices));
+  boundary_.erase(boundary_.begin(), boundary_.begin() + static_cast<std::ptrdiff_t>(vertices));
+  sent_.erase(sent_.begin(), sent_.begin() + static_cast<std::ptrdiff_t>(vertices));
+  base_ = newBase;
+  chunkFirst_.erase(chunkFirst_.begin(), chunkFirst_.begin() + static_cast<std::ptrdiff_t>(drop));
+  chunkSlab_.erase(chunkSlab_.begin(), chunkSlab_.begin() + static_cast<std::ptrdiff_t>(drop));
+  chunkTriangles_.erase(chunkTriangles_.begin(), chunkTriangles_.begin() + static_cast<std::ptrdiff_t>(drop));
+  chunkBase_ = firstChunk;
+}
+
+// meshopt_simplify on `triangles` with their border locked, as far as the target; nothing else.
+std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles) {
+  if (triangles.empty()) return triangles;
+  std::vector<VertexId> ids;
+  ids.reserve(triangles.size() * 3);
+  for (const Triangle& t : triangles) ids.insert(ids.end(), t.begin(), t.end());
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  const auto local = [&](VertexId v) {
+    return static_cast<unsigned>(std::lower_bound(ids.begin(), ids.end(), v) - ids.begin());
+  };
+  std::vector<float> xyz(ids.size() * 3);
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    const Vec3f& p = position(ids[i]);
+    xyz[3 * i] = p.x;
+    xyz[3 * i + 1] = p.y;
+    xyz[3 * i + 2] = p.z;
+  }
+  std::vector<unsigned> indices(triangles.size() * 3);
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    for (std::size_t k = 0; k < 3; ++k) indices[3 * t + k] = local(triangles[t][k]);
+  }
+  // meshoptimizer's own error bound: --max-error, else half the distance bound (its quadric error
+  // underestimates how far a collapse moves the surface; fewer collapses then need undoing).
+  float targetError = FLT_MAX;
+  const double bound = options_.maxError > 0 ? options_.maxError : 0.5 * options_.maxDistance;
+  if (bound > 0) {
+    const float scale = meshopt_simplifyScale(xyz.data(), ids.size(), 3 * sizeof(float));
+    targetError = scale > 0 ? static_cast<float>(bound * options_.voxelSize / scale) : 0.0f;
+  }
+  std::vector<unsigned> result(indices.size());
+  const std::size_t kept =
+      meshopt_simplify(result.data(), indices.data(), indices.size(), xyz.data(), ids.size(), 3 * sizeof(float),
+                       std::min(3 * targetTriangles, indices.size()), targetError, meshopt_SimplifyLockBorder, nullptr);
+  std::vector<Triangle> out(kept / 3);
+  for (std::size_t t = 0; t < out.size(); ++t) {
+    out[t] = {ids[result[3 * t]], ids[result[3 * t + 1]], ids[result[3 * t + 2]]};
+  }
+  return out;
+}
+
+// Simplifies a region so that it stays as closed and manifold as it was. meshoptimizer 0.18 can
+// join two sheets at an edge (a non-manifold edge) where a surface is thin. Where the result has an
+// edge that the region did not (used more than twice, wound twice the same way, or a border edge
+// that was not one), the original triangles within a few rings of that edge's ends are frozen:
+// left out of the next try, so that their outline becomes a locked border, and kept as they are.
+// After a few tries the region is kept whole.
+std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& triangles,
+                                               std::int64_t originalTriangles) {
+  if (triangles.empty()) return triangles;
+  const Shape before = shapeOf(triangles);
+  const std::size_t target =
+      options_.ratio < 1 ? static_cast<std::size_t>(std::llround(options_.ratio * static_cast<double>(originalTriangles)))
+                         : 0;
+  // The border vertices that a neighbouring block or region shares: those on border edges that are
+  // not rims on the volume's faces. An edge between two of them that the region did not have would
+  // be a chord that the neighbour may make too, from its side: four triangles on one edge. So the
+  // triangles around them stay as they are (the next pass, across this border, simplifies them),
+  // and then no collapse can reach them.
+  std::vector<VertexId> borderVertices;
+  for (std::uint64_t key : before.border) {
+    const auto a = static_cast<VertexId>(key >> 32);
+    const auto b = static_cast<VertexId>(key & 0xffffffffu);
+    if ((boundary_[a - base_] & boundary_[b - base_]) != 0) continue;  // a rim
+    borderVertices.push_back(a);
+    borderVertices.push_back(b);
+  }
+  std::sort(borderVertices.begin(), borderVertices.end());
+  borderVertices.erase(std::unique(borderVertices.begin(), borderVertices.end()), borderVertices.end());
+  const auto onBorder = [&](VertexId v) { return std::binary_search(borderVertices.begin(), borderVertices.end(), v); };
+  std::vector<std::uint64_t> inputEdges;
+  for (const auto& [key, e] : tallyEdges(triangles)) inputEdges.push_back(key);
+  std::sort(inputEdges.begin(), inputEdges.end());
+  // The triangles around each vertex, to grow frozen patches by rings.
+  std::unordered_map<VertexId, std::vector<std::uint32_t>> around;
+  std::vector<bool> frozen(triangles.size(), false);
+  std::size_t frozenCount = 0;
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    const Triangle& tri = triangles[t];
+    if (onBorder(tri[0]) || onBorder(tri[1]) || onBorder(tri[2])) {
+      frozen[t] = true;
+      ++frozenCount;
+    }
+  }
+  const std::size_t sharedRing = frozenCount;
+  // The largest distance allowed from the original surface, in output units.
+  const double limit = options_.maxDistance * options_.voxelSize;
+  OriginalSurface original;
+  for (int attempt = 0; attempt < kAttempts; ++attempt) {
+    std::vector<Triangle> input, out;
+    for (std::size_t t = 0; t < triangles.size(); ++t) (frozen[t] ? out : input).push_back(triangles[t]);
+    // Frozen triangles count towards the target: the rest is simplified a little further.
+    const std::size_t share = target > frozenCount ? target - frozenCount : 0;
+    const std::vector<Triangle> simplified = collapse(input, share);
+    out.insert(out.end(), simplified.begin(), simplified.end());
+    // The edges the result should not have.
+    std::vector<VertexId> bad;
+    const auto edges = tallyEdges(out);
+    for (const auto& [key, e] : edges) {
+      const auto a = static_cast<VertexId>(key >> 32);
+      const auto b = static_cast<VertexId>(key & 0xffffffffu);
+      const bool wrong = (e.uses > 2) || (e.uses == 2 && e.forward != 1) ||
+                         (e.uses == 1 && !std::binary_search(before.border.begin(), before.border.end(), key)) ||
+                         (onBorder(a) && onBorder(b) && !std::binary_search(inputEdges.begin(), inputEdges.end(), key));
+      if (wrong) {
+        bad.push_back(static_cast<VertexId>(key >> 32));
+        bad.push_back(static_cast<VertexId>(key & 0xffffffffu));
+      }
+    }
+    // Triangles that moved the surface too far.
+    if (limit > 0) {
+      if (original.triangles.empty()) original = originalsAround(triangles);
+      for (const Triangle& t : simplified) {
+        if (triangleDistance(t, original, nullptr, nullptr) > limit) bad.insert(bad.end(), t.begin(), t.end());
+      }
+    }
+    std::size_t border = 0;
+    for (const auto& [key, e] : edges) border += e.uses == 1 ? 1 : 0;
+    if (bad.empty() && border == before.border.size() && before.nonManifold == 0 && before.inconsistent == 0) {
+      if (attempt > 0) ++report_.repairedRegions;
+      report_.frozenTriangles += frozenCount - sharedRing;
+      return out;
+    }
+    if (before.nonManifold > 0 || before.inconsistent > 0) break;  // not a surface to start with
+    if (around.empty()) {
+      for (std::size_t t = 0; t < triangles.size(); ++t) {
+        for (VertexId v : triangles[t]) around[v].push_back(static_cast<std::uint32_t>(t));
+      }
+    }
+    // A border edge that went missing leaves no bad vertex to freeze around: keep the region whole.
+    if (bad.empty()) break;
+    // Freeze the original triangles within 1 + attempt / 2 rings of the bad vertices.
+    std::vector<VertexId> ring = bad;
+    for (int step = 0; step < 1 + attempt / 2; ++step) {
+      std::vector<VertexId> next;
+      for (VertexId v : ring) {
+        const auto it = around.find(v);
+        if (it == around.end()) continue;
+        for (std::uint32_t t : it->second) {
+          if (!frozen[t]) {
+            frozen[t] = true;
+            ++frozenCount;
+          }
+          next.insert(next.end(), triangles[t].begin(), triangles[t].end());
+        }
+      }
+      std::sort(next.begin(), next.end());
+      next.erase(std::unique(next.begin(), next.end()), next.end());
+      ring = std::move(next);
+    }
+  }
+  ++report_.keptRegions;
+  return triangles;
+}
+
+// The original triangles around `triangles` (the chunks their vertices lie in, and one more on
+// either side) in a grid of cells two voxels wide, for distances to the original surface.
+DecimationSink::OriginalSurface DecimationSink::originalsAround(const std::vector<Triangle>& triangles) const {
+  OriginalSurface surface;
+  surface.cell = 2.0 * options_.voxelSize;
+  if (triangles.empty()) return surface;
+  VertexId lowest = triangles.front()[0], highest = lowest;
+  for (const Triangle& t : triangles) {
+    lowest = std::min({lowest, t[0], t[1], t[2]});
+    highest = std::max({highest, t[0], t[1], t[2]});
+  }
+  const std::size_t first = chunkOfVertex(lowest);
+  const std::size_t lo = std::max(chunkBase_, first > 0 ? first - 1 : 0);
+  const std::size_t hi = std::min(chunks_, chunkOfVertex(highest) + 2);
+  for (std::size_t c = lo; c < hi; ++c) {
+    for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
+      if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
+      const std::array<Vec3d, 3> p{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))};
+      const auto index = static_cast<std::uint32_t>(surface.triangles.size());
+      surface.triangles.push_back(p);
+      std::array<std::int64_t, 3> a{}, b{};
+      for (std::size_t d = 0; d < 3; ++d) {
+        a[d] = surface.cellOf(std::min({p[0][d], p[1][d], p[2][d]}));
+        b[d] = surface.cellOf(std::max({p[0][d], p[1][d], p[2][d]}));
+      }
+      for (std::int64_t x = a[0]; x <= b[0]; ++x)
+        for (std::int64_t y = a[1]; y <= b[1]; ++y)
+          for (std::int64_t z = a[2]; z <= b[2]; ++z) surface.grid[OriginalSurface::key(x, y, z)].push_back(index);
+    }
+  }
+  return surface;
+}
+
+// The distance from p to the nearest original triangle: the cells in growing rings around p's,
+// until no cell further out can hold a nearer one.
+double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
+  if (triangles.empty()) return 0;
+  const std::int64_t cx = cellOf(p[0]), cy = cellOf(p[1]), cz = cellOf(p[2]);
+  double best = INFINITY;
+  for (std::int64_t ring = 0;; ++ring) {
+    for (std::int64_t x = cx - ring; x <= cx + ring; ++x) {
+      for (std::int64_t y = cy - ring; y <= cy + ring; ++y) {
+        for (std::int64_t z = cz - ring; z <= cz + ring; ++z) {
+          if (std::max({std::abs(x - cx), std::abs(y - cy), std::abs(z - cz)}) != ring) continue;
+          const auto it = grid.find(key(x, y, z));
+          if (it == grid.end()) continue;
+          for (std::uint32_t i : it->second) {
+            const auto& t = triangles[i];
+            best = std::min(best, distanceSquared(p, t[0], t[1], t[2]));
+          }
+        }
+      }
+    }
+    const double reach = static_cast<double>(ring) * cell;
+    if (best <= reach * reach || ring > 64) return std::sqrt(best);
+  }
+}
+
+// The largest distance from the triangle's sample points (centroid and edge midpoints) to the
+// original surface; with `sum` and `count`, their sum and number too.
+double DecimationSink::triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum,
+                                        std::uint64_t* count) const {
+  const Vec3d a = toDouble(position(t[0])), b = toDouble(position(t[1])), c = toDouble(position(t[2]));
+  const Vec3d samples[4] = {{(a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3, (a[2] + b[2] + c[2]) / 3},
+                            {(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2},
+                            {(b[0] + c[0]) / 2, (b[1] + c[1]) / 2, (b[2] + c[2]) / 2},
+                            {(c[0] + a[0]) / 2, (c[1] + a[1]) / 2, (c[2] + a[2]) / 2}};
+  double worst = 0;
+  for (const Vec3d& s : samples) {
+    const double d = surface.distance(s);
+    worst = std::max(worst, d);
+    if (sum != nullptr) *sum += d;
+  }
+  if (count != nullptr) *count += 4;
+  return worst;
+}
+
+// The one-sided distance from the final triangles to the original surface, for the report.
+void DecimationSink::measure(const std::vector<Triangle>& triangles) {
+  if (triangles.empty()) return;
+  const OriginalSurface surface = originalsAround(triangles);
+  for (const Triangle& t : triangles) {
+    report_.distanceMax = std::max(report_.distanceMax, triangleDistance(t, surface, &distanceSum_, &report_.samples));
+  }
+}
+
+// Sends a final region on as one chunk: its vertices that no earlier chunk sent, in the order the
+// triangles first use them.
+void DecimationSink::emit(const std::vector<Triangle>& triangles, std::int64_t slab) {
+  measure(triangles);
+  out_.clear();
+  out_.slab = slab;
+  out_.firstVertex = nextId_;
+  out_.triangles.reserve(triangles.size());
+  for (const Triangle& t : triangles) {
+    Triangle mapped{};
+    for (std::size_t k = 0; k < 3; ++k) {
+      VertexId& id = sent_[t[k] - base_];
+      if (id == kNone) {
+        id = nextId_++;
+        out_.positions.push_back(position(t[k]));
+        if (header_.normals) out_.normals.push_back(normals_[t[k] - base_]);
+        out_.boundary.push_back(boundary_[t[k] - base_]);
+      }
+      mapped[k] = id;
+    }
+    out_.triangles.push_back(mapped);
+  }
+  report_.trianglesOut += out_.triangles.size();
+  next_.consume(out_);
+}
+
+}  // namespace isoslab

@@ -1,0 +1,142 @@
+// Decimating a streamed mesh: quadric-error edge collapses (meshoptimizer's meshopt_simplify) on
+// blocks of slabs, with no full-resolution band left at the blocks' seams.
+//
+// The stream is cut into blocks of at least `blockSlabs` slabs and `blockTriangles` triangles
+// (closed at a slab boundary, so the cut is the same for every thread count).
+//   1. Each block is decimated alone, its border locked: the seams with its neighbours and the
+//      rims on the volume's faces keep every vertex, so the blocks still join.
+//   2. Each decimated block is split at its middle slab: a triangle with a vertex below the middle
+//      is its lower half, the rest its upper half. Once block b is done, the upper half of block
+//      b - 1 and the lower half of block b, which meet at the old seam, are decimated again as one
+//      region, with its own border locked: the split curves, which lie inside decimated blocks.
+//      The old seam is free now, so it is decimated like the rest.
+// A region is final after step 2 and leaves as one chunk. Its triangles use its own vertices and
+// those of the region before it (the split curve between them), so the streaming contract holds.
+// Memory: two blocks of the mesh (and their original triangles, for the error measure).
+//
+// A collapse that would break the mesh is undone by checking each simplified region: where an edge
+// is used by more than two triangles, wound twice the same way, or has become a border edge, the
+// original triangles a few rings around it are frozen (kept as they are, their outline a locked
+// border) and the region is simplified again; after six tries it is kept whole.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "core/mesh_sink.h"
+
+namespace isoslab {
+
+struct DecimateOptions {
+  /// Keep this fraction of the triangles, in (0, 1]; 1 with maxError set: as few as the error
+  /// allows.
+  double ratio = 1.0;
+  /// The largest error allowed, in voxels (0: none); meshoptimizer's measure, a bound on how far
+  /// the surface moves.
+  double maxError = 0;
+  /// Output units per voxel, to turn maxError and the cells of the error measure into output units.
+  double voxelSize = 1.0;
+  /// The largest distance, in voxels, that a decimated triangle's sample points (centroid and edge
+  /// midpoints) may lie from the original surface: collapses beyond it are undone by freezing the
+  /// original triangles around them (0: no bound).
+  double maxDistance = 0.5;
+  std::int64_t blockSlabs = 16;
+  std::int64_t blockTriangles = 1 << 17;
+};
+
+/// Checks the options; returns an error message naming the option, or empty when they are valid.
+std::string checkDecimateOptions(const DecimateOptions& options);
+
+struct DecimationReport {
+  std::uint64_t trianglesIn = 0;
+  std::uint64_t trianglesOut = 0;
+  std::uint64_t blocks = 0;
+  std::uint64_t regions = 0;
+  /// Regions (and blocks) simplified only after freezing patches around collapses that broke the
+  /// mesh; the original triangles so frozen; and regions left whole after every try failed.
+  std::uint64_t repairedRegions = 0;
+  std::uint64_t frozenTriangles = 0;
+  std::uint64_t keptRegions = 0;
+  /// One-sided distance from the decimated surface to the original one, in output units, over
+  /// sample points of every output triangle (its centroid and edge midpoints).
+  double distanceMean = 0;
+  double distanceMax = 0;
+  std::uint64_t samples = 0;
+};
+
+class DecimationSink final : public MeshSink {
+ public:
+  DecimationSink(MeshSink& next, const DecimateOptions& options);
+
+  void begin(const MeshHeader& header) override;
+  void consume(const MeshChunk& chunk) override;
+  void finish() override;
+
+  const DecimationReport& report() const noexcept { return report_; }
+
+ private:
+  struct Region {
+    std::vector<Triangle> triangles;  // global ids
+    std::int64_t originalTriangles = 0;
+  };
+
+  void closeBlock();
+  std::vector<Triangle> simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles);
+  std::vector<Triangle> collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles);
+  struct OriginalSurface {
+    using Vec3d = std::array<double, 3>;
+    double cell = 1;
+    std::vector<std::array<Vec3d, 3>> triangles;
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
+
+    std::int64_t cellOf(double x) const { return static_cast<std::int64_t>(std::floor(x / cell)); }
+    static std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z) {
+      return (static_cast<std::uint64_t>(x & 0x1fffff) << 42) | (static_cast<std::uint64_t>(y & 0x1fffff) << 21) |
+             static_cast<std::uint64_t>(z & 0x1fffff);
+    }
+    double distance(const Vec3d& p) const;
+  };
+
+  void emit(const std::vector<Triangle>& triangles, std::int64_t slab);
+  void measure(const std::vector<Triangle>& triangles);
+  OriginalSurface originalsAround(const std::vector<Triangle>& triangles) const;
+  double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
+  std::size_t chunkOfVertex(VertexId v) const;
+  const Vec3f& position(VertexId v) const { return positions_[v - base_]; }
+  void trim(std::size_t firstChunk);
+
+  MeshSink& next_;
+  DecimateOptions options_;
+  MeshHeader header_;
+  DecimationReport report_;
+  double distanceSum_ = 0;
+
+  // The vertices from base_ on (every one that a later region may still use), by global id.
+  VertexId base_ = 0;
+  std::vector<Vec3f> positions_, normals_;
+  std::vector<std::uint8_t> boundary_;
+  // New ids of the vertices already sent on (kNone: not yet).
+  std::vector<VertexId> sent_;
+  VertexId nextId_ = 0;
+  // Per chunk of the stream from chunkBase_ on: its first vertex id, slab, original triangles.
+  std::size_t chunkBase_ = 0;
+  std::vector<VertexId> chunkFirst_;
+  std::vector<std::int64_t> chunkSlab_;
+  std::vector<std::vector<Triangle>> chunkTriangles_;
+  std::size_t chunks_ = 0;  // chunks seen
+
+  // The open block: chunks [blockStart_, chunks_); the pending upper half of the last block.
+  std::size_t blockStart_ = 0;
+  std::int64_t blockTriangles_ = 0;
+  bool hasPending_ = false;
+  std::vector<Triangle> pendingUpper_;
+  std::size_t pendingMiddle_ = 0;  // the chunk where the pending upper half starts
+  MeshChunk out_;
+};
+
+}  // namespace isoslab
