@@ -1,5 +1,7 @@
 #include "encode/draco_writers.h"
 
+#include "core/fans.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -91,6 +93,32 @@ GlbDracoWriter::GlbDracoWriter(std::string path, const WriterOptions& options)
   if (options.chunkTriangles < 1)
     throw Error(fmt::format("`chunk_triangles`: {} must be positive", options.chunkTriangles));
 }
+
+namespace {
+
+// The vertices that Draco's Edgebreaker coder splits into several points: those whose triangles in
+// the chunk form more than one fan (core/fans.h) or that lie on an edge of more than two triangles.
+// Decoders get one point per fan, at one position.
+std::vector<bool> splitByDraco(const IndexedMesh& mesh) {
+  const std::vector<std::uint32_t> fans = fanCounts(mesh.triangles, mesh.positions.size());
+  std::unordered_map<std::uint64_t, std::uint32_t> uses;
+  uses.reserve(mesh.triangles.size() * 2);
+  for (const Triangle& t : mesh.triangles) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const VertexId a = t[k];
+      const VertexId b = t[(k + 1) % 3];
+      ++uses[(std::uint64_t{std::min(a, b)} << 32) | std::max(a, b)];
+    }
+  }
+  std::vector<bool> split(mesh.positions.size(), false);
+  for (std::size_t v = 0; v < split.size(); ++v) split[v] = fans[v] > 1;
+  for (const auto& [key, n] : uses) {
+    if (n > 2) split[static_cast<VertexId>(key >> 32)] = split[static_cast<VertexId>(key & 0xFFFFFFFFu)] = true;
+  }
+  return split;
+}
+
+}  // namespace
 
 GlbDracoWriter::~GlbDracoWriter() = default;
 
@@ -204,9 +232,20 @@ void GlbDracoWriter::resolveSeam() {
   std::uint32_t keysThisSeam = 0;
   std::vector<std::uint32_t>& thereKeys = pending_->seamKeys;
   std::vector<std::uint32_t>& hereKeys = current_.seamKeys;
+  // A vertex that Draco will split cannot be welded by position (the decoder finds two points
+  // there): it takes a key. The current chunk's shared vertices have all their triangles already
+  // (only this slab could use the waiting chunk's vertices).
+  const std::vector<bool> splitThere = splitByDraco(*pending_);
+  const std::vector<bool> splitHere = splitByDraco(current_);
+  const auto nextKey = [&] {
+    const std::uint64_t wide = 2 + 2 * std::uint64_t{keysThisSeam++} + (seams_ & 1);
+    if (wide > 0xFFFFFFFFu) throw Error(fmt::format("{}: too many seam keys", path_));
+    return static_cast<std::uint32_t>(wide);
+  };
   for (auto& [q, g] : groups) {
     if (g.here.empty()) continue;
-    if (g.there.size() == 1 && g.here.size() == 1 && thereKeys[g.there[0]] == 0) {
+    if (g.there.size() == 1 && g.here.size() == 1 && thereKeys[g.there[0]] == 0 && !splitThere[g.there[0]] &&
+        !splitHere[g.here[0]]) {
       const auto p = partner.find(g.here[0]);
       if (p != partner.end() && p->second.first == g.there[0]) {
         ++seamVertices_;
@@ -224,9 +263,7 @@ void GlbDracoWriter::resolveSeam() {
       }
       // Small keys compress well: 2, 4, 6, ... on even seams and 3, 5, 7, ... on odd ones, so that a
       // chunk's keys with its lower and its upper neighbour never collide.
-      const std::uint64_t wide = 2 + 2 * std::uint64_t{keysThisSeam++} + (seams_ & 1);
-      if (wide > 0xFFFFFFFFu) throw Error(fmt::format("{}: too many seam keys", path_));
-      const auto key = static_cast<std::uint32_t>(wide);
+      const std::uint32_t key = nextKey();
       hereKeys[here] = key;
       thereKeys[p->second.first] = key;
       ++seamVertices_;
@@ -239,10 +276,36 @@ void GlbDracoWriter::resolveSeam() {
       }
     }
   }
+  // The waiting chunk's other split vertices: a key of their own (of this seam's parity, after its
+  // keys), which tells decoders to join the points that Draco made of each.
+  for (VertexId v = 0; v < pending_->positions.size(); ++v) {
+    if (splitThere[v] && thereKeys[v] < 2) {
+      thereKeys[v] = nextKey();
+      ++keyedVertices_;
+    }
+  }
   ++seams_;
   flush(std::move(*pending_));
   pending_.reset();
   pendingTop_.clear();
+}
+
+// The last chunks' split vertices, as resolveSeam() keys the others: keys of the parity of the seam
+// that would come next, which no lower-seam lookup uses.
+void GlbDracoWriter::keySplitVertices(IndexedMesh& mesh, std::uint64_t seam) {
+  if (mesh.seamKeys.size() != mesh.positions.size()) return;
+  const std::vector<bool> split = splitByDraco(mesh);
+  std::uint32_t next = 0;
+  for (std::uint32_t k : mesh.seamKeys) next = std::max(next, k);
+  for (VertexId v = 0; v < mesh.positions.size(); ++v) {
+    if (!split[v] || mesh.seamKeys[v] >= 2) continue;
+    std::uint64_t wide = std::max<std::uint64_t>(2, next + 1);
+    if ((wide & 1) != ((2 + (seam & 1)) & 1)) ++wide;
+    if (wide > 0xFFFFFFFFu) throw Error(fmt::format("{}: too many seam keys", path_));
+    mesh.seamKeys[v] = static_cast<std::uint32_t>(wide);
+    next = mesh.seamKeys[v];
+    ++keyedVertices_;
+  }
 }
 
 GlbDracoWriter::Encoded GlbDracoWriter::encode(IndexedMesh mesh, const DracoSettings& settings,
@@ -303,9 +366,11 @@ void GlbDracoWriter::spool(const Encoded& e) {
 
 void GlbDracoWriter::finish() {
   if (pending_) {
+    if (options_.seamKeys) keySplitVertices(*pending_, seams_);
     flush(std::move(*pending_));
     pending_.reset();
   }
+  if (options_.seamKeys) keySplitVertices(current_, seams_);
   flush(std::move(current_));
   current_ = IndexedMesh{};
   while (!encoding_.empty()) spoolOldest();

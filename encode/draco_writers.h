@@ -69,6 +69,7 @@ class GlbDracoWriter final : public MeshFileSink {
   VertexId localVertex(VertexId id);
   void close(const MeshChunk& last);
   void resolveSeam();
+  void keySplitVertices(IndexedMesh& mesh, std::uint64_t seam);
   void flush(IndexedMesh mesh);
   void spoolOldest();
   void spool(const Encoded& e);

@@ -224,6 +224,9 @@ class GlbReader {
     }
     std::unordered_map<PositionKey, std::pair<VertexId, int>, PositionHash> unmarkedNext;
     std::unordered_map<std::uint32_t, VertexId> keysNext;
+    // Points of this primitive with one key are one vertex (Draco splits a vertex whose triangles
+    // in the chunk form several fans into one point per fan).
+    std::unordered_map<std::uint32_t, VertexId> keysHere;
     std::vector<VertexId> ids(part.positions.size());
     for (std::size_t v = 0; v < part.positions.size(); ++v) {
       const std::uint32_t m = mark(v);
@@ -242,11 +245,19 @@ class GlbReader {
           joined = true;
         }
       }
+      if (!joined && m >= 2) {
+        const auto found = keysHere.find(m);
+        if (found != keysHere.end()) {
+          ids[v] = found->second;
+          joined = true;
+        }
+      }
       if (!joined) {
         ids[v] = static_cast<VertexId>(mesh_.positions.size());
         mesh_.positions.push_back(part.positions[v]);
         if (!part.normals.empty()) mesh_.normals.push_back(part.normals[v]);
       }
+      if (m >= 2) keysHere.emplace(m, ids[v]);
       if (m >= 2 && ((m - 2) & 1) == (primitives_ & 1)) keysNext.emplace(m, ids[v]);
       if (m == 0) {
         auto& slot = unmarkedNext.try_emplace(at, ids[v], 0).first->second;

@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "core/error.h"
+#include "core/fans.h"
 
 namespace isoslab {
 namespace {
@@ -311,6 +312,16 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
   std::vector<std::uint64_t> inputEdges;
   for (const auto& [key, e] : tallyEdges(triangles)) inputEdges.push_back(key);
   std::sort(inputEdges.begin(), inputEdges.end());
+  // Fans per vertex (core/fans.h), ids relative to base_: a collapse must not pinch two sheets
+  // together at a vertex.
+  const auto fansOf = [&](const std::vector<Triangle>& tris) {
+    std::vector<Triangle> shifted(tris.size());
+    for (std::size_t t = 0; t < tris.size(); ++t) {
+      for (std::size_t k = 0; k < 3; ++k) shifted[t][k] = tris[t][k] - base_;
+    }
+    return fanCounts(shifted, positions_.size());
+  };
+  const std::vector<std::uint32_t> fansBefore = fansOf(triangles);
   // The triangles around each vertex, to grow frozen patches by rings.
   std::unordered_map<VertexId, std::vector<std::uint32_t>> around;
   std::vector<bool> frozen(triangles.size(), false);
@@ -346,6 +357,11 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
         bad.push_back(static_cast<VertexId>(key >> 32));
         bad.push_back(static_cast<VertexId>(key & 0xffffffffu));
       }
+    }
+    // Pinched vertices.
+    const std::vector<std::uint32_t> fansAfter = fansOf(out);
+    for (std::size_t v = 0; v < fansAfter.size(); ++v) {
+      if (fansAfter[v] > std::max(1u, fansBefore[v])) bad.push_back(base_ + static_cast<VertexId>(v));
     }
     // Triangles that moved the surface too far.
     if (limit > 0) {
