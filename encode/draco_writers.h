@@ -11,8 +11,10 @@
 // hold, the same in both (2, 4, 6, ... on the seam after chunk 0, 2, 4, ...; 3, 5, 7, ... after
 // chunk 1, 3, 5, ...), and 1 ("never weld by position") on the others; 0 elsewhere. A decoder joins
 // equal keys of the seam's parity with the previous chunk, and welds a 0 vertex to the previous chunk's 0
-// vertex at its position when each chunk has exactly one there. Chunks without any mark carry no
-// attribute. The marks are known when the next chunk's first slab has been consumed, so a closed
+// vertex at its position when each chunk has exactly one there. A vertex that Draco's Edgebreaker
+// coder splits into one point per fan (its triangles in the chunk form several fans) is keyed too,
+// and a decoder joins the points of one primitive that carry one key. Chunks without any mark
+// carry no attribute. The marks are known when the next chunk's first slab has been consumed, so a closed
 // chunk waits one slab
 // before it is encoded and appended to a spool beside the output: memory stays at about two
 // chunks. The document itself (frame node, material, extras) is described in gltf.h.
