@@ -622,6 +622,7 @@ int runExtract(const ExtractArgs& args) {
                          {"regions_repaired", d.repairedRegions},
                          {"triangles_frozen", d.frozenTriangles},
                          {"regions_kept_whole", d.keptRegions},
+                         {"simplify_calls", d.attempts},
                          {"distance_mean", d.distanceMean},
                          {"distance_max", d.distanceMax},
                          {"distance_mean_voxels", d.distanceMean / writerOptions.voxelSize},

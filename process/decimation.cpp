@@ -367,13 +367,14 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     if (limit > 0) {
       if (original.triangles.empty()) original = originalsAround(triangles);
       for (const Triangle& t : simplified) {
-        if (triangleDistance(t, original, nullptr, nullptr) > limit) bad.insert(bad.end(), t.begin(), t.end());
+        if (!triangleWithin(t, original, limit)) bad.insert(bad.end(), t.begin(), t.end());
       }
     }
     std::size_t border = 0;
     for (const auto& [key, e] : edges) border += e.uses == 1 ? 1 : 0;
     if (bad.empty() && border == before.border.size() && before.nonManifold == 0 && before.inconsistent == 0) {
       if (attempt > 0) ++report_.repairedRegions;
+      report_.attempts += static_cast<std::uint64_t>(attempt) + 1;
       report_.frozenTriangles += frozenCount - sharedRing;
       return out;
     }
@@ -462,9 +463,60 @@ double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
         }
       }
     }
-    const double reach = static_cast<double>(ring) * cell;
+    // Every triangle not yet seen lies outside the cube of cells searched: farther than p's
+    // distance to that cube's faces.
+    double reach = INFINITY;
+    const std::int64_t centre[3] = {cx, cy, cz};
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double low = p[a] - static_cast<double>(centre[a] - ring) * cell;
+      const double high = static_cast<double>(centre[a] + ring + 1) * cell - p[a];
+      reach = std::min({reach, low, high});
+    }
     if (best <= reach * reach || ring > 64) return std::sqrt(best);
   }
+}
+
+// Whether some original triangle lies within `limit` of p: the cells that the ball around p
+// touches, p's own first, stopping at the first triangle near enough.
+bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const {
+  if (triangles.empty()) return true;
+  const double limit2 = limit * limit;
+  std::int64_t lo[3], hi[3];
+  for (std::size_t a = 0; a < 3; ++a) {
+    lo[a] = cellOf(p[a] - limit);
+    hi[a] = cellOf(p[a] + limit);
+  }
+  const auto search = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+    const auto it = grid.find(key(x, y, z));
+    if (it == grid.end()) return false;
+    for (std::uint32_t i : it->second) {
+      const auto& t = triangles[i];
+      if (distanceSquared(p, t[0], t[1], t[2]) <= limit2) return true;
+    }
+    return false;
+  };
+  const std::int64_t cx = cellOf(p[0]), cy = cellOf(p[1]), cz = cellOf(p[2]);
+  if (search(cx, cy, cz)) return true;
+  for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
+    for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
+      for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+        if ((x != cx || y != cy || z != cz) && search(x, y, z)) return true;
+      }
+  return false;
+}
+
+// Whether every sample point of the triangle (centroid and edge midpoints) lies within `limit` of
+// the original surface.
+bool DecimationSink::triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const {
+  const Vec3d a = toDouble(position(t[0])), b = toDouble(position(t[1])), c = toDouble(position(t[2]));
+  const Vec3d samples[4] = {{(a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3, (a[2] + b[2] + c[2]) / 3},
+                            {(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2},
+                            {(b[0] + c[0]) / 2, (b[1] + c[1]) / 2, (b[2] + c[2]) / 2},
+                            {(c[0] + a[0]) / 2, (c[1] + a[1]) / 2, (c[2] + a[2]) / 2}};
+  for (const Vec3d& sample : samples) {
+    if (!surface.within(sample, limit)) return false;
+  }
+  return true;
 }
 
 // The largest distance from the triangle's sample points (centroid and edge midpoints) to the

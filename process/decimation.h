@@ -62,6 +62,8 @@ struct DecimationReport {
   std::uint64_t repairedRegions = 0;
   std::uint64_t frozenTriangles = 0;
   std::uint64_t keptRegions = 0;
+  /// meshoptimizer calls, over the blocks and regions (a repair simplifies again).
+  std::uint64_t attempts = 0;
   /// One-sided distance from the decimated surface to the original one, in output units, over
   /// sample points of every output triangle (its centroid and edge midpoints).
   double distanceMean = 0;
@@ -100,12 +102,14 @@ class DecimationSink final : public MeshSink {
              static_cast<std::uint64_t>(z & 0x1fffff);
     }
     double distance(const Vec3d& p) const;
+    bool within(const Vec3d& p, double limit) const;
   };
 
   void emit(const std::vector<Triangle>& triangles, std::int64_t slab);
   void measure(const std::vector<Triangle>& triangles);
   OriginalSurface originalsAround(const std::vector<Triangle>& triangles) const;
   double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
+  bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const;
   std::size_t chunkOfVertex(VertexId v) const;
   const Vec3f& position(VertexId v) const { return positions_[v - base_]; }
   void trim(std::size_t firstChunk);

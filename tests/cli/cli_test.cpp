@@ -632,5 +632,28 @@ TEST(Cli, DecimationOptionsOutOfRangeAreUsageErrors) {
   EXPECT_EQ(testing::fileCount(dir), 0);
 }
 
+TEST(Cli, SmoothingAndDecimationWriteEveryFormat) {
+  const std::string dir = testing::tempDir();
+  for (const char* ext : {"ply", "stl", "obj", "glb", "drc"}) {
+    const std::string out = fmt::format("{}/m.{}", dir, ext);
+    const auto r = testing::runCli(
+        fmt::format("extract 'phantom:head?n=40,36,40&noise=40' --iso 0 --method bcc12 --close-boundary --min-triangles "
+                    "50 --smooth 4 --smooth-method taubin --decimate 0.3 --normals -q -o {} --report {}/r.json",
+                    out, dir));
+    ASSERT_EQ(r.exitCode, 0) << ext << ": " << r.err;
+    const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+    const auto m = testing::runCli("metrics " + out);
+    ASSERT_EQ(m.exitCode, 0) << ext << ": " << m.err;
+    const auto metrics = nlohmann::json::parse(m.out);
+    EXPECT_EQ(metrics["triangles"], report["triangles"]) << ext;
+    EXPECT_EQ(report["boundary_edges"], 0) << ext;
+    EXPECT_LT(report["decimation"]["kept_fraction"].get<double>(), 0.5) << ext;
+    // STL stores triangles alone, so its reader welds by position; the others keep the vertices.
+    if (std::string(ext) != "stl") {
+      EXPECT_EQ(metrics["boundary_edges"], 0) << ext;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace isoslab
