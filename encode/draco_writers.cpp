@@ -100,20 +100,28 @@ namespace {
 // the chunk form more than one fan (core/fans.h) or that lie on an edge of more than two triangles.
 // Decoders get one point per fan, at one position.
 std::vector<bool> splitByDraco(const IndexedMesh& mesh) {
-  const std::vector<std::uint32_t> fans = fanCounts(mesh.triangles, mesh.positions.size());
-  std::unordered_map<std::uint64_t, std::uint32_t> uses;
-  uses.reserve(mesh.triangles.size() * 2);
+  std::vector<bool> split(mesh.positions.size(), false);
+  {
+    const std::vector<std::uint32_t> fans = fanCounts(mesh.triangles, mesh.positions.size());
+    for (std::size_t v = 0; v < split.size(); ++v) split[v] = fans[v] > 1;
+  }
+  // Edges of more than two triangles: one sorted array (no hash map: its many small nodes would
+  // fragment the heap just before Draco's encoder needs it).
+  std::vector<std::uint64_t> edges;
+  edges.reserve(3 * mesh.triangles.size());
   for (const Triangle& t : mesh.triangles) {
     for (std::size_t k = 0; k < 3; ++k) {
       const VertexId a = t[k];
       const VertexId b = t[(k + 1) % 3];
-      ++uses[(std::uint64_t{std::min(a, b)} << 32) | std::max(a, b)];
+      edges.push_back((std::uint64_t{std::min(a, b)} << 32) | std::max(a, b));
     }
   }
-  std::vector<bool> split(mesh.positions.size(), false);
-  for (std::size_t v = 0; v < split.size(); ++v) split[v] = fans[v] > 1;
-  for (const auto& [key, n] : uses) {
-    if (n > 2) split[static_cast<VertexId>(key >> 32)] = split[static_cast<VertexId>(key & 0xFFFFFFFFu)] = true;
+  std::sort(edges.begin(), edges.end());
+  for (std::size_t i = 0; i + 2 < edges.size(); ++i) {
+    if (edges[i] == edges[i + 2]) {
+      split[static_cast<VertexId>(edges[i] >> 32)] = true;
+      split[static_cast<VertexId>(edges[i] & 0xFFFFFFFFu)] = true;
+    }
   }
   return split;
 }
