@@ -218,7 +218,7 @@ struct ExtractArgs {
   // Smoothing.
   int smooth = 0;
   std::string smoothMethod = "sinc";
-  double passBand = 0.1;
+  double passBand = 0.08;
   std::string smoothFaces = "slide";
   std::string smoothNormals = "smoothed";
   // Decimation (1 and 0: off).

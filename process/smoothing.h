@@ -32,8 +32,9 @@ struct SmoothOptions {
   /// Laplacian iterations (0: off). For sinc, the polynomial's degree, as VTK's NumberOfIterations.
   int iterations = 0;
   SmoothMethod method = SmoothMethod::kSinc;
-  /// The pass band k_PB in (0, 2): sinc's cut-off, and Taubin's 1/lambda + 1/mu = k_PB.
-  double passBand = 0.1;
+  /// The pass band k_PB in (0, 2): sinc's cut-off, and Taubin's 1/lambda + 1/mu = k_PB. VTK's default is 0.1;
+  /// 0.08 brings every binary sphere of radius 10 to 50 under 1% area error at 20 iterations.
+  double passBand = 0.08;
   /// Taubin's lambda (mu follows from the pass band).
   double lambda = 0.5;
   FaceVertices faces = FaceVertices::kSlide;
