@@ -414,6 +414,7 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
 // either side) in a grid of cells two voxels wide, for distances to the original surface.
 DecimationSink::OriginalSurface DecimationSink::originalsAround(const std::vector<Triangle>& triangles) const {
   OriginalSurface surface;
+  surface.sink = this;
   surface.cell = 2.0 * options_.voxelSize;
   if (triangles.empty()) return surface;
   VertexId lowest = triangles.front()[0], highest = lowest;
@@ -429,7 +430,7 @@ DecimationSink::OriginalSurface DecimationSink::originalsAround(const std::vecto
       if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
       const std::array<Vec3d, 3> p{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))};
       const auto index = static_cast<std::uint32_t>(surface.triangles.size());
-      surface.triangles.push_back(p);
+      surface.triangles.push_back(t);
       std::array<std::int64_t, 3> a{}, b{};
       for (std::size_t d = 0; d < 3; ++d) {
         a[d] = surface.cellOf(std::min({p[0][d], p[1][d], p[2][d]}));
@@ -457,8 +458,9 @@ double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
           const auto it = grid.find(key(x, y, z));
           if (it == grid.end()) continue;
           for (std::uint32_t i : it->second) {
-            const auto& t = triangles[i];
-            best = std::min(best, distanceSquared(p, t[0], t[1], t[2]));
+            const Triangle& t = triangles[i];
+            best = std::min(best, distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
+                                                  toDouble(sink->position(t[2]))));
           }
         }
       }
@@ -490,8 +492,11 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const
     const auto it = grid.find(key(x, y, z));
     if (it == grid.end()) return false;
     for (std::uint32_t i : it->second) {
-      const auto& t = triangles[i];
-      if (distanceSquared(p, t[0], t[1], t[2]) <= limit2) return true;
+      const Triangle& t = triangles[i];
+      if (distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
+                          toDouble(sink->position(t[2]))) <= limit2) {
+        return true;
+      }
     }
     return false;
   };

@@ -1,7 +1,7 @@
 // Decimating a streamed mesh: quadric-error edge collapses (meshoptimizer's meshopt_simplify) on
 // blocks of slabs, with no full-resolution band left at the blocks' seams.
 //
-// The stream is cut into blocks of at least `blockSlabs` slabs and `blockTriangles` triangles
+// The stream is cut into blocks of at least `blockSlabs` (8) slabs and `blockTriangles` triangles
 // (closed at a slab boundary, so the cut is the same for every thread count).
 //   1. Each block is decimated alone, its border locked: the seams with its neighbours and the
 //      rims on the volume's faces keep every vertex, so the blocks still join.
@@ -45,8 +45,8 @@ struct DecimateOptions {
   /// midpoints) may lie from the original surface: collapses beyond it are undone by freezing the
   /// original triangles around them (0: no bound).
   double maxDistance = 0.5;
-  std::int64_t blockSlabs = 16;
-  std::int64_t blockTriangles = 1 << 17;
+  std::int64_t blockSlabs = 8;
+  std::int64_t blockTriangles = 1 << 18;
 };
 
 /// Checks the options; returns an error message naming the option, or empty when they are valid.
@@ -93,7 +93,9 @@ class DecimationSink final : public MeshSink {
   struct OriginalSurface {
     using Vec3d = std::array<double, 3>;
     double cell = 1;
-    std::vector<std::array<Vec3d, 3>> triangles;
+    // The original triangles (12 bytes each), read through the sink's positions.
+    const DecimationSink* sink = nullptr;
+    std::vector<Triangle> triangles;
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
 
     std::int64_t cellOf(double x) const { return static_cast<std::int64_t>(std::floor(x / cell)); }
