@@ -293,18 +293,16 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
   const std::size_t target =
       options_.ratio < 1 ? static_cast<std::size_t>(std::llround(options_.ratio * static_cast<double>(originalTriangles)))
                          : 0;
-  // The border vertices that a neighbouring block or region shares: those on border edges that are
-  // not rims on the volume's faces. An edge between two of them that the region did not have would
-  // be a chord that the neighbour may make too, from its side: four triangles on one edge. So the
-  // triangles around them stay as they are (the next pass, across this border, simplifies them),
-  // and then no collapse can reach them.
+  // The border vertices, which a neighbouring block or region may share. An edge between two of
+  // them that the region did not have would be a chord that the neighbour may make too, from its
+  // side: four triangles on one edge. So the triangles around them stay as they are (the next pass,
+  // across this border, simplifies them), and then no collapse can reach them. A rim of an open
+  // surface on a volume face cannot be told from a seam that runs along a cap (both lie in a face),
+  // so rims keep their first ring too.
   std::vector<VertexId> borderVertices;
   for (std::uint64_t key : before.border) {
-    const auto a = static_cast<VertexId>(key >> 32);
-    const auto b = static_cast<VertexId>(key & 0xffffffffu);
-    if ((boundary_[a - base_] & boundary_[b - base_]) != 0) continue;  // a rim
-    borderVertices.push_back(a);
-    borderVertices.push_back(b);
+    borderVertices.push_back(static_cast<VertexId>(key >> 32));
+    borderVertices.push_back(static_cast<VertexId>(key & 0xffffffffu));
   }
   std::sort(borderVertices.begin(), borderVertices.end());
   borderVertices.erase(std::unique(borderVertices.begin(), borderVertices.end()), borderVertices.end());

@@ -12,6 +12,7 @@
 //   5     decimation: ratio (1 + byte % 100) / 100, or max error (1 + byte % 16) / 8 voxels
 //   then one byte per voxel, x fastest (missing bytes are 0): 255 NaN, else (b - 128) / 8
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include <fmt/format.h>
@@ -38,7 +39,7 @@ class MemorySource final : public SliceSource {
   bool readSlice(std::span<float> slice) override {
     if (next_ >= info_.dims[2]) return false;
     const auto n = static_cast<std::size_t>(info_.sliceVoxels());
-    std::copy_n(values_.begin() + static_cast<std::ptrdiff_t>(n * static_cast<std::size_t>(next_)), n, slice.begin());
+    std::memcpy(slice.data(), values_.data() + n * static_cast<std::size_t>(next_), n * sizeof(float));
     ++next_;
     return true;
   }
@@ -66,7 +67,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   options.normals = (flags & 8) != 0;
   options.closeBoundary = true;
   options.iso = 0;
-  std::vector<float> values(static_cast<std::size_t>(info.voxelCount()));
+  std::vector<float> values(static_cast<std::size_t>(info.sliceVoxels() * info.dims[2]));
   for (float& v : values) {
     const std::uint8_t b = fuzz::takeByte(in);
     v = b == 255 ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(b - 128) / 8.0f;
