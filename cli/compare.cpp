@@ -123,8 +123,8 @@ int runSpheres(const CompareArgs& args) {
           through = [&](MeshSink& into) -> MeshSink& { return smoothing.emplace(into, smoothOptions); };
         }
         const Measurement x = measureExtraction(*source, o, phantomSphere(source->info()), {}, through);
-        const std::string label = smooth ? fmt::format("{}+{}{}", methodName(m), args.smoothMethod, args.smooth)
-                                         : std::string(methodName(m));
+        const std::string label =
+            smooth ? fmt::format("{}+{}{}", methodName(m), args.smoothMethod, args.smooth) : std::string(methodName(m));
         const SphereReport& s = *x.sphere;
         const double t = static_cast<double>(s.triangles);
         const auto& v = s.vertex;

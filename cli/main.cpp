@@ -40,13 +40,13 @@
 #include "io/volume_formats.h"
 #include "io/volume_writer.h"
 #include "metrics/component_filter.h"
-#include "process/decimation.h"
-#include "process/smoothing.h"
 #include "metrics/components.h"
 #include "metrics/measure.h"
 #include "metrics/mesh_stats.h"
 #include "metrics/report.h"
 #include "metrics/sphere_metrics.h"
+#include "process/decimation.h"
+#include "process/smoothing.h"
 #include "stream/iso_choice.h"
 #include "stream/pipeline.h"
 #include "stream/progress.h"
@@ -603,31 +603,33 @@ int runExtract(const ExtractArgs& args) {
     r["warnings"] = warnings;
     addStatsJson(r, s);
     if (args.smooth > 0) {
-      r["smoothing"] = {{"iterations", args.smooth},     {"method", args.smoothMethod},
-                        {"pass_band", args.passBand},     {"faces", args.smoothFaces},
+      r["smoothing"] = {{"iterations", args.smooth},
+                        {"method", args.smoothMethod},
+                        {"pass_band", args.passBand},
+                        {"faces", args.smoothFaces},
                         {"normals", args.normals ? args.smoothNormals : "none"}};
     }
     if (decimation) {
       const DecimationReport& d = decimation->report();
-      r["decimation"] = {{"ratio", args.decimate},
-                         {"max_error", args.maxError},
-                         {"triangles_before", d.trianglesIn},
-                         {"triangles_after", d.trianglesOut},
-                         {"kept_fraction", d.trianglesIn > 0 ? static_cast<double>(d.trianglesOut) /
-                                                                   static_cast<double>(d.trianglesIn)
-                                                             : 1.0},
-                         {"distance_bound_voxels", args.maxError > 0 ? args.maxError : 0.5},
-                         {"blocks", d.blocks},
-                         {"regions", d.regions},
-                         {"regions_repaired", d.repairedRegions},
-                         {"triangles_frozen", d.frozenTriangles},
-                         {"regions_kept_whole", d.keptRegions},
-                         {"simplify_calls", d.attempts},
-                         {"distance_mean", d.distanceMean},
-                         {"distance_max", d.distanceMax},
-                         {"distance_mean_voxels", d.distanceMean / writerOptions.voxelSize},
-                         {"distance_max_voxels", d.distanceMax / writerOptions.voxelSize},
-                         {"distance_samples", d.samples}};
+      r["decimation"] = {
+          {"ratio", args.decimate},
+          {"max_error", args.maxError},
+          {"triangles_before", d.trianglesIn},
+          {"triangles_after", d.trianglesOut},
+          {"kept_fraction",
+           d.trianglesIn > 0 ? static_cast<double>(d.trianglesOut) / static_cast<double>(d.trianglesIn) : 1.0},
+          {"distance_bound_voxels", args.maxError > 0 ? args.maxError : 0.5},
+          {"blocks", d.blocks},
+          {"regions", d.regions},
+          {"regions_repaired", d.repairedRegions},
+          {"triangles_frozen", d.frozenTriangles},
+          {"regions_kept_whole", d.keptRegions},
+          {"simplify_calls", d.attempts},
+          {"distance_mean", d.distanceMean},
+          {"distance_max", d.distanceMax},
+          {"distance_mean_voxels", d.distanceMean / writerOptions.voxelSize},
+          {"distance_max_voxels", d.distanceMax / writerOptions.voxelSize},
+          {"distance_samples", d.samples}};
     }
     if (rules.any()) {
       r["components"] = componentReport;

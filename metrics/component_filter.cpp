@@ -62,10 +62,10 @@ std::vector<bool> selectComponents(const std::vector<Component>& components, con
             all[a + 3] = std::max(all[a + 3], c.bounds[a + 3]);
           }
         }
-        where = fmt::format("{} within x {:.6g} .. {:.6g}, y {:.6g} .. {:.6g}, z {:.6g} .. {:.6g}",
-                            components.size() == 1 ? "the one component lies"
-                                                   : fmt::format("the {} components lie", components.size()),
-                            all[0], all[3], all[1], all[4], all[2], all[5]);
+        where = fmt::format(
+            "{} within x {:.6g} .. {:.6g}, y {:.6g} .. {:.6g}, z {:.6g} .. {:.6g}",
+            components.size() == 1 ? "the one component lies" : fmt::format("the {} components lie", components.size()),
+            all[0], all[3], all[1], all[4], all[2], all[5]);
       }
       throw Error(fmt::format("--seed {},{},{} lies outside every component's bounds (grown by {:.6g}): {}", p.x, p.y,
                               p.z, rules.seedReach, where));

@@ -63,8 +63,12 @@ Shape shapeOf(const std::vector<Triangle>& triangles) {
 
 using Vec3d = std::array<double, 3>;
 
-Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-double dot(const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Vec3d sub(const Vec3d& a, const Vec3d& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+double dot(const Vec3d& a, const Vec3d& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 // Squared distance from p to the triangle abc: the closest point by the triangle's Voronoi regions
 // (vertices, edges, face), from the barycentric conditions.
@@ -102,7 +106,9 @@ double distanceSquared(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec
   return at({a[0] + ab[0] * v + ac[0] * w, a[1] + ab[1] * v + ac[1] * w, a[2] + ab[2] * v + ac[2] * w});
 }
 
-Vec3d toDouble(const Vec3f& p) { return {p.x, p.y, p.z}; }
+Vec3d toDouble(const Vec3f& p) {
+  return {p.x, p.y, p.z};
+}
 
 }  // namespace
 
@@ -286,13 +292,13 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
 // that was not one), the original triangles within a few rings of that edge's ends are frozen:
 // left out of the next try, so that their outline becomes a locked border, and kept as they are.
 // After a few tries the region is kept whole.
-std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& triangles,
-                                               std::int64_t originalTriangles) {
+std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles) {
   if (triangles.empty()) return triangles;
   const Shape before = shapeOf(triangles);
   const std::size_t target =
-      options_.ratio < 1 ? static_cast<std::size_t>(std::llround(options_.ratio * static_cast<double>(originalTriangles)))
-                         : 0;
+      options_.ratio < 1
+          ? static_cast<std::size_t>(std::llround(options_.ratio * static_cast<double>(originalTriangles)))
+          : 0;
   // The border vertices, which a neighbouring block or region may share. An edge between two of
   // them that the region did not have would be a chord that the neighbour may make too, from its
   // side: four triangles on one edge. So the triangles around them stay as they are (the next pass,

@@ -19,15 +19,21 @@ namespace {
 
 using Vec3d = std::array<double, 3>;
 
-Vec3d toDouble(const Vec3f& p) { return {p.x, p.y, p.z}; }
+Vec3d toDouble(const Vec3f& p) {
+  return {p.x, p.y, p.z};
+}
 Vec3f toFloat(const Vec3d& p) {
   return {static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])};
 }
-double dot(const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+double dot(const Vec3d& a, const Vec3d& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 }  // namespace
 
-double taubinMu(double lambda, double passBand) { return 1.0 / (passBand - 1.0 / lambda); }
+double taubinMu(double lambda, double passBand) {
+  return 1.0 / (passBand - 1.0 / lambda);
+}
 
 std::string checkSmoothOptions(const SmoothOptions& o) {
   if (o.iterations < 0 || o.iterations > kMaxSmoothIterations) {

@@ -526,9 +526,9 @@ TEST(Cli, KeepLargestKeepsOneComponentInTwoPasses) {
   }
   // Keeping every component gives the plain run's file.
   ASSERT_EQ(testing::runCli(fmt::format("extract {} --iso 0 --normals -q -o {}/all.ply", input, dir)).exitCode, 0);
-  ASSERT_EQ(
-      testing::runCli(fmt::format("extract {} --iso 0 --normals --min-triangles 1 -q -o {}/kept.ply", input, dir)).exitCode,
-      0);
+  ASSERT_EQ(testing::runCli(fmt::format("extract {} --iso 0 --normals --min-triangles 1 -q -o {}/kept.ply", input, dir))
+                .exitCode,
+            0);
   EXPECT_TRUE(slurp(dir + "/all.ply") == slurp(dir + "/kept.ply"));
 }
 
@@ -636,10 +636,10 @@ TEST(Cli, SmoothingAndDecimationWriteEveryFormat) {
   const std::string dir = testing::tempDir();
   for (const char* ext : {"ply", "stl", "obj", "glb", "drc"}) {
     const std::string out = fmt::format("{}/m.{}", dir, ext);
-    const auto r = testing::runCli(
-        fmt::format("extract 'phantom:head?n=40,36,40&noise=40' --iso 0 --method bcc12 --close-boundary --min-triangles "
-                    "50 --smooth 4 --smooth-method taubin --decimate 0.3 --normals -q -o {} --report {}/r.json",
-                    out, dir));
+    const auto r = testing::runCli(fmt::format(
+        "extract 'phantom:head?n=40,36,40&noise=40' --iso 0 --method bcc12 --close-boundary --min-triangles "
+        "50 --smooth 4 --smooth-method taubin --decimate 0.3 --normals -q -o {} --report {}/r.json",
+        out, dir));
     ASSERT_EQ(r.exitCode, 0) << ext << ": " << r.err;
     const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
     const auto m = testing::runCli("metrics " + out);

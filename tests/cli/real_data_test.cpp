@@ -51,8 +51,9 @@ TEST(RealData, PhilipsHeadKeepLargestIsOneClosedComponent) {
   const std::string philips = testing::sharedData("ct-philips-head");
   if (philips.empty()) GTEST_SKIP() << "../shared/data/ct-philips-head is absent";
   const std::string dir = testing::tempDir();
-  const auto r = testing::runCli(fmt::format(
-      "extract {} --iso -400 --close-boundary --keep-largest 1 -q -o {}/head.ply --report {}/r.json", philips, dir, dir));
+  const auto r = testing::runCli(
+      fmt::format("extract {} --iso -400 --close-boundary --keep-largest 1 -q -o {}/head.ply --report {}/r.json",
+                  philips, dir, dir));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const auto report = nlohmann::json::parse(testing::slurp(dir + "/r.json"));
   EXPECT_GT(report["components"]["count"].get<int>(), 10);
@@ -76,9 +77,9 @@ TEST(RealData, PhilipsHeadDecimatedToATenth) {
   const std::string philips = testing::sharedData("ct-philips-head");
   if (philips.empty()) GTEST_SKIP() << "../shared/data/ct-philips-head is absent";
   const std::string dir = testing::tempDir();
-  const auto r = testing::runCli(fmt::format(
-      "extract {} --iso -400 --decimate 0.1 --chunk-triangles 60000 -q -o {}/head.glb --report {}/r.json", philips,
-      dir, dir));
+  const auto r = testing::runCli(
+      fmt::format("extract {} --iso -400 --decimate 0.1 --chunk-triangles 60000 -q -o {}/head.glb --report {}/r.json",
+                  philips, dir, dir));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const auto report = nlohmann::json::parse(testing::slurp(dir + "/r.json"));
   const auto& d = report["decimation"];

@@ -103,10 +103,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   const MeshStats& s = stats.stats();
   if (s.boundaryEdges != 0 || s.nonManifoldEdges != 0 || s.inconsistentEdges != 0) {
-    fuzz::fail(fmt::format("{}: {} boundary, {} non-manifold and {} inconsistent edges after smoothing {} and "
-                           "decimation",
-                           methodName(options.method), s.boundaryEdges, s.nonManifoldEdges, s.inconsistentEdges,
-                           smooth.iterations));
+    fuzz::fail(fmt::format(
+        "{}: {} boundary, {} non-manifold and {} inconsistent edges after smoothing {} and "
+        "decimation",
+        methodName(options.method), s.boundaryEdges, s.nonManifoldEdges, s.inconsistentEdges, smooth.iterations));
   }
   for (const Vec3f& p : memory.mesh().positions) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) fuzz::fail("a position is not finite");

@@ -464,8 +464,9 @@ TEST(ComponentFilter, SeedOutsideEveryComponentIsAnError) {
     FAIL() << "no error";
   } catch (const Error& e) {
     const std::string message = e.what();
-    EXPECT_EQ(message, "--seed 90,2,2 lies outside every component's bounds (grown by 1): the 4 components lie "
-                       "within x 4.00582 .. 84.2917, y 4.81525 .. 30.6995, z 5.91169 .. 31.3922");
+    EXPECT_EQ(message,
+              "--seed 90,2,2 lies outside every component's bounds (grown by 1): the 4 components lie "
+              "within x 4.00582 .. 84.2917, y 4.81525 .. 30.6995, z 5.91169 .. 31.3922");
   }
   try {
     selectComponents({}, rules);

@@ -27,7 +27,7 @@ struct Decimated {
 
 // Extracts (capped), decimates with small blocks so that there are many seams, and measures.
 Decimated decimate(const Field& field, std::array<std::int64_t, 3> dims, Method method, const DecimateOptions& o,
-             int threads = 1) {
+                   int threads = 1) {
   ExtractOptions options;
   options.method = method;
   options.iso = 0;
@@ -137,7 +137,8 @@ TEST(Decimation, StaysClosedManifoldAndNearTheSurfaceAcrossManySeams) {
         const Vec3f& a = r.decimated.positions[tri[0]];
         const Vec3f& b = r.decimated.positions[tri[1]];
         const Vec3f& c = r.decimated.positions[tri[2]];
-        const Vec3d centroid{(double(a.x) + b.x + c.x) / 3, (double(a.y) + b.y + c.y) / 3, (double(a.z) + b.z + c.z) / 3};
+        const Vec3d centroid{(double(a.x) + b.x + c.x) / 3, (double(a.y) + b.y + c.y) / 3,
+                             (double(a.z) + b.z + c.z) / 3};
         worst = std::max(worst, distanceToMesh(centroid, r.original));
       }
       EXPECT_LE(worst, 0.5 + 1e-9);

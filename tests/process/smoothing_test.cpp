@@ -126,7 +126,8 @@ IndexedMesh smoothWhole(const IndexedMesh& mesh, const MeshHeader& header, const
       if (!neighbours[v].empty()) {
         for (std::size_t k = 0; k < 3; ++k) lap[k] = lap[k] / double(neighbours[v].size()) - current[v][k];
       }
-      for (std::size_t k = 0; k < 3; ++k) next[v][k] = r.a[i] * current[v][k] + r.b[i] * lap[k] + r.c[i] * previous[v][k];
+      for (std::size_t k = 0; k < 3; ++k)
+        next[v][k] = r.a[i] * current[v][k] + r.b[i] * lap[k] + r.c[i] * previous[v][k];
       next[v] = constrain(v, next[v]);
     }
     previous = current;
@@ -155,7 +156,8 @@ IndexedMesh smoothWhole(const IndexedMesh& mesh, const MeshHeader& header, const
     }
   }
   for (std::size_t v = 0; v < n && !out.normals.empty(); ++v) {
-    const double len = std::sqrt(normal[v][0] * normal[v][0] + normal[v][1] * normal[v][1] + normal[v][2] * normal[v][2]);
+    const double len =
+        std::sqrt(normal[v][0] * normal[v][0] + normal[v][1] * normal[v][1] + normal[v][2] * normal[v][2]);
     if (len > 0) out.normals[v] = {float(normal[v][0] / len), float(normal[v][1] / len), float(normal[v][2] / len)};
   }
   return out;
@@ -172,8 +174,8 @@ void expectClose(const IndexedMesh& expected, const IndexedMesh& actual, double 
     if (expected.normals.empty()) continue;
     const Vec3f& na = expected.normals[v];
     const Vec3f& nb = actual.normals[v];
-    worstNormal =
-        std::max({worstNormal, std::abs(double(na.x) - nb.x), std::abs(double(na.y) - nb.y), std::abs(double(na.z) - nb.z)});
+    worstNormal = std::max(
+        {worstNormal, std::abs(double(na.x) - nb.x), std::abs(double(na.y) - nb.y), std::abs(double(na.z) - nb.z)});
   }
   EXPECT_LE(worst, tolerance);
   EXPECT_LE(worstNormal, 1e-4);
@@ -192,23 +194,24 @@ Field lumpyTorus() {
 TEST(Smoothing, StreamedEqualsTheWholeMeshFilter) {
   // With normals, a chunk leaves one chunk later (its normals need the next chunk's triangles).
   for (bool normals : {true, false}) {
-  const Extracted x = extractChunks(lumpyTorus(), {32, 30, 34}, Method::kMarchingCubes, 0.0, false, normals);
-  ASSERT_GT(x.chunks.size(), 20u);
-  for (SmoothMethod method : {SmoothMethod::kTaubin, SmoothMethod::kSinc}) {
-    for (int n : {1, 5, 20}) {
-      SCOPED_TRACE(std::string(method == SmoothMethod::kSinc ? "sinc " : "taubin ") + std::to_string(n) +
-                   (normals ? " normals" : ""));
-      SmoothOptions o;
-      o.method = method;
-      o.iterations = n;
-      const IndexedMesh streamed = smoothStreamed(x, o);
-      expectClose(smoothWhole(x.mesh, x.header, o), streamed, 1e-6);
-      // It moved: nearly every vertex (a few lie where their neighbours' mean is).
-      std::size_t moved = 0;
-      for (std::size_t v = 0; v < streamed.positions.size(); ++v) moved += streamed.positions[v] == x.mesh.positions[v] ? 0 : 1;
-      EXPECT_GT(moved, streamed.positions.size() * 9 / 10);
+    const Extracted x = extractChunks(lumpyTorus(), {32, 30, 34}, Method::kMarchingCubes, 0.0, false, normals);
+    ASSERT_GT(x.chunks.size(), 20u);
+    for (SmoothMethod method : {SmoothMethod::kTaubin, SmoothMethod::kSinc}) {
+      for (int n : {1, 5, 20}) {
+        SCOPED_TRACE(std::string(method == SmoothMethod::kSinc ? "sinc " : "taubin ") + std::to_string(n) +
+                     (normals ? " normals" : ""));
+        SmoothOptions o;
+        o.method = method;
+        o.iterations = n;
+        const IndexedMesh streamed = smoothStreamed(x, o);
+        expectClose(smoothWhole(x.mesh, x.header, o), streamed, 1e-6);
+        // It moved: nearly every vertex (a few lie where their neighbours' mean is).
+        std::size_t moved = 0;
+        for (std::size_t v = 0; v < streamed.positions.size(); ++v)
+          moved += streamed.positions[v] == x.mesh.positions[v] ? 0 : 1;
+        EXPECT_GT(moved, streamed.positions.size() * 9 / 10);
+      }
     }
-  }
   }
 }
 
@@ -259,7 +262,8 @@ TEST(Smoothing, SameForEveryThreadCount) {
     SCOPED_TRACE(threads);
     SmoothOptions o;
     o.iterations = 7;
-    std::unique_ptr<SliceSource> source = std::make_unique<testing::VectorSource>(std::array<std::int64_t, 3>{32, 30, 34}, lumpyTorus());
+    std::unique_ptr<SliceSource> source =
+        std::make_unique<testing::VectorSource>(std::array<std::int64_t, 3>{32, 30, 34}, lumpyTorus());
     ExtractOptions e;
     e.iso = 0;
     e.normals = true;
