@@ -28,19 +28,35 @@ struct EdgeUse {
 };
 
 // Every edge of the triangles: its uses and their directions.
-std::unordered_map<std::uint64_t, EdgeUse> tallyEdges(const std::vector<Triangle>& triangles) {
-  std::unordered_map<std::uint64_t, EdgeUse> edges;
-  edges.reserve(triangles.size() * 2);
+// Every edge of the triangles, sorted by key (smaller id << 32 | larger id): its uses and their
+// directions. Sorted arrays, not a hash map: one allocation each, for blocks of a million triangles.
+std::vector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(const std::vector<Triangle>& triangles) {
+  std::vector<std::uint64_t> directed;
+  directed.reserve(3 * triangles.size());
   for (const Triangle& t : triangles) {
-    for (std::size_t k = 0; k < 3; ++k) {
-      const VertexId a = t[k];
-      const VertexId b = t[(k + 1) % 3];
-      const std::uint64_t key = (std::uint64_t{std::min(a, b)} << 32) | std::max(a, b);
-      EdgeUse& e = edges[key];
-      ++e.uses;
-      if (a < b) ++e.forward;
-    }
+    for (std::size_t k = 0; k < 3; ++k) directed.push_back((std::uint64_t{t[k]} << 32) | t[(k + 1) % 3]);
   }
+  std::sort(directed.begin(), directed.end());
+  const auto count = [&](std::uint64_t key) {
+    const auto range = std::equal_range(directed.begin(), directed.end(), key);
+    return static_cast<std::uint32_t>(range.second - range.first);
+  };
+  std::vector<std::pair<std::uint64_t, EdgeUse>> edges;
+  for (std::size_t i = 0; i < directed.size();) {
+    std::size_t j = i;
+    while (j < directed.size() && directed[j] == directed[i]) ++j;
+    const auto a = static_cast<VertexId>(directed[i] >> 32);
+    const auto b = static_cast<VertexId>(directed[i] & 0xffffffffu);
+    const std::uint64_t reverse = (std::uint64_t{b} << 32) | a;
+    const auto here = static_cast<std::uint32_t>(j - i);
+    if (a < b) {
+      edges.push_back({directed[i], EdgeUse{here + count(reverse), here}});
+    } else if (count(reverse) == 0) {
+      edges.push_back({reverse, EdgeUse{here, 0}});  // used only from the larger id
+    }
+    i = j;
+  }
+  std::sort(edges.begin(), edges.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
   return edges;
 }
 
@@ -326,8 +342,8 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     return fanCounts(shifted, positions_.size());
   };
   const std::vector<std::uint32_t> fansBefore = fansOf(triangles);
-  // The triangles around each vertex, to grow frozen patches by rings.
-  std::unordered_map<VertexId, std::vector<std::uint32_t>> around;
+  // The triangles around each vertex (ids relative to base_), to grow frozen patches by rings.
+  std::vector<std::uint32_t> aroundFirst, around;
   std::vector<bool> frozen(triangles.size(), false);
   std::size_t frozenCount = 0;
   for (std::size_t t = 0; t < triangles.size(); ++t) {
@@ -383,9 +399,16 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
       return out;
     }
     if (before.nonManifold > 0 || before.inconsistent > 0) break;  // not a surface to start with
-    if (around.empty()) {
+    if (aroundFirst.empty()) {
+      aroundFirst.assign(positions_.size() + 1, 0);
+      for (const Triangle& t : triangles) {
+        for (VertexId v : t) ++aroundFirst[v - base_ + 1];
+      }
+      for (std::size_t v = 0; v < positions_.size(); ++v) aroundFirst[v + 1] += aroundFirst[v];
+      around.resize(aroundFirst.back());
+      std::vector<std::uint32_t> fill(aroundFirst.begin(), aroundFirst.end() - 1);
       for (std::size_t t = 0; t < triangles.size(); ++t) {
-        for (VertexId v : triangles[t]) around[v].push_back(static_cast<std::uint32_t>(t));
+        for (VertexId v : triangles[t]) around[fill[v - base_]++] = static_cast<std::uint32_t>(t);
       }
     }
     // A border edge that went missing leaves no bad vertex to freeze around: keep the region whole.
@@ -395,9 +418,8 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     for (int step = 0; step < 1 + attempt / 2; ++step) {
       std::vector<VertexId> next;
       for (VertexId v : ring) {
-        const auto it = around.find(v);
-        if (it == around.end()) continue;
-        for (std::uint32_t t : it->second) {
+        for (std::uint32_t i = aroundFirst[v - base_]; i < aroundFirst[v - base_ + 1]; ++i) {
+          const std::uint32_t t = around[i];
           if (!frozen[t]) {
             frozen[t] = true;
             ++frozenCount;
