@@ -15,9 +15,9 @@ struct CompareArgs {
   std::string radii;   // spheres51: a subset "5,10,20" instead of the 51 radii
   std::string centre;  // spheres51: offset of the centre from a grid point (default 0.5,0.5,0.5)
   std::string methods = "mc,mt5,mt6,bcc12,mt24,mc33";
-  std::string engine;  // paper: ../shared/data/engine/engine_256x256x128_uint8.raw.gz
-  std::string cthead;  // paper: ../shared/data/cthead
-  int smooth = 0;                      // spheres51: also rows of each method smoothed with N iterations
+  std::string engine;                 // paper: ../shared/data/engine/engine_256x256x128_uint8.raw.gz
+  std::string cthead;                 // paper: ../shared/data/cthead
+  int smooth = 0;                     // spheres51: also rows of each method smoothed with N iterations
   std::string smoothMethod = "sinc";  // spheres51: of those rows
   bool charts = true;
   bool quiet = false;
