@@ -240,15 +240,6 @@ int runPaper(const CompareArgs& args) {
                            "no --cthead given: head phantom 256x256x109, iso -400"));
   }
   const auto methods = methodsOf(args.methods);
-  // Each method, and with --smooth each method smoothed too.
-  std::vector<std::pair<Method, bool>> runs;
-  for (Method m : methods) {
-    runs.emplace_back(m, false);
-    if (args.smooth > 0) runs.emplace_back(m, true);
-  }
-  SmoothOptions smoothOptions;
-  smoothOptions.iterations = args.smooth;
-  smoothOptions.method = args.smoothMethod == "taubin" ? SmoothMethod::kTaubin : SmoothMethod::kSinc;
   std::string csv =
       "dataset,method,triangles,seconds,constant_seconds,read_seconds,triangle_ratio_to_mt6,time_ratio_to_mt6\n";
   std::string md = "# paper: the counterparts of the paper's Tables 2 and 3\n\n";
@@ -301,15 +292,6 @@ int runPaper(const CompareArgs& args) {
 
 int runCubes(const CompareArgs& args) {
   const auto methods = methodsOf(args.methods);
-  // Each method, and with --smooth each method smoothed too.
-  std::vector<std::pair<Method, bool>> runs;
-  for (Method m : methods) {
-    runs.emplace_back(m, false);
-    if (args.smooth > 0) runs.emplace_back(m, true);
-  }
-  SmoothOptions smoothOptions;
-  smoothOptions.iterations = args.smooth;
-  smoothOptions.method = args.smoothMethod == "taubin" ? SmoothMethod::kTaubin : SmoothMethod::kSinc;
   std::string csv = "edge,iso,method,triangles,true_edge,area_error,volume_error,closed\n";
   std::string md =
       "# cubes: the paper's appendix cubes\n\nBinary cubes of L inside lattice points per edge (100 inside, 0 "

@@ -504,6 +504,15 @@ double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
   }
 }
 
+// The points where a decimated triangle is measured: its centroid and its edges' midpoints.
+std::array<DecimationSink::Vec3d, 4> DecimationSink::samplePoints(const Triangle& t) const {
+  const Vec3d a = toDouble(position(t[0])), b = toDouble(position(t[1])), c = toDouble(position(t[2]));
+  return {{{(a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3, (a[2] + b[2] + c[2]) / 3},
+           {(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2},
+           {(b[0] + c[0]) / 2, (b[1] + c[1]) / 2, (b[2] + c[2]) / 2},
+           {(c[0] + a[0]) / 2, (c[1] + a[1]) / 2, (c[2] + a[2]) / 2}}};
+}
+
 // Whether some original triangle lies within `limit` of p: the cells that the ball around p
 // touches, p's own first, stopping at the first triangle near enough.
 bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const {
@@ -539,11 +548,7 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const
 // Whether every sample point of the triangle (centroid and edge midpoints) lies within `limit` of
 // the original surface.
 bool DecimationSink::triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const {
-  const Vec3d a = toDouble(position(t[0])), b = toDouble(position(t[1])), c = toDouble(position(t[2]));
-  const Vec3d samples[4] = {{(a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3, (a[2] + b[2] + c[2]) / 3},
-                            {(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2},
-                            {(b[0] + c[0]) / 2, (b[1] + c[1]) / 2, (b[2] + c[2]) / 2},
-                            {(c[0] + a[0]) / 2, (c[1] + a[1]) / 2, (c[2] + a[2]) / 2}};
+  const std::array<Vec3d, 4> samples = samplePoints(t);
   for (const Vec3d& sample : samples) {
     if (!surface.within(sample, limit)) return false;
   }
@@ -554,11 +559,7 @@ bool DecimationSink::triangleWithin(const Triangle& t, const OriginalSurface& su
 // original surface; with `sum` and `count`, their sum and number too.
 double DecimationSink::triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum,
                                         std::uint64_t* count) const {
-  const Vec3d a = toDouble(position(t[0])), b = toDouble(position(t[1])), c = toDouble(position(t[2]));
-  const Vec3d samples[4] = {{(a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3, (a[2] + b[2] + c[2]) / 3},
-                            {(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2},
-                            {(b[0] + c[0]) / 2, (b[1] + c[1]) / 2, (b[2] + c[2]) / 2},
-                            {(c[0] + a[0]) / 2, (c[1] + a[1]) / 2, (c[2] + a[2]) / 2}};
+  const std::array<Vec3d, 4> samples = samplePoints(t);
   double worst = 0;
   for (const Vec3d& s : samples) {
     const double d = surface.distance(s);

@@ -112,6 +112,8 @@ class DecimationSink final : public MeshSink {
   OriginalSurface originalsAround(const std::vector<Triangle>& triangles) const;
   double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
   bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const;
+  using Vec3d = std::array<double, 3>;
+  std::array<Vec3d, 4> samplePoints(const Triangle& t) const;
   std::size_t chunkOfVertex(VertexId v) const;
   const Vec3f& position(VertexId v) const { return positions_[v - base_]; }
   void trim(std::size_t firstChunk);

@@ -33,24 +33,6 @@ using namespace isoslab;
 
 namespace {
 
-class MemorySource final : public SliceSource {
- public:
-  MemorySource(VolumeInfo info, std::vector<float> values) : info_(std::move(info)), values_(std::move(values)) {}
-  const VolumeInfo& info() const noexcept override { return info_; }
-  bool readSlice(std::span<float> slice) override {
-    if (next_ >= info_.dims[2]) return false;
-    const auto n = static_cast<std::size_t>(info_.sliceVoxels());
-    std::memcpy(slice.data(), values_.data() + n * static_cast<std::size_t>(next_), n * sizeof(float));
-    ++next_;
-    return true;
-  }
-
- private:
-  VolumeInfo info_;
-  std::vector<float> values_;
-  std::int64_t next_ = 0;
-};
-
 // Checks every chunk as it streams past.
 class CheckSink final : public MeshSink {
  public:
@@ -115,7 +97,7 @@ float voxel(std::uint8_t b) {
 
 IndexedMesh run(const VolumeInfo& info, const std::vector<float>& values, const ExtractOptions& options, int threads,
                 bool check) {
-  std::unique_ptr<SliceSource> source = std::make_unique<MemorySource>(info, values);
+  std::unique_ptr<SliceSource> source = std::make_unique<fuzz::MemorySource>(info, values);
   const LatticeFrame frame = LatticeFrame::physical(info);
   auto extractor = makeExtractor(options, info, frame);
   const MeshHeader header = extractionHeader(options, info, frame, *extractor);

@@ -30,28 +30,6 @@
 
 using namespace isoslab;
 
-namespace {
-
-class MemorySource final : public SliceSource {
- public:
-  MemorySource(VolumeInfo info, std::vector<float> values) : info_(std::move(info)), values_(std::move(values)) {}
-  const VolumeInfo& info() const noexcept override { return info_; }
-  bool readSlice(std::span<float> slice) override {
-    if (next_ >= info_.dims[2]) return false;
-    const auto n = static_cast<std::size_t>(info_.sliceVoxels());
-    std::memcpy(slice.data(), values_.data() + n * static_cast<std::size_t>(next_), n * sizeof(float));
-    ++next_;
-    return true;
-  }
-
- private:
-  VolumeInfo info_;
-  std::vector<float> values_;
-  std::int64_t next_ = 0;
-};
-
-}  // namespace
-
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   fuzz::Bytes in(data, size);
   VolumeInfo info;
@@ -86,7 +64,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   decimate.blockSlabs = 2;
   decimate.blockTriangles = 1;
 
-  std::unique_ptr<SliceSource> source = std::make_unique<MemorySource>(info, std::move(values));
+  std::unique_ptr<SliceSource> source = std::make_unique<fuzz::MemorySource>(info, std::move(values));
   const LatticeFrame frame = LatticeFrame::physical(info);
   auto extractor = makeExtractor(options, info, frame);
   const MeshHeader header = extractionHeader(options, info, frame, *extractor);

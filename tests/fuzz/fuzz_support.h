@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <span>
 #include <string>
 #include <string_view>
@@ -42,6 +43,25 @@ bool smallEnough(const VolumeInfo& info);
 /// thread, into a mesh statistics sink: reads every slice, then asks for the warnings. Returns
 /// without reading when the volume is not smallEnough(). Throws isoslab::Error like the readers.
 void extractAll(SliceSource& source);
+
+/// A volume held in memory, for the targets that make their volumes from the input's bytes.
+class MemorySource final : public SliceSource {
+ public:
+  MemorySource(VolumeInfo info, std::vector<float> values) : info_(std::move(info)), values_(std::move(values)) {}
+  const VolumeInfo& info() const noexcept override { return info_; }
+  bool readSlice(std::span<float> slice) override {
+    if (next_ >= info_.dims[2]) return false;
+    const auto n = static_cast<std::size_t>(info_.sliceVoxels());
+    std::memcpy(slice.data(), values_.data() + n * static_cast<std::size_t>(next_), n * sizeof(float));
+    ++next_;
+    return true;
+  }
+
+ private:
+  VolumeInfo info_;
+  std::vector<float> values_;
+  std::int64_t next_ = 0;
+};
 
 /// Aborts with `what` on stderr: a property the fuzzer checks does not hold.
 [[noreturn]] void fail(const std::string& what);
