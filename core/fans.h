@@ -14,18 +14,20 @@
 
 namespace isoslab {
 
-/// Per vertex 0 .. vertexCount - 1, the number of fans of its triangles (0 when no triangle uses it).
-inline std::vector<std::uint32_t> fanCounts(const std::vector<Triangle>& triangles, std::size_t vertexCount) {
+/// Per vertex base .. base + vertexCount - 1, the number of fans of its triangles (0 when no triangle
+/// uses it); the triangles use only those vertices.
+inline std::vector<std::uint32_t> fanCounts(const std::vector<Triangle>& triangles, std::size_t vertexCount,
+                                            VertexId base = 0) {
   // The corners at each vertex, in order (counting sort by vertex).
   std::vector<std::uint32_t> first(vertexCount + 1, 0);
   for (const Triangle& t : triangles) {
-    for (VertexId v : t) ++first[v + 1];
+    for (VertexId v : t) ++first[v - base + 1];
   }
   for (std::size_t v = 0; v < vertexCount; ++v) first[v + 1] += first[v];
   std::vector<std::uint32_t> corners(first[vertexCount]);
   std::vector<std::uint32_t> fill(first.begin(), first.end() - 1);
   for (std::uint32_t t = 0; t < triangles.size(); ++t) {
-    for (std::uint32_t k = 0; k < 3; ++k) corners[fill[triangles[t][k]]++] = 3 * t + k;
+    for (std::uint32_t k = 0; k < 3; ++k) corners[fill[triangles[t][k] - base]++] = 3 * t + k;
   }
   std::vector<std::uint32_t> fans(vertexCount, 0);
   std::vector<std::uint32_t> parent;

@@ -9,7 +9,6 @@
 #include <array>
 #include <cfloat>
 #include <cmath>
-#include <unordered_map>
 #include <utility>
 
 #include "core/error.h"
@@ -61,6 +60,7 @@ std::vector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(const std::vector<Tria
 }
 
 struct Shape {
+  std::vector<std::uint64_t> edges;   // every edge, sorted
   std::vector<std::uint64_t> border;  // edges used once, sorted
   std::uint64_t nonManifold = 0;      // edges used more than twice
   std::uint64_t inconsistent = 0;     // edges used twice in the same direction
@@ -68,12 +68,14 @@ struct Shape {
 
 Shape shapeOf(const std::vector<Triangle>& triangles) {
   Shape s;
-  for (const auto& [key, e] : tallyEdges(triangles)) {
+  const auto edges = tallyEdges(triangles);
+  s.edges.reserve(edges.size());
+  for (const auto& [key, e] : edges) {
+    s.edges.push_back(key);
     if (e.uses == 1) s.border.push_back(key);
     if (e.uses > 2) ++s.nonManifold;
     if (e.uses == 2 && e.forward != 1) ++s.inconsistent;
   }
-  std::sort(s.border.begin(), s.border.end());
   return s;
 }
 
@@ -191,7 +193,7 @@ void DecimationSink::consume(const MeshChunk& chunk) {
 void DecimationSink::finish() {
   if (chunks_ > blockStart_) closeBlock();
   if (hasPending_) {
-    emit(pendingUpper_, chunkSlab_.back());
+    emit(pendingUpper_, chunkSlab_.back(), rangeAround(pendingUpper_));
     hasPending_ = false;
   }
   if (report_.samples > 0) report_.distanceMean = distanceSum_ / static_cast<double>(report_.samples);
@@ -213,7 +215,8 @@ void DecimationSink::closeBlock() {
     block.insert(block.end(), t.begin(), t.end());
     original += static_cast<std::int64_t>(t.size());
   }
-  const std::vector<Triangle> decimated = simplify(block, original);
+  const ChunkRange blockRange = rangeAround(block);
+  const std::vector<Triangle> decimated = simplify(block, original, blockRange);
   // Split at the middle chunk: a triangle with a vertex below it is the lower half.
   const std::size_t middle = std::max(blockStart_ + 1, (blockStart_ + chunks_) / 2);
   const VertexId middleFirst =
@@ -223,7 +226,7 @@ void DecimationSink::closeBlock() {
     (std::min({t[0], t[1], t[2]}) < middleFirst ? lower : upper).push_back(t);
   }
   if (!hasPending_) {
-    emit(lower, chunkSlab_[middle - 1 - chunkBase_]);
+    emit(lower, chunkSlab_[middle - 1 - chunkBase_], blockRange);
   } else {
     // The region across the old seam: the last block's upper half and this block's lower half.
     std::vector<Triangle> region = std::move(pendingUpper_);
@@ -233,7 +236,8 @@ void DecimationSink::closeBlock() {
       regionOriginal += static_cast<std::int64_t>(chunkTriangles_[c - chunkBase_].size());
     }
     ++report_.regions;
-    emit(simplify(region, regionOriginal), chunkSlab_[middle - 1 - chunkBase_]);
+    const ChunkRange regionRange = rangeAround(region);
+    emit(simplify(region, regionOriginal, regionRange), chunkSlab_[middle - 1 - chunkBase_], regionRange);
   }
   pendingUpper_ = std::move(upper);
   pendingMiddle_ = middle;
@@ -241,8 +245,8 @@ void DecimationSink::closeBlock() {
   blockStart_ = chunks_;
   blockTriangles_ = 0;
   // Later regions use only vertices from the middle chunk on; the error measure also reads the
-  // original triangles of the chunk below it.
-  trim(middle - 1);
+  // original triangles of the chunk below it, which use the vertices of the chunk below that.
+  trim(middle >= 2 ? middle - 2 : 0);
 }
 
 void DecimationSink::trim(std::size_t firstChunk) {
@@ -264,24 +268,27 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // meshopt_simplify on `triangles` with their border locked, as far as the target; nothing else.
 std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles) {
   if (triangles.empty()) return triangles;
+  // Local ids in order of first use; ids[local] is the global id.
+  std::vector<unsigned> local(positions_.size(), ~0u);
   std::vector<VertexId> ids;
-  ids.reserve(triangles.size() * 3);
-  for (const Triangle& t : triangles) ids.insert(ids.end(), t.begin(), t.end());
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  const auto local = [&](VertexId v) {
-    return static_cast<unsigned>(std::lower_bound(ids.begin(), ids.end(), v) - ids.begin());
-  };
+  std::vector<unsigned> indices(triangles.size() * 3);
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      unsigned& l = local[triangles[t][k] - base_];
+      if (l == ~0u) {
+        l = static_cast<unsigned>(ids.size());
+        ids.push_back(triangles[t][k]);
+      }
+      indices[3 * t + k] = l;
+    }
+  }
+  local = {};
   std::vector<float> xyz(ids.size() * 3);
   for (std::size_t i = 0; i < ids.size(); ++i) {
     const Vec3f& p = position(ids[i]);
     xyz[3 * i] = p.x;
     xyz[3 * i + 1] = p.y;
     xyz[3 * i + 2] = p.z;
-  }
-  std::vector<unsigned> indices(triangles.size() * 3);
-  for (std::size_t t = 0; t < triangles.size(); ++t) {
-    for (std::size_t k = 0; k < 3; ++k) indices[3 * t + k] = local(triangles[t][k]);
   }
   // meshoptimizer's own error bound: --max-error, else half the distance bound (its quadric error
   // underestimates how far a collapse moves the surface; fewer collapses then need undoing).
@@ -291,13 +298,13 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
     const float scale = meshopt_simplifyScale(xyz.data(), ids.size(), 3 * sizeof(float));
     targetError = scale > 0 ? static_cast<float>(bound * options_.voxelSize / scale) : 0.0f;
   }
-  std::vector<unsigned> result(indices.size());
+  // In place: meshoptimizer reads the indices before it writes the destination.
   const std::size_t kept =
-      meshopt_simplify(result.data(), indices.data(), indices.size(), xyz.data(), ids.size(), 3 * sizeof(float),
+      meshopt_simplify(indices.data(), indices.data(), indices.size(), xyz.data(), ids.size(), 3 * sizeof(float),
                        std::min(3 * targetTriangles, indices.size()), targetError, meshopt_SimplifyLockBorder, nullptr);
   std::vector<Triangle> out(kept / 3);
   for (std::size_t t = 0; t < out.size(); ++t) {
-    out[t] = {ids[result[3 * t]], ids[result[3 * t + 1]], ids[result[3 * t + 2]]};
+    out[t] = {ids[indices[3 * t]], ids[indices[3 * t + 1]], ids[indices[3 * t + 2]]};
   }
   return out;
 }
@@ -308,7 +315,8 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
 // that was not one), the original triangles within a few rings of that edge's ends are frozen:
 // left out of the next try, so that their outline becomes a locked border, and kept as they are.
 // After a few tries the region is kept whole.
-std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles) {
+std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
+                                               ChunkRange originals) {
   if (triangles.empty()) return triangles;
   const Shape before = shapeOf(triangles);
   const std::size_t target =
@@ -329,18 +337,9 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
   std::sort(borderVertices.begin(), borderVertices.end());
   borderVertices.erase(std::unique(borderVertices.begin(), borderVertices.end()), borderVertices.end());
   const auto onBorder = [&](VertexId v) { return std::binary_search(borderVertices.begin(), borderVertices.end(), v); };
-  std::vector<std::uint64_t> inputEdges;
-  for (const auto& [key, e] : tallyEdges(triangles)) inputEdges.push_back(key);
-  std::sort(inputEdges.begin(), inputEdges.end());
   // Fans per vertex (core/fans.h), ids relative to base_: a collapse must not pinch two sheets
   // together at a vertex.
-  const auto fansOf = [&](const std::vector<Triangle>& tris) {
-    std::vector<Triangle> shifted(tris.size());
-    for (std::size_t t = 0; t < tris.size(); ++t) {
-      for (std::size_t k = 0; k < 3; ++k) shifted[t][k] = tris[t][k] - base_;
-    }
-    return fanCounts(shifted, positions_.size());
-  };
+  const auto fansOf = [&](const std::vector<Triangle>& tris) { return fanCounts(tris, positions_.size(), base_); };
   const std::vector<std::uint32_t> fansBefore = fansOf(triangles);
   // The triangles around each vertex (ids relative to base_), to grow frozen patches by rings.
   std::vector<std::uint32_t> aroundFirst, around;
@@ -372,7 +371,7 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
       const auto b = static_cast<VertexId>(key & 0xffffffffu);
       const bool wrong = (e.uses > 2) || (e.uses == 2 && e.forward != 1) ||
                          (e.uses == 1 && !std::binary_search(before.border.begin(), before.border.end(), key)) ||
-                         (onBorder(a) && onBorder(b) && !std::binary_search(inputEdges.begin(), inputEdges.end(), key));
+                         (onBorder(a) && onBorder(b) && !std::binary_search(before.edges.begin(), before.edges.end(), key));
       if (wrong) {
         bad.push_back(static_cast<VertexId>(key >> 32));
         bad.push_back(static_cast<VertexId>(key & 0xffffffffu));
@@ -385,7 +384,7 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     }
     // Triangles that moved the surface too far.
     if (limit > 0) {
-      if (original.triangles.empty()) original = originalsAround(triangles);
+      if (original.triangles.empty()) original = originalSurface(originals);
       for (const Triangle& t : simplified) {
         if (!triangleWithin(t, original, limit)) bad.insert(bad.end(), t.begin(), t.end());
       }
@@ -436,21 +435,29 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
   return triangles;
 }
 
-// The original triangles around `triangles` (the chunks their vertices lie in, and one more on
-// either side) in a grid of cells two voxels wide, for distances to the original surface.
-DecimationSink::OriginalSurface DecimationSink::originalsAround(const std::vector<Triangle>& triangles) const {
-  OriginalSurface surface;
-  surface.sink = this;
-  surface.cell = 2.0 * options_.voxelSize;
-  if (triangles.empty()) return surface;
+// The chunks whose original triangles a region is measured against: those that use the vertices of
+// its triangles, and one more on either side. The same for the checks and for the report, whatever
+// the collapses left.
+DecimationSink::ChunkRange DecimationSink::rangeAround(const std::vector<Triangle>& triangles) const {
+  if (triangles.empty()) return {chunkBase_, chunkBase_};
   VertexId lowest = triangles.front()[0], highest = lowest;
   for (const Triangle& t : triangles) {
     lowest = std::min({lowest, t[0], t[1], t[2]});
     highest = std::max({highest, t[0], t[1], t[2]});
   }
   const std::size_t first = chunkOfVertex(lowest);
-  const std::size_t lo = std::max(chunkBase_, first > 0 ? first - 1 : 0);
-  const std::size_t hi = std::min(chunks_, chunkOfVertex(highest) + 2);
+  return {std::max(chunkBase_, first > 0 ? first - 1 : 0), std::min(chunks_, chunkOfVertex(highest) + 2)};
+}
+
+// The original triangles of chunks [range.first, range.end) in a grid of cells two voxels wide,
+// for distances to the original surface.
+DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range) const {
+  OriginalSurface surface;
+  surface.sink = this;
+  surface.cell = 2.0 * options_.voxelSize;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> entries;  // (cell, triangle)
+  const std::size_t lo = std::max(chunkBase_, range.first);
+  const std::size_t hi = std::min(chunks_, range.end);
   for (std::size_t c = lo; c < hi; ++c) {
     for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
       if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
@@ -464,30 +471,63 @@ DecimationSink::OriginalSurface DecimationSink::originalsAround(const std::vecto
       }
       for (std::int64_t x = a[0]; x <= b[0]; ++x)
         for (std::int64_t y = a[1]; y <= b[1]; ++y)
-          for (std::int64_t z = a[2]; z <= b[2]; ++z) surface.grid[OriginalSurface::key(x, y, z)].push_back(index);
+          for (std::int64_t z = a[2]; z <= b[2]; ++z) entries.emplace_back(OriginalSurface::key(x, y, z), index);
     }
   }
+  std::sort(entries.begin(), entries.end());
+  surface.cellTriangles.resize(entries.size());
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    if (i == 0 || entries[i].first != entries[i - 1].first) {
+      surface.cellKeys.push_back(entries[i].first);
+      surface.cellStart.push_back(static_cast<std::uint32_t>(i));
+    }
+    surface.cellTriangles[i] = entries[i].second;
+  }
+  surface.cellStart.push_back(static_cast<std::uint32_t>(entries.size()));
   return surface;
 }
 
-// The distance from p to the nearest original triangle: the cells in growing rings around p's,
-// until no cell further out can hold a nearer one.
+double DecimationSink::OriginalSurface::nearestInCell(std::uint64_t cellKey, const Vec3d& p) const {
+  const auto it = std::lower_bound(cellKeys.begin(), cellKeys.end(), cellKey);
+  if (it == cellKeys.end() || *it != cellKey) return INFINITY;
+  const auto i = static_cast<std::size_t>(it - cellKeys.begin());
+  double best = INFINITY;
+  for (std::uint32_t k = cellStart[i]; k < cellStart[i + 1]; ++k) {
+    const Triangle& t = triangles[cellTriangles[k]];
+    best = std::min(best, distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
+                                          toDouble(sink->position(t[2]))));
+  }
+  return best;
+}
+
+// The distance from p to the nearest original triangle. A triangle nearer than the nearest in p's
+// cell meets the ball of that radius around p, so it is listed in a cell that the ball's box
+// meets; when p's cell is empty, the cells in growing rings around it, until no cell further out
+// can hold a nearer one.
 double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
   if (triangles.empty()) return 0;
   const std::int64_t cx = cellOf(p[0]), cy = cellOf(p[1]), cz = cellOf(p[2]);
-  double best = INFINITY;
-  for (std::int64_t ring = 0;; ++ring) {
+  double best = nearestInCell(key(cx, cy, cz), p);
+  if (best < INFINITY) {
+    const double r = std::sqrt(best);
+    std::int64_t lo[3], hi[3];
+    for (std::size_t a = 0; a < 3; ++a) {
+      lo[a] = cellOf(p[a] - r);
+      hi[a] = cellOf(p[a] + r);
+    }
+    for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
+      for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
+        for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+          if (x != cx || y != cy || z != cz) best = std::min(best, nearestInCell(key(x, y, z), p));
+        }
+    return std::sqrt(best);
+  }
+  for (std::int64_t ring = 1;; ++ring) {
     for (std::int64_t x = cx - ring; x <= cx + ring; ++x) {
       for (std::int64_t y = cy - ring; y <= cy + ring; ++y) {
         for (std::int64_t z = cz - ring; z <= cz + ring; ++z) {
           if (std::max({std::abs(x - cx), std::abs(y - cy), std::abs(z - cz)}) != ring) continue;
-          const auto it = grid.find(key(x, y, z));
-          if (it == grid.end()) continue;
-          for (std::uint32_t i : it->second) {
-            const Triangle& t = triangles[i];
-            best = std::min(best, distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
-                                                  toDouble(sink->position(t[2]))));
-          }
+          best = std::min(best, nearestInCell(key(x, y, z), p));
         }
       }
     }
@@ -524,10 +564,12 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const
     hi[a] = cellOf(p[a] + limit);
   }
   const auto search = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
-    const auto it = grid.find(key(x, y, z));
-    if (it == grid.end()) return false;
-    for (std::uint32_t i : it->second) {
-      const Triangle& t = triangles[i];
+    const std::uint64_t k = key(x, y, z);
+    const auto it = std::lower_bound(cellKeys.begin(), cellKeys.end(), k);
+    if (it == cellKeys.end() || *it != k) return false;
+    const auto cellIndex = static_cast<std::size_t>(it - cellKeys.begin());
+    for (std::uint32_t e = cellStart[cellIndex]; e < cellStart[cellIndex + 1]; ++e) {
+      const Triangle& t = triangles[cellTriangles[e]];
       if (distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
                           toDouble(sink->position(t[2]))) <= limit2) {
         return true;
@@ -571,9 +613,9 @@ double DecimationSink::triangleDistance(const Triangle& t, const OriginalSurface
 }
 
 // The one-sided distance from the final triangles to the original surface, for the report.
-void DecimationSink::measure(const std::vector<Triangle>& triangles) {
+void DecimationSink::measure(const std::vector<Triangle>& triangles, ChunkRange originals) {
   if (triangles.empty()) return;
-  const OriginalSurface surface = originalsAround(triangles);
+  const OriginalSurface surface = originalSurface(originals);
   for (const Triangle& t : triangles) {
     report_.distanceMax = std::max(report_.distanceMax, triangleDistance(t, surface, &distanceSum_, &report_.samples));
   }
@@ -581,8 +623,8 @@ void DecimationSink::measure(const std::vector<Triangle>& triangles) {
 
 // Sends a final region on as one chunk: its vertices that no earlier chunk sent, in the order the
 // triangles first use them.
-void DecimationSink::emit(const std::vector<Triangle>& triangles, std::int64_t slab) {
-  measure(triangles);
+void DecimationSink::emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals) {
+  measure(triangles, originals);
   out_.clear();
   out_.slab = slab;
   out_.firstVertex = nextId_;

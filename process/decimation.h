@@ -25,7 +25,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include "core/mesh_sink.h"
@@ -82,13 +81,18 @@ class DecimationSink final : public MeshSink {
   const DecimationReport& report() const noexcept { return report_; }
 
  private:
+  // Chunks [first, end) of the stream: the original triangles a region's error is measured against.
+  struct ChunkRange {
+    std::size_t first = 0, end = 0;
+  };
   struct Region {
     std::vector<Triangle> triangles;  // global ids
     std::int64_t originalTriangles = 0;
   };
 
   void closeBlock();
-  std::vector<Triangle> simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles);
+  std::vector<Triangle> simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
+                                 ChunkRange originals);
   std::vector<Triangle> collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles);
   struct OriginalSurface {
     using Vec3d = std::array<double, 3>;
@@ -96,20 +100,27 @@ class DecimationSink final : public MeshSink {
     // The original triangles (12 bytes each), read through the sink's positions.
     const DecimationSink* sink = nullptr;
     std::vector<Triangle> triangles;
-    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
+    // The cells that some triangle's bounding box meets, sorted, and the triangles of cell i:
+    // cellTriangles[cellStart[i] .. cellStart[i + 1]) (sorted arrays: 8 + 4 bytes a cell and 4
+    // a triangle's entry, against a hash map's node and vector per cell).
+    std::vector<std::uint64_t> cellKeys;
+    std::vector<std::uint32_t> cellStart, cellTriangles;
 
     std::int64_t cellOf(double x) const { return static_cast<std::int64_t>(std::floor(x / cell)); }
     static std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z) {
       return (static_cast<std::uint64_t>(x & 0x1fffff) << 42) | (static_cast<std::uint64_t>(y & 0x1fffff) << 21) |
              static_cast<std::uint64_t>(z & 0x1fffff);
     }
+    // The squared distance from p to the nearest triangle in the cell, or infinity.
+    double nearestInCell(std::uint64_t cellKey, const Vec3d& p) const;
     double distance(const Vec3d& p) const;
     bool within(const Vec3d& p, double limit) const;
   };
 
-  void emit(const std::vector<Triangle>& triangles, std::int64_t slab);
-  void measure(const std::vector<Triangle>& triangles);
-  OriginalSurface originalsAround(const std::vector<Triangle>& triangles) const;
+  void emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals);
+  void measure(const std::vector<Triangle>& triangles, ChunkRange originals);
+  ChunkRange rangeAround(const std::vector<Triangle>& triangles) const;
+  OriginalSurface originalSurface(ChunkRange range) const;
   double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
   bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const;
   using Vec3d = std::array<double, 3>;

@@ -147,30 +147,26 @@ void SmoothingSink::consume(const MeshChunk& chunk) {
       for (std::size_t k = 0; k < 3; ++k) c.sum[v][k] = recurrence_.w[0] * c.current[v][k];
     }
   }
-  // Each edge makes its two ends neighbours; the ends lie in this chunk or the one before.
+  // A triangle uses this chunk's vertices and the previous one's (whose neighbours are not yet
+  // listed); its edges are read again when the lists are made.
+  const Chunk* previous = chunks_.size() >= 2 ? &chunks_[chunks_.size() - 2] : nullptr;
   for (const Triangle& t : chunk.triangles) {
-    for (std::size_t k = 0; k < 3; ++k) {
-      const VertexId a = t[k];
-      const VertexId b = t[(k + 1) % 3];
-      if (a == b) continue;
-      Chunk* ca = chunkOf(a);
-      Chunk* cb = chunkOf(b);
-      if (ca == nullptr || cb == nullptr || ca->linked || cb->linked) {
-        throw Error("smoothing: a triangle uses a vertex outside this chunk and the previous one");
-      }
-      ca->pairs.emplace_back(a - ca->mesh.firstVertex, b);
-      cb->pairs.emplace_back(b - cb->mesh.firstVertex, a);
+    for (VertexId v : t) {
+      const bool here = v >= c.mesh.firstVertex && v < c.mesh.endVertex();
+      const bool before = previous != nullptr && !previous->linked && v >= previous->mesh.firstVertex &&
+                          v < previous->mesh.endVertex();
+      if (!here && !before) throw Error("smoothing: a triangle uses a vertex outside this chunk and the previous one");
     }
   }
   // The chunk before this one has all its neighbours now.
-  if (chunks_.size() >= 2) link(chunks_[chunks_.size() - 2]);
+  if (chunks_.size() >= 2) link(chunks_.size() - 2);
   peakChunks_ = std::max(peakChunks_, chunks_.size());
   sweep();
   emitReady(false);
 }
 
 void SmoothingSink::finish() {
-  if (!chunks_.empty()) link(chunks_.back());
+  if (!chunks_.empty()) link(chunks_.size() - 1);
   finished_ = true;
   for (int round = 0; round <= options_.iterations + 1; ++round) sweep();
   emitReady(true);
@@ -178,18 +174,39 @@ void SmoothingSink::finish() {
   next_.finish();
 }
 
-// Turns the chunk's edge pairs into neighbour lists, each neighbour once.
-void SmoothingSink::link(Chunk& chunk) {
+// Makes the chunk's neighbour lists, each neighbour once, from the edges of its triangles and of
+// the next chunk's (the only ones that use its vertices).
+void SmoothingSink::link(std::size_t index) {
+  Chunk& chunk = chunks_[index];
   if (chunk.linked) return;
-  std::sort(chunk.pairs.begin(), chunk.pairs.end());
-  chunk.pairs.erase(std::unique(chunk.pairs.begin(), chunk.pairs.end()), chunk.pairs.end());
+  const VertexId first = chunk.mesh.firstVertex;
+  const VertexId end = chunk.mesh.endVertex();
+  std::size_t edges = 3 * chunk.mesh.triangles.size();
+  if (index + 1 < chunks_.size()) edges += 3 * chunks_[index + 1].mesh.triangles.size();
+  // (local vertex << 32 | neighbour), two per edge at most.
+  std::vector<std::uint64_t> pairs;
+  pairs.reserve(2 * edges);
+  const auto add = [&](const std::vector<Triangle>& triangles) {
+    for (const Triangle& t : triangles) {
+      for (std::size_t k = 0; k < 3; ++k) {
+        const VertexId a = t[k];
+        const VertexId b = t[(k + 1) % 3];
+        if (a == b) continue;
+        if (a >= first && a < end) pairs.push_back((std::uint64_t{a - first} << 32) | b);
+        if (b >= first && b < end) pairs.push_back((std::uint64_t{b - first} << 32) | a);
+      }
+    }
+  };
+  add(chunk.mesh.triangles);
+  if (index + 1 < chunks_.size()) add(chunks_[index + 1].mesh.triangles);
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   const std::size_t n = chunk.mesh.positions.size();
   chunk.offsets.assign(n + 1, 0);
-  for (const auto& [v, u] : chunk.pairs) ++chunk.offsets[v + 1];
+  for (std::uint64_t p : pairs) ++chunk.offsets[(p >> 32) + 1];
   for (std::size_t v = 0; v < n; ++v) chunk.offsets[v + 1] += chunk.offsets[v];
-  chunk.neighbours.resize(chunk.pairs.size());
-  for (std::size_t i = 0; i < chunk.pairs.size(); ++i) chunk.neighbours[i] = chunk.pairs[i].second;
-  chunk.pairs = {};
+  chunk.neighbours.resize(pairs.size());
+  for (std::size_t i = 0; i < pairs.size(); ++i) chunk.neighbours[i] = static_cast<VertexId>(pairs[i] & 0xffffffffu);
   chunk.linked = true;
 }
 
@@ -311,6 +328,17 @@ void SmoothingSink::emitReady(bool finished) {
       if (last ? !finished : chunks_[i + 1].level < options_.iterations) break;
     }
     emit(i);
+  }
+  // An emitted chunk's iterates are needed until the next chunk has done every iteration.
+  for (std::size_t i = 0; i < chunks_.size(); ++i) {
+    Chunk& c = chunks_[i];
+    if (!c.emitted) break;
+    const bool nextDone = i + 1 < chunks_.size() ? chunks_[i + 1].level >= options_.iterations : finished;
+    if (nextDone && !c.current.empty()) {
+      c.current = {};
+      c.previous = {};
+      c.sum = {};
+    }
   }
   // A chunk is needed until the one after it has left (for that one's iterates and normals).
   while (chunks_.size() >= 2 && chunks_[0].emitted && chunks_[1].emitted) chunks_.pop_front();

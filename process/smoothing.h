@@ -75,9 +75,7 @@ class SmoothingSink final : public MeshSink {
   using Vec3d = std::array<double, 3>;
   struct Chunk {
     MeshChunk mesh;  // as it arrived
-    // Edge pairs (local vertex, neighbour id) gathered until the neighbours are all known, then the
-    // neighbour lists: neighbours[offsets[v] .. offsets[v + 1]).
-    std::vector<std::pair<std::uint32_t, VertexId>> pairs;
+    // The neighbour lists, once the next chunk has arrived: neighbours[offsets[v] .. offsets[v + 1]).
     std::vector<std::uint32_t> offsets;
     std::vector<VertexId> neighbours;
     bool linked = false;
@@ -88,7 +86,7 @@ class SmoothingSink final : public MeshSink {
   };
 
   Chunk* chunkOf(VertexId v);
-  void link(Chunk& chunk);
+  void link(std::size_t index);
   bool canAdvance(std::size_t index) const;
   void advance(std::size_t index);
   void sweep();
