@@ -355,7 +355,6 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
   const std::size_t sharedRing = frozenCount;
   // The largest distance allowed from the original surface, in output units.
   const double limit = options_.maxDistance * options_.voxelSize;
-  OriginalSurface original;
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
     std::vector<Triangle> input, out;
     for (std::size_t t = 0; t < triangles.size(); ++t) (frozen[t] ? out : input).push_back(triangles[t]);
@@ -365,8 +364,9 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     out.insert(out.end(), simplified.begin(), simplified.end());
     // The edges the result should not have.
     std::vector<VertexId> bad;
-    const auto edges = tallyEdges(out);
-    for (const auto& [key, e] : edges) {
+    std::size_t border = 0;
+    for (const auto& [key, e] : tallyEdges(out)) {
+      border += e.uses == 1 ? 1 : 0;
       const auto a = static_cast<VertexId>(key >> 32);
       const auto b = static_cast<VertexId>(key & 0xffffffffu);
       const bool wrong = (e.uses > 2) || (e.uses == 2 && e.forward != 1) ||
@@ -382,15 +382,14 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     for (std::size_t v = 0; v < fansAfter.size(); ++v) {
       if (fansAfter[v] > std::max(1u, fansBefore[v])) bad.push_back(base_ + static_cast<VertexId>(v));
     }
-    // Triangles that moved the surface too far.
+    // Triangles that moved the surface too far. (The grid is made again for each try rather than
+    // kept: it would add to meshoptimizer's memory in the next try.)
     if (limit > 0) {
-      if (original.triangles.empty()) original = originalSurface(originals);
+      const OriginalSurface original = originalSurface(originals);
       for (const Triangle& t : simplified) {
         if (!triangleWithin(t, original, limit)) bad.insert(bad.end(), t.begin(), t.end());
       }
     }
-    std::size_t border = 0;
-    for (const auto& [key, e] : edges) border += e.uses == 1 ? 1 : 0;
     if (bad.empty() && border == before.border.size() && before.nonManifold == 0 && before.inconsistent == 0) {
       if (attempt > 0) ++report_.repairedRegions;
       report_.attempts += static_cast<std::uint64_t>(attempt) + 1;
