@@ -454,35 +454,54 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range
   OriginalSurface surface;
   surface.sink = this;
   surface.cell = 2.0 * options_.voxelSize;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> entries;  // (cell, triangle)
   const std::size_t lo = std::max(chunkBase_, range.first);
   const std::size_t hi = std::min(chunks_, range.end);
-  for (std::size_t c = lo; c < hi; ++c) {
-    for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
-      if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
-      const std::array<Vec3d, 3> p{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))};
-      const auto index = static_cast<std::uint32_t>(surface.triangles.size());
-      surface.triangles.push_back(t);
-      std::array<std::int64_t, 3> a{}, b{};
-      for (std::size_t d = 0; d < 3; ++d) {
-        a[d] = surface.cellOf(std::min({p[0][d], p[1][d], p[2][d]}));
-        b[d] = surface.cellOf(std::max({p[0][d], p[1][d], p[2][d]}));
+  // The cells that each triangle's bounding box meets, in three passes over the triangles (each
+  // array allocated once, at its size): the cells' keys, their triangle counts, the lists.
+  const auto forEach = [&](auto&& visit) {
+    std::uint32_t index = 0;
+    for (std::size_t c = lo; c < hi; ++c) {
+      for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
+        if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
+        const std::array<Vec3d, 3> p{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))};
+        std::array<std::int64_t, 3> a{}, b{};
+        for (std::size_t d = 0; d < 3; ++d) {
+          a[d] = surface.cellOf(std::min({p[0][d], p[1][d], p[2][d]}));
+          b[d] = surface.cellOf(std::max({p[0][d], p[1][d], p[2][d]}));
+        }
+        for (std::int64_t x = a[0]; x <= b[0]; ++x)
+          for (std::int64_t y = a[1]; y <= b[1]; ++y)
+            for (std::int64_t z = a[2]; z <= b[2]; ++z) visit(t, index, OriginalSurface::key(x, y, z));
+        ++index;
       }
-      for (std::int64_t x = a[0]; x <= b[0]; ++x)
-        for (std::int64_t y = a[1]; y <= b[1]; ++y)
-          for (std::int64_t z = a[2]; z <= b[2]; ++z) entries.emplace_back(OriginalSurface::key(x, y, z), index);
     }
-  }
-  std::sort(entries.begin(), entries.end());
-  surface.cellTriangles.resize(entries.size());
-  for (std::size_t i = 0; i < entries.size(); ++i) {
-    if (i == 0 || entries[i].first != entries[i - 1].first) {
-      surface.cellKeys.push_back(entries[i].first);
-      surface.cellStart.push_back(static_cast<std::uint32_t>(i));
-    }
-    surface.cellTriangles[i] = entries[i].second;
-  }
-  surface.cellStart.push_back(static_cast<std::uint32_t>(entries.size()));
+  };
+  std::size_t entries = 0, triangles = 0;
+  forEach([&](const Triangle&, std::uint32_t index, std::uint64_t) {
+    ++entries;
+    triangles = index + std::size_t{1};
+  });
+  surface.triangles.reserve(triangles);
+  surface.cellKeys.reserve(entries);
+  forEach([&](const Triangle& t, std::uint32_t index, std::uint64_t key) {
+    if (index == surface.triangles.size()) surface.triangles.push_back(t);
+    surface.cellKeys.push_back(key);
+  });
+  std::sort(surface.cellKeys.begin(), surface.cellKeys.end());
+  surface.cellKeys.erase(std::unique(surface.cellKeys.begin(), surface.cellKeys.end()), surface.cellKeys.end());
+  surface.cellKeys.shrink_to_fit();
+  const auto cellIndex = [&](std::uint64_t key) {
+    return static_cast<std::size_t>(std::lower_bound(surface.cellKeys.begin(), surface.cellKeys.end(), key) -
+                                    surface.cellKeys.begin());
+  };
+  surface.cellStart.assign(surface.cellKeys.size() + 1, 0);
+  forEach([&](const Triangle&, std::uint32_t, std::uint64_t key) { ++surface.cellStart[cellIndex(key) + 1]; });
+  for (std::size_t i = 0; i + 1 < surface.cellStart.size(); ++i) surface.cellStart[i + 1] += surface.cellStart[i];
+  surface.cellTriangles.resize(entries);
+  std::vector<std::uint32_t> fill(surface.cellStart.begin(), surface.cellStart.end() - 1);
+  forEach([&](const Triangle&, std::uint32_t index, std::uint64_t key) {
+    surface.cellTriangles[fill[cellIndex(key)]++] = index;
+  });
   return surface;
 }
 
