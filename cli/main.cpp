@@ -607,7 +607,9 @@ int runExtract(const ExtractArgs& args) {
                         {"method", args.smoothMethod},
                         {"pass_band", args.passBand},
                         {"faces", args.smoothFaces},
-                        {"normals", args.normals ? args.smoothNormals : "none"}};
+                        {"normals", args.normals ? args.smoothNormals : "none"},
+                        {"peak_chunks", smoothing ? smoothing->peakChunks() : 0},
+                        {"peak_vertices", smoothing ? smoothing->peakVertices() : 0}};
     }
     if (decimation) {
       const DecimationReport& d = decimation->report();

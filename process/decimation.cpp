@@ -135,6 +135,7 @@ std::string checkDecimateOptions(const DecimateOptions& o) {
   if (!(o.maxError >= 0) || !std::isfinite(o.maxError)) return "`max_error` must be 0 or more";
   if (!(o.voxelSize > 0)) return "the voxel size must be above 0";
   if (o.blockSlabs < 2) return "a block needs at least 2 slabs";
+  if (o.batchTriangles < 1) return "a meshoptimizer batch needs at least 1 triangle";
   return {};
 }
 
@@ -265,8 +266,59 @@ void DecimationSink::trim(std::size_t firstChunk) {
   chunkBase_ = firstChunk;
 }
 
-// meshopt_simplify on `triangles` with their border locked, as far as the target; nothing else.
+// meshopt_simplify on `triangles`, in batches of whole connected components when there are more
+// than options_.batchTriangles, each with its share of the target: components share no vertex, so
+// a batch's collapses are those it would make among the others, and only the stopping point moves.
 std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles) {
+  if (triangles.size() <= options_.batchTriangles) return collapseBatch(triangles, targetTriangles);
+  // Components: union-find over the vertices (ids relative to base_), the smaller root winning.
+  std::vector<std::uint32_t> parent(positions_.size());
+  for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
+  const auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (const Triangle& t : triangles) {
+    const std::uint32_t a = find(t[0] - base_);
+    for (std::size_t k = 1; k < 3; ++k) {
+      const std::uint32_t b = find(t[k] - base_);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  }
+  // Triangles grouped by component (components in order of their lowest vertex, triangles in input
+  // order), then cut into batches of whole components.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> order(triangles.size());  // (root, triangle)
+  for (std::uint32_t t = 0; t < triangles.size(); ++t) order[t] = {find(triangles[t][0] - base_), t};
+  parent = {};
+  std::sort(order.begin(), order.end());
+  std::vector<Triangle> out, batch;
+  std::size_t done = 0, targetDone = 0;
+  const auto flush = [&] {
+    if (batch.empty()) return;
+    done += batch.size();
+    // The target share up to here, rounded, less what earlier batches were given.
+    const std::size_t upTo = static_cast<std::size_t>(
+        std::llround(static_cast<double>(targetTriangles) * static_cast<double>(done) /
+                     static_cast<double>(triangles.size())));
+    const std::vector<Triangle> simplified = collapseBatch(batch, upTo - targetDone);
+    targetDone = upTo;
+    out.insert(out.end(), simplified.begin(), simplified.end());
+    batch.clear();
+  };
+  for (std::size_t i = 0; i < order.size();) {
+    std::size_t j = i;
+    while (j < order.size() && order[j].first == order[i].first) ++j;
+    if (!batch.empty() && batch.size() + (j - i) > options_.batchTriangles) flush();
+    for (std::size_t k = i; k < j; ++k) batch.push_back(triangles[order[k].second]);
+    i = j;
+  }
+  flush();
+  return out;
+}
+
+// meshopt_simplify on `triangles` with their border locked, as far as the target; nothing else.
+std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>& triangles,
+                                                    std::size_t targetTriangles) {
   if (triangles.empty()) return triangles;
   // Local ids in order of first use; ids[local] is the global id.
   std::vector<unsigned> local(positions_.size(), ~0u);

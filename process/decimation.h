@@ -46,6 +46,9 @@ struct DecimateOptions {
   double maxDistance = 0.5;
   std::int64_t blockSlabs = 4;
   std::int64_t blockTriangles = 1 << 18;
+  /// The most triangles given to one meshoptimizer call: a larger input goes in batches of whole
+  /// connected components (its working set is about 160 bytes a triangle).
+  std::size_t batchTriangles = 1 << 17;
 };
 
 /// Checks the options; returns an error message naming the option, or empty when they are valid.
@@ -94,6 +97,7 @@ class DecimationSink final : public MeshSink {
   std::vector<Triangle> simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
                                  ChunkRange originals);
   std::vector<Triangle> collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles);
+  std::vector<Triangle> collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles);
   struct OriginalSurface {
     using Vec3d = std::array<double, 3>;
     double cell = 1;

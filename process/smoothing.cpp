@@ -119,6 +119,7 @@ void SmoothingSink::begin(const MeshHeader& header) {
   chunks_.clear();
   finished_ = false;
   peakChunks_ = 0;
+  peakVertices_ = 0;
   MeshHeader out = header;
   out.cellVolumes = false;  // the slabs' tetrahedron volumes were the unsmoothed surface's
   next_.begin(out);
@@ -127,18 +128,27 @@ void SmoothingSink::begin(const MeshHeader& header) {
 SmoothingSink::Chunk* SmoothingSink::chunkOf(VertexId v) {
   // The chunks are contiguous in ids; v lies in one of the last few.
   for (auto it = chunks_.rbegin(); it != chunks_.rend(); ++it) {
-    if (v >= it->mesh.firstVertex) return v < it->mesh.endVertex() ? &*it : nullptr;
+    if (v >= it->mesh.firstVertex) return v < it->end() ? &*it : nullptr;
   }
   return nullptr;
 }
 
 void SmoothingSink::consume(const MeshChunk& chunk) {
-  const VertexId expected = chunks_.empty() ? 0 : chunks_.back().mesh.endVertex();
+  const VertexId expected = chunks_.empty() ? 0 : chunks_.back().end();
   if (!chunks_.empty() && chunk.firstVertex != expected) {
     throw Error("smoothing: the chunk's vertices do not continue the previous chunk's");
   }
   Chunk& c = chunks_.emplace_back();
-  c.mesh = chunk;
+  c.mesh.slab = chunk.slab;
+  c.mesh.firstVertex = chunk.firstVertex;
+  c.mesh.normals = chunk.normals;
+  c.mesh.boundary = chunk.boundary;
+  c.mesh.triangles = chunk.triangles;
+  c.mesh.cellVolume = chunk.cellVolume;
+  c.count = chunk.positions.size();
+  for (std::size_t v = 0; v < chunk.boundary.size(); ++v) {
+    if (chunk.boundary[v] != 0) c.origins.emplace_back(static_cast<std::uint32_t>(v), chunk.positions[v]);
+  }
   c.current.resize(chunk.positions.size());
   for (std::size_t v = 0; v < chunk.positions.size(); ++v) c.current[v] = toDouble(chunk.positions[v]);
   if (options_.method == SmoothMethod::kSinc) {
@@ -152,15 +162,18 @@ void SmoothingSink::consume(const MeshChunk& chunk) {
   const Chunk* previous = chunks_.size() >= 2 ? &chunks_[chunks_.size() - 2] : nullptr;
   for (const Triangle& t : chunk.triangles) {
     for (VertexId v : t) {
-      const bool here = v >= c.mesh.firstVertex && v < c.mesh.endVertex();
+      const bool here = v >= c.mesh.firstVertex && v < c.end();
       const bool before = previous != nullptr && !previous->linked && v >= previous->mesh.firstVertex &&
-                          v < previous->mesh.endVertex();
+                          v < previous->end();
       if (!here && !before) throw Error("smoothing: a triangle uses a vertex outside this chunk and the previous one");
     }
   }
   // The chunk before this one has all its neighbours now.
   if (chunks_.size() >= 2) link(chunks_.size() - 2);
   peakChunks_ = std::max(peakChunks_, chunks_.size());
+  std::size_t held = 0;
+  for (const Chunk& k : chunks_) held += k.count;
+  peakVertices_ = std::max(peakVertices_, held);
   sweep();
   emitReady(false);
 }
@@ -180,7 +193,7 @@ void SmoothingSink::link(std::size_t index) {
   Chunk& chunk = chunks_[index];
   if (chunk.linked) return;
   const VertexId first = chunk.mesh.firstVertex;
-  const VertexId end = chunk.mesh.endVertex();
+  const VertexId end = chunk.end();
   std::size_t edges = 3 * chunk.mesh.triangles.size();
   if (index + 1 < chunks_.size()) edges += 3 * chunks_[index + 1].mesh.triangles.size();
   // (local vertex << 32 | neighbour), two per edge at most.
@@ -201,7 +214,7 @@ void SmoothingSink::link(std::size_t index) {
   if (index + 1 < chunks_.size()) add(chunks_[index + 1].mesh.triangles);
   std::sort(pairs.begin(), pairs.end());
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  const std::size_t n = chunk.mesh.positions.size();
+  const std::size_t n = chunk.count;
   chunk.offsets.assign(n + 1, 0);
   for (std::uint64_t p : pairs) ++chunk.offsets[(p >> 32) + 1];
   for (std::size_t v = 0; v < n; ++v) chunk.offsets[v + 1] += chunk.offsets[v];
@@ -237,7 +250,7 @@ void SmoothingSink::advance(std::size_t index) {
     const Chunk* o = &owner;
     if (v < owner.mesh.firstVertex) {
       o = &chunks_[index - 1];
-    } else if (v >= owner.mesh.endVertex()) {
+    } else if (v >= owner.end()) {
       o = &chunks_[index + 1];
     }
     const std::size_t local = v - o->mesh.firstVertex;
@@ -289,7 +302,9 @@ void SmoothingSink::sweep() {
 SmoothingSink::Vec3d SmoothingSink::constrain(const Chunk& chunk, std::size_t local, const Vec3d& p) const {
   const std::uint8_t bits = chunk.mesh.boundary.empty() ? 0 : chunk.mesh.boundary[local];
   if (bits == 0) return p;
-  const Vec3d origin = toDouble(chunk.mesh.positions[local]);
+  const auto it = std::lower_bound(chunk.origins.begin(), chunk.origins.end(), static_cast<std::uint32_t>(local),
+                                   [](const auto& o, std::uint32_t l) { return o.first < l; });
+  const Vec3d origin = toDouble(it->second);
   const int faces = std::popcount(static_cast<unsigned>(bits));
   if (options_.faces == FaceVertices::kLock || !header_.volumeFaces || faces >= 3) return origin;
   std::array<Vec3d, 2> normal{};
@@ -348,7 +363,7 @@ void SmoothingSink::emitReady(bool finished) {
 // face by rounding).
 void SmoothingSink::finalize(Chunk& c) {
   assert(c.level == options_.iterations);
-  if (c.output.size() == c.mesh.positions.size()) return;
+  if (c.output.size() == c.count) return;
   const std::vector<Vec3d>& result = options_.method == SmoothMethod::kSinc ? c.sum : c.current;
   c.output.resize(result.size());
   for (std::size_t v = 0; v < result.size(); ++v) c.output[v] = toFloat(constrain(c, v, result[v]));
@@ -385,7 +400,7 @@ void SmoothingSink::emit(std::size_t index) {
           const Vec3d e2{p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
           const Vec3d n{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
           for (VertexId v : t) {
-            if (v < c.mesh.firstVertex || v >= c.mesh.endVertex()) continue;
+            if (v < c.mesh.firstVertex || v >= c.end()) continue;
             for (std::size_t d = 0; d < 3; ++d) sum[v - c.mesh.firstVertex][d] += n[d];
           }
         }

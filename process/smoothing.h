@@ -70,11 +70,18 @@ class SmoothingSink final : public MeshSink {
 
   /// The most chunks held at once.
   std::size_t peakChunks() const noexcept { return peakChunks_; }
+  /// The most vertices held at once (in those chunks).
+  std::size_t peakVertices() const noexcept { return peakVertices_; }
 
  private:
   using Vec3d = std::array<double, 3>;
   struct Chunk {
-    MeshChunk mesh;  // as it arrived
+    MeshChunk mesh;  // as it arrived, less its positions (the iterates start from them)
+    std::size_t count = 0;  // vertices
+    // The original positions of the vertices on the volume's faces (local index, position), which
+    // their constraint needs.
+    std::vector<std::pair<std::uint32_t, Vec3f>> origins;
+    VertexId end() const noexcept { return mesh.firstVertex + static_cast<VertexId>(count); }
     // The neighbour lists, once the next chunk has arrived: neighbours[offsets[v] .. offsets[v + 1]).
     std::vector<std::uint32_t> offsets;
     std::vector<VertexId> neighbours;
@@ -103,6 +110,7 @@ class SmoothingSink final : public MeshSink {
   std::deque<Chunk> chunks_;
   bool finished_ = false;
   std::size_t peakChunks_ = 0;
+  std::size_t peakVertices_ = 0;
   MeshChunk out_;
   std::vector<Vec3d> scratch_;
 };
