@@ -12,7 +12,9 @@
 //      The old seam is free now, so it is decimated like the rest.
 // A region is final after step 2 and leaves as one chunk. Its triangles use its own vertices and
 // those of the region before it (the split curve between them), so the streaming contract holds.
-// Memory: two blocks of the mesh (and their original triangles, for the error measure).
+// Memory: about two blocks of the mesh (and their original triangles, for the error measure), and
+// meshoptimizer's working set for at most `batchTriangles` triangles: a larger block or region goes
+// to it in batches of whole connected components.
 //
 // A collapse that would break the mesh is undone by checking each simplified region: where an edge
 // is used by more than two triangles, wound twice the same way, or has become a border edge, the

@@ -63,6 +63,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   decimate.blockSlabs = 2;
   decimate.blockTriangles = 1;
+  decimate.batchTriangles = 1 + static_cast<std::size_t>(decimateByte % 64);  // many component batches
 
   std::unique_ptr<SliceSource> source = std::make_unique<fuzz::MemorySource>(info, std::move(values));
   const LatticeFrame frame = LatticeFrame::physical(info);

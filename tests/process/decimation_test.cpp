@@ -163,6 +163,27 @@ TEST(Decimation, WithoutTheDistanceBoundTheRatioIsMet) {
   }
 }
 
+// meshoptimizer is called on batches of whole components: the ball's and the torus's pieces in each
+// block and region go to separate calls, each with its share of the target.
+TEST(Decimation, BatchesOfComponentsKeepTheSurfaceAndTheRatio) {
+  DecimateOptions whole = smallBlocks(0.3);
+  DecimateOptions batched = whole;
+  batched.batchTriangles = 200;
+  const Decimated a = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, whole);
+  const Decimated b = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, batched);
+  EXPECT_EQ(b.report.trianglesIn, a.report.trianglesIn);
+  EXPECT_EQ(b.stats.boundaryEdges, 0u);
+  EXPECT_EQ(b.stats.nonManifoldEdges, 0u);
+  EXPECT_EQ(b.stats.inconsistentEdges, 0u);
+  EXPECT_EQ(b.stats.euler, a.stats.euler);  // the same topology: no part lost, no handle made
+  EXPECT_LE(b.report.distanceMax, 0.5 + 1e-9);
+  const double keptWhole = double(a.decimated.triangles.size()) / double(a.original.triangles.size());
+  const double keptBatched = double(b.decimated.triangles.size()) / double(b.original.triangles.size());
+  EXPECT_NEAR(keptBatched, keptWhole, 0.05);
+  // Batches change where meshoptimizer stops, so the meshes differ.
+  EXPECT_FALSE(a.decimated.triangles == b.decimated.triangles);
+}
+
 TEST(Decimation, TheSameForEveryThreadCount) {
   const Decimated one = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, smallBlocks(0.25), 1);
   const Decimated three = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, smallBlocks(0.25), 3);
@@ -192,6 +213,9 @@ TEST(Decimation, RefusesBadOptions) {
   EXPECT_EQ(checkDecimateOptions(o), "`max_error` must be 0 or more");
   MemoryMeshSink memory;
   EXPECT_THROW(DecimationSink(memory, o), Error);
+  o.maxError = 0;
+  o.batchTriangles = 0;
+  EXPECT_EQ(checkDecimateOptions(o), "a meshoptimizer batch needs at least 1 triangle");
 }
 
 }  // namespace
