@@ -267,8 +267,9 @@ void DecimationSink::trim(std::size_t firstChunk) {
 }
 
 // meshopt_simplify on `triangles`, in batches of whole connected components when there are more
-// than options_.batchTriangles, each with its share of the target: components share no vertex, so
-// a batch's collapses are those it would make among the others, and only the stopping point moves.
+// than options_.batchTriangles, each with its share of the target (less what earlier batches kept
+// beyond theirs): components share no vertex, so a batch's collapses are those it would make among
+// the others, and only the stopping point moves.
 std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles) {
   if (triangles.size() <= options_.batchTriangles) return collapseBatch(triangles, targetTriangles);
   // Components: union-find over the vertices (ids relative to base_), the smaller root winning.
@@ -292,16 +293,16 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
   parent = {};
   std::sort(order.begin(), order.end());
   std::vector<Triangle> out, batch;
-  std::size_t done = 0, targetDone = 0;
+  std::size_t done = 0;
   const auto flush = [&] {
     if (batch.empty()) return;
     done += batch.size();
-    // The target share up to here, rounded, less what earlier batches were given.
-    const std::size_t upTo = static_cast<std::size_t>(
-        std::llround(static_cast<double>(targetTriangles) * static_cast<double>(done) /
-                     static_cast<double>(triangles.size())));
-    const std::vector<Triangle> simplified = collapseBatch(batch, upTo - targetDone);
-    targetDone = upTo;
+    // The target's share up to here, rounded, less what earlier batches kept: a batch that its
+    // error bound stopped short leaves the later ones to go further.
+    const auto upTo = static_cast<std::size_t>(std::llround(static_cast<double>(targetTriangles) *
+                                                            static_cast<double>(done) /
+                                                            static_cast<double>(triangles.size())));
+    const std::vector<Triangle> simplified = collapseBatch(batch, upTo > out.size() ? upTo - out.size() : 0);
     out.insert(out.end(), simplified.begin(), simplified.end());
     batch.clear();
   };
