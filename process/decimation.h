@@ -1,7 +1,7 @@
 // Decimating a streamed mesh: quadric-error edge collapses (meshoptimizer's meshopt_simplify) on
 // blocks of slabs, with no full-resolution band left at the blocks' seams.
 //
-// The stream is cut into blocks of at least `blockSlabs` (4) slabs and `blockTriangles` triangles
+// The stream is cut into blocks of at least `blockSlabs` (3) slabs and `blockTriangles` triangles
 // (closed at a slab boundary, so the cut is the same for every thread count).
 //   1. Each block is decimated alone, its border locked: the seams with its neighbours and the
 //      rims on the volume's faces keep every vertex, so the blocks still join.
@@ -46,7 +46,7 @@ struct DecimateOptions {
   /// midpoints) may lie from the original surface: collapses beyond it are undone by freezing the
   /// original triangles around them (0: no bound).
   double maxDistance = 0.5;
-  std::int64_t blockSlabs = 4;
+  std::int64_t blockSlabs = 3;
   std::int64_t blockTriangles = 1 << 18;
   /// The most triangles given to one meshoptimizer call: a larger input goes in batches of whole
   /// connected components (its working set is about 160 bytes a triangle).
