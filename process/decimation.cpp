@@ -299,9 +299,8 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
     done += batch.size();
     // The target's share up to here, rounded, less what earlier batches kept: a batch that its
     // error bound stopped short leaves the later ones to go further.
-    const auto upTo = static_cast<std::size_t>(std::llround(static_cast<double>(targetTriangles) *
-                                                            static_cast<double>(done) /
-                                                            static_cast<double>(triangles.size())));
+    const auto upTo = static_cast<std::size_t>(std::llround(
+        static_cast<double>(targetTriangles) * static_cast<double>(done) / static_cast<double>(triangles.size())));
     const std::vector<Triangle> simplified = collapseBatch(batch, upTo > out.size() ? upTo - out.size() : 0);
     out.insert(out.end(), simplified.begin(), simplified.end());
     batch.clear();
@@ -422,9 +421,10 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
       border += e.uses == 1 ? 1 : 0;
       const auto a = static_cast<VertexId>(key >> 32);
       const auto b = static_cast<VertexId>(key & 0xffffffffu);
-      const bool wrong = (e.uses > 2) || (e.uses == 2 && e.forward != 1) ||
-                         (e.uses == 1 && !std::binary_search(before.border.begin(), before.border.end(), key)) ||
-                         (onBorder(a) && onBorder(b) && !std::binary_search(before.edges.begin(), before.edges.end(), key));
+      const bool wrong =
+          (e.uses > 2) || (e.uses == 2 && e.forward != 1) ||
+          (e.uses == 1 && !std::binary_search(before.border.begin(), before.border.end(), key)) ||
+          (onBorder(a) && onBorder(b) && !std::binary_search(before.edges.begin(), before.edges.end(), key));
       if (wrong) {
         bad.push_back(static_cast<VertexId>(key >> 32));
         bad.push_back(static_cast<VertexId>(key & 0xffffffffu));

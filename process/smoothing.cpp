@@ -163,8 +163,8 @@ void SmoothingSink::consume(const MeshChunk& chunk) {
   for (const Triangle& t : chunk.triangles) {
     for (VertexId v : t) {
       const bool here = v >= c.mesh.firstVertex && v < c.end();
-      const bool before = previous != nullptr && !previous->linked && v >= previous->mesh.firstVertex &&
-                          v < previous->end();
+      const bool before =
+          previous != nullptr && !previous->linked && v >= previous->mesh.firstVertex && v < previous->end();
       if (!here && !before) throw Error("smoothing: a triangle uses a vertex outside this chunk and the previous one");
     }
   }

@@ -76,7 +76,7 @@ class SmoothingSink final : public MeshSink {
  private:
   using Vec3d = std::array<double, 3>;
   struct Chunk {
-    MeshChunk mesh;  // as it arrived, less its positions (the iterates start from them)
+    MeshChunk mesh;         // as it arrived, less its positions (the iterates start from them)
     std::size_t count = 0;  // vertices
     // The original positions of the vertices on the volume's faces (local index, position), which
     // their constraint needs.
