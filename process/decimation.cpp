@@ -271,7 +271,10 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // beyond theirs): components share no vertex, so a batch's collapses are those it would make among
 // the others, and only the stopping point moves.
 std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles) {
-  if (triangles.size() <= options_.batchTriangles) return collapseBatch(triangles, targetTriangles);
+  // Local ids by vertex (relative to base_), ~0u where unused: one array for every batch, each
+  // batch resetting the entries it set.
+  std::vector<unsigned> local(positions_.size(), ~0u);
+  if (triangles.size() <= options_.batchTriangles) return collapseBatch(triangles, targetTriangles, local);
   // Components: union-find over the vertices (ids relative to base_), the smaller root winning.
   std::vector<std::uint32_t> parent(positions_.size());
   for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
@@ -301,7 +304,7 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
     // error bound stopped short leaves the later ones to go further.
     const auto upTo = static_cast<std::size_t>(std::llround(
         static_cast<double>(targetTriangles) * static_cast<double>(done) / static_cast<double>(triangles.size())));
-    const std::vector<Triangle> simplified = collapseBatch(batch, upTo > out.size() ? upTo - out.size() : 0);
+    const std::vector<Triangle> simplified = collapseBatch(batch, upTo > out.size() ? upTo - out.size() : 0, local);
     out.insert(out.end(), simplified.begin(), simplified.end());
     batch.clear();
   };
@@ -317,11 +320,10 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
 }
 
 // meshopt_simplify on `triangles` with their border locked, as far as the target; nothing else.
-std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>& triangles,
-                                                    std::size_t targetTriangles) {
+std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
+                                                    std::vector<unsigned>& local) {
   if (triangles.empty()) return triangles;
   // Local ids in order of first use; ids[local] is the global id.
-  std::vector<unsigned> local(positions_.size(), ~0u);
   std::vector<VertexId> ids;
   std::vector<unsigned> indices(triangles.size() * 3);
   for (std::size_t t = 0; t < triangles.size(); ++t) {
@@ -334,7 +336,7 @@ std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>&
       indices[3 * t + k] = l;
     }
   }
-  local = {};
+  for (VertexId v : ids) local[v - base_] = ~0u;
   std::vector<float> xyz(ids.size() * 3);
   for (std::size_t i = 0; i < ids.size(); ++i) {
     const Vec3f& p = position(ids[i]);

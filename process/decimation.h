@@ -99,7 +99,8 @@ class DecimationSink final : public MeshSink {
   std::vector<Triangle> simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
                                  ChunkRange originals);
   std::vector<Triangle> collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles);
-  std::vector<Triangle> collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles);
+  std::vector<Triangle> collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
+                                      std::vector<unsigned>& local);
   struct OriginalSurface {
     using Vec3d = std::array<double, 3>;
     double cell = 1;
