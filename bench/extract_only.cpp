@@ -3,8 +3,17 @@
 // into a sink that only counts, and the median wall time is printed as JSON. The in-memory source
 // lends its slices (SliceSource::lendSlice), as VTK reads its in-memory array without a copy.
 // Usage: isoslab_extract_only INPUT --iso V [--method M] [--threads N] [--runs R] [--cell-volumes]
+//          [--run-voxels V] [--sequential-voxels V] [--trim-threshold BYTES]
 // load_seconds is the time to read the file once (opening, decoding, converting to float).
+// --run-voxels and --sequential-voxels set the pipeline's cost model (PipelineOptions), to
+// measure it. glibc's malloc is set as the isoslab program sets it (a fixed mmap threshold of
+// 256 KiB); --trim-threshold also keeps up to that many freed bytes at the top of each heap, as a
+// long-lived process would find its heaps from its earlier runs.
 #include <fmt/format.h>
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <algorithm>
 #include <chrono>
@@ -68,6 +77,8 @@ int main(int argc, char** argv) {
   int threads = 1;
   int runs = 5;
   bool cellVolumes = false;  // as `isoslab extract` without --report
+  isoslab::PipelineOptions p;
+  long trim = 0;
   for (int a = 1; a < argc; ++a) {
     const std::string arg = argv[a];
     auto value = [&] { return a + 1 < argc ? std::string(argv[++a]) : std::string(); };
@@ -79,12 +90,22 @@ int main(int argc, char** argv) {
       threads = std::stoi(value());
     } else if (arg == "--cell-volumes") {
       cellVolumes = true;
+    } else if (arg == "--run-voxels") {
+      p.runVoxels = std::stoll(value());
+    } else if (arg == "--sequential-voxels") {
+      p.sequentialVoxels = std::stoll(value());
+    } else if (arg == "--trim-threshold") {
+      trim = std::stol(value());
     } else if (arg == "--runs") {
       runs = std::stoi(value());
     } else {
       input = arg;
     }
   }
+#if defined(__GLIBC__)
+  ::mallopt(M_MMAP_THRESHOLD, 256 * 1024);
+  if (trim > 0) ::mallopt(M_TRIM_THRESHOLD, static_cast<int>(trim));
+#endif
   try {
     const auto loadStart = std::chrono::steady_clock::now();
     auto file = isoslab::openSource(input, isoslab::SourceOptions{});
@@ -104,7 +125,6 @@ int main(int argc, char** argv) {
     for (int r = 0; r < runs; ++r) {
       source.rewind();
       auto extractor = isoslab::makeExtractor(options, source.info(), frame);
-      isoslab::PipelineOptions p;
       p.threads = threads;
       const auto t = std::chrono::steady_clock::now();
       last = isoslab::runPipeline(source, *extractor, sink, isoslab::MeshHeader{}, p);
@@ -113,10 +133,10 @@ int main(int argc, char** argv) {
     std::sort(seconds.begin(), seconds.end());
     fmt::print(
         "{{\"method\": \"{}\", \"threads\": {}, \"runs\": {}, \"median_seconds\": {:.4f}, "
-        "\"best_seconds\": {:.4f}, \"triangles\": {}, \"load_seconds\": {:.4f}, \"last_run\": {{\"read_wait\": "
-        "{:.4f}, \"worker_busy\": {:.4f}, \"write_wait\": {:.4f}}}}}\n",
-        method, threads, runs, seconds[seconds.size() / 2], seconds.front(), sink.triangles, loadSeconds,
-        last.readSeconds, last.extractSeconds, last.writeSeconds);
+        "\"best_seconds\": {:.4f}, \"triangles\": {}, \"load_seconds\": {:.4f}, \"workers\": {}, \"run_slabs\": {}, "
+        "\"last_run\": {{\"read_wait\": {:.4f}, \"worker_busy\": {:.4f}, \"write_wait\": {:.4f}}}}}\n",
+        method, threads, runs, seconds[seconds.size() / 2], seconds.front(), sink.triangles, loadSeconds, last.workers,
+        last.runSlabs, last.readSeconds, last.extractSeconds, last.writeSeconds);
   } catch (const std::exception& e) {
     fmt::print(stderr, "isoslab_extract_only: {}\n", e.what());
     return 1;

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -33,24 +34,27 @@ enum class LocalVertex : VertexId {};
 /// vertex of slot foreign[id & ~kForeignVertex], which the slab below created.
 constexpr VertexId kForeignVertex = VertexId{1} << 31;
 
-/// What a slab worker (Extractor::makeWorker) makes of one slab, before stitching (SlabStitcher
-/// turns its ids into the global ids of the sequential extractor).
+/// What a slab worker (Extractor::makeWorker) makes of a run of consecutive slabs, before stitching
+/// (SlabStitcher turns its ids into the global ids of the sequential extractor).
 struct SlabPart {
-  /// Triangles hold LocalVertex ids (0 .. positions.size() - 1) or kForeignVertex references.
-  /// firstVertex is unset.
-  MeshChunk chunk;
-  /// The slots on slice z that the triangles reference and the slab below owns.
+  /// One chunk per slab of the run, in slab order; firstVertex is unset. Their triangles hold
+  /// LocalVertex ids, numbered from 0 over the whole run in the order the vertices appear in the
+  /// chunks' positions, or kForeignVertex references (only the first slab has those).
+  std::vector<MeshChunk> chunks;
+  /// The slots on the first slab's slice z that the triangles reference and the slab below owns.
   std::vector<CacheSlot> foreign;
-  /// The slab's vertices on slice z + 1, for the slab above to reference.
+  /// The last slab's vertices on its slice z + 1, for the slab above to reference.
   std::vector<std::pair<CacheSlot, LocalVertex>> top;
 };
 
-/// Extracts slabs independently of each other, in any order; one per thread.
+/// Extracts runs of slabs independently of each other, in any order; one per thread.
 class SlabWorker {
  public:
   virtual ~SlabWorker() = default;
-  /// Allocates; throws std::bad_alloc.
-  virtual void extract(const SlabView& slab, SlabPart& out) = 0;
+  /// Extracts `slabs`, which are consecutive (slabs[k].z = slabs[0].z + k) and not empty, into
+  /// `out`, whose chunks it resizes to slabs.size() (keeping their buffers). Allocates; throws
+  /// std::bad_alloc.
+  virtual void extract(std::span<const SlabView> slabs, SlabPart& out) = 0;
 };
 
 /// "mc", "mt5", "mt6", "bcc12", "mt24", "mc33".

@@ -16,14 +16,21 @@ class LatticeSlabWorker final : public SlabWorker {
   explicit LatticeSlabWorker(const LatticeKernel& like)
       : kernel_(like.options(), like.dims(), like.frame(), like.copyScheme()) {}
 
-  void extract(const SlabView& slab, SlabPart& part) override {
-    part.chunk.clear();
-    part.chunk.slab = slab.z;
-    part.chunk.firstVertex = 0;
+  // The first slab stands alone; the others follow it, carrying the caches and the row spans, so
+  // that vertex ids run on over the whole run.
+  void extract(std::span<const SlabView> slabs, SlabPart& part) override {
+    part.chunks.resize(slabs.size());
     part.foreign.clear();
     part.top.clear();
     kernel_.resetVertexCount();
-    kernel_.extractSlab(slab, part.chunk, &part.foreign);
+    for (std::size_t k = 0; k < slabs.size(); ++k) {
+      MeshChunk& chunk = part.chunks[k];
+      chunk.clear();
+      chunk.slab = slabs[k].z;
+      chunk.firstVertex = 0;
+      kernel_.extractSlab(slabs[k], chunk, k == 0 ? &part.foreign : nullptr);
+      if (k + 1 < slabs.size()) kernel_.rollCaches();
+    }
     kernel_.takeTop(part.top);
   }
 

@@ -17,13 +17,13 @@ std::size_t index(CacheSlot slot) noexcept {
 SlabStitcher::SlabStitcher(std::size_t sliceSlots) : top_(sliceSlots, kUnset) {}
 
 void SlabStitcher::stitch(SlabPart& part) {
-  MeshChunk& chunk = part.chunk;
-  if (chunk.slab != slab_) {
-    throw Error("internal error: slab " + std::to_string(chunk.slab) + " stitched after slab " +
+  if (part.chunks.empty()) throw Error("internal error: an empty run of slabs");
+  if (part.chunks.front().slab != slab_) {
+    throw Error("internal error: slab " + std::to_string(part.chunks.front().slab) + " stitched after slab " +
                 std::to_string(slab_ - 1));
   }
-  ++slab_;
-  const std::uint64_t count = chunk.positions.size();
+  std::uint64_t count = 0;
+  for (const MeshChunk& chunk : part.chunks) count += chunk.positions.size();
   if (count >= kForeignVertex || next_ + count > std::numeric_limits<VertexId>::max()) {
     throw Error("the mesh exceeds " + std::to_string(std::numeric_limits<VertexId>::max()) + " vertices");
   }
@@ -32,13 +32,18 @@ void SlabStitcher::stitch(SlabPart& part) {
   for (std::size_t k = 0; k < part.foreign.size(); ++k) {
     const VertexId id = top_[index(part.foreign[k])];
     if (id == kUnset) {
-      throw Error("internal error: slab " + std::to_string(chunk.slab) + " references a vertex that slab " +
-                  std::to_string(chunk.slab - 1) + " did not create");
+      throw Error("internal error: slab " + std::to_string(slab_) + " references a vertex that slab " +
+                  std::to_string(slab_ - 1) + " did not create");
     }
     resolved_[k] = id;
   }
-  for (Triangle& t : chunk.triangles) {
-    for (VertexId& v : t) v = (v & kForeignVertex) ? resolved_[v & ~kForeignVertex] : first + v;
+  VertexId chunkFirst = first;
+  for (MeshChunk& chunk : part.chunks) {
+    for (Triangle& t : chunk.triangles) {
+      for (VertexId& v : t) v = (v & kForeignVertex) ? resolved_[v & ~kForeignVertex] : first + v;
+    }
+    chunk.firstVertex = chunkFirst;
+    chunkFirst += static_cast<VertexId>(chunk.positions.size());
   }
   for (CacheSlot slot : set_) top_[index(slot)] = kUnset;
   set_.clear();
@@ -46,7 +51,7 @@ void SlabStitcher::stitch(SlabPart& part) {
     top_[index(slot)] = first + static_cast<VertexId>(local);
     set_.push_back(slot);
   }
-  chunk.firstVertex = first;
+  slab_ += static_cast<std::int64_t>(part.chunks.size());
   next_ += count;
 }
 

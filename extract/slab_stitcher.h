@@ -14,8 +14,8 @@ class SlabStitcher {
  public:
   explicit SlabStitcher(std::size_t sliceSlots);
 
-  /// Gives part.chunk its firstVertex and global ids. Throws isoslab::Error if the mesh would
-  /// exceed 2^32 - 1 vertices, or (an internal error) if a reference cannot be resolved.
+  /// Gives the chunks of `part`, the next run of slabs, their firstVertex and global ids. Throws isoslab::Error if the
+  /// mesh would exceed 2^32 - 1 vertices, or (an internal error) if a reference cannot be resolved.
   void stitch(SlabPart& part);
 
   std::uint64_t vertexCount() const noexcept { return next_; }

@@ -6,19 +6,21 @@
 #include <atomic>
 #include <cassert>
 #include <chrono>
+#include <condition_variable>
 #include <exception>
 #include <limits>
+#include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <utility>
 
 #include "core/error.h"
 #include "extract/slab_stitcher.h"
 #include "io/interrupt.h"
-#include "stream/bounded_queue.h"
 #include "stream/progress.h"
 #include "stream/slab_ring.h"
-#include "stream/worker_pool.h"
+#include "stream/value_range.h"
 
 namespace isoslab {
 namespace {
@@ -29,221 +31,67 @@ double since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-// The smallest and largest value seen, NaN skipped (it compares false both ways).
-class ValueRange {
- public:
-  void add(const float* values, std::size_t n) noexcept {
-    float lo = lo_;
-    float hi = hi_;
-    for (std::size_t i = 0; i < n; ++i) {
-      lo = values[i] < lo ? values[i] : lo;
-      hi = values[i] > hi ? values[i] : hi;
-    }
-    lo_ = lo;
-    hi_ = hi;
-  }
-  std::optional<std::array<double, 2>> range() const {
-    if (lo_ > hi_) return std::nullopt;
-    return std::array<double, 2>{lo_, hi_};
-  }
-
- private:
-  float lo_ = std::numeric_limits<float>::infinity();
-  float hi_ = -std::numeric_limits<float>::infinity();
-};
-
-}  // namespace
-
-namespace {
-
-// Slices in order from the source: read on the spot into the ring, or by a reader thread ahead
-// of time into buffers that the ring adopts (and hands back once evicted, for reuse). The reader
-// thread also classifies each slice's rows once, for all the workers whose slabs use it. Every
-// slice's value range is tracked on the way (by the reader thread, when there is one).
+// Slices in order from the source, into the ring (read into its slot, or lent by the source).
+// With trackRange, every slice's value range is tracked on the way (a threaded pipeline's workers
+// track it instead, each over its run's slices).
 class SliceFeed {
  public:
-  SliceFeed(SliceSource& source, bool threaded, const Extractor* classifier = nullptr)
-      : source_(source), threaded_(threaded), queue_(3), free_(4) {
-    if (threaded_) {
-      reader_ = std::thread([this, classifier] {
-        try {
-          const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
-          const bool lends = source_.lendsSlices();
-          for (;;) {
-            throwIfInterrupted();
-            auto reused = free_.tryPop();
-            SliceBuffer slice = reused ? std::move(*reused) : SliceBuffer{};
-            slice.lent = nullptr;
-            if (lends) {
-              slice.lent = source_.lendSlice();
-              if (slice.lent == nullptr) break;
-            } else {
-              slice.values.resize(n);
-              if (!source_.readSlice(slice.values)) break;
-            }
-            range_.add(slice.data(), n);
-            if (classifier != nullptr) {
-              classifier->classifySlice(slice.data(), slice.rows);
-            } else {
-              slice.rows.clear();
-            }
-            if (!queue_.push(std::move(slice))) return;
-          }
-        } catch (...) {
-          error_ = std::current_exception();
-        }
-        queue_.close();
-      });
-    }
-  }
-  ~SliceFeed() { stop(); }
-  SliceFeed(const SliceFeed&) = delete;
-  SliceFeed& operator=(const SliceFeed&) = delete;
+  SliceFeed(SliceSource& source, bool trackRange) : source_(source), trackRange_(trackRange) {}
 
   /// Reads the next slice into the ring as slice k; false at the end of the data.
   bool next(SlabRing& ring, std::int64_t k) {
     throwIfInterrupted();  // a slice boundary: unwinding joins the threads and removes temporaries
-    if (!threaded_) {
-      const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
-      if (!source_.lendsSlices()) {
-        const std::span<float> slice = ring.acquire(k);
-        if (!source_.readSlice(slice)) return false;
-        range_.add(slice.data(), n);
-        return true;
-      }
-      const float* lent = source_.lendSlice();
-      if (lent == nullptr) return false;
-      range_.add(lent, n);
-      ring.lend(k, lent);
+    const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
+    if (!source_.lendsSlices()) {
+      const std::span<float> slice = ring.acquire(k);
+      if (!source_.readSlice(slice)) return false;
+      if (trackRange_) range_.add(slice.data(), n);
       return true;
     }
-    auto slice = queue_.pop();
-    if (!slice) {
-      if (error_) std::rethrow_exception(error_);
-      return false;
-    }
-    SliceBuffer evicted = ring.adopt(k, std::move(*slice));
-    free_.tryPush(evicted);
+    const float* lent = source_.lendSlice();
+    if (lent == nullptr) return false;
+    if (trackRange_) range_.add(lent, n);
+    ring.lend(k, lent);
     return true;
   }
 
-  /// The value range of the slices read, once every slice has been taken: stops the reader.
-  std::optional<std::array<double, 2>> finish() {
-    stop();
-    return range_.range();
-  }
+  const ValueRange& range() const noexcept { return range_; }
 
  private:
-  void stop() {
-    if (threaded_ && reader_.joinable()) {
-      queue_.close();
-      reader_.join();
-    }
-  }
-
   SliceSource& source_;
-  bool threaded_;
-  BoundedQueue<SliceBuffer> queue_;
-  BoundedQueue<SliceBuffer> free_;
-  std::thread reader_;
-  std::exception_ptr error_;
+  bool trackRange_;
   ValueRange range_;
 };
 
-// Chunks in order to the sink: consumed on the spot, or by a writer thread.
-class ChunkDrain {
- public:
-  ChunkDrain(MeshSink& sink, bool threaded) : sink_(sink), threaded_(threaded), queue_(4), free_(2) {
-    if (threaded_) {
-      writer_ = std::thread([this] {
-        while (auto chunk = queue_.pop()) {
-          if (failed_ || abandoned_) continue;  // drain without consuming after a failure
-          try {
-            sink_.consume(*chunk);
-          } catch (...) {
-            error_ = std::current_exception();
-            failed_ = true;
-          }
-          chunk->clear();
-          free_.tryPush(*chunk);
-        }
-      });
-    }
-  }
-  // Without flush() (an error elsewhere), queued chunks are dropped rather than consumed.
-  ~ChunkDrain() {
-    abandoned_ = true;
-    stop();
-  }
-  ChunkDrain(const ChunkDrain&) = delete;
-  ChunkDrain& operator=(const ChunkDrain&) = delete;
-
-  void push(MeshChunk& chunk) {
-    if (!threaded_) {
-      sink_.consume(chunk);
-      return;
-    }
-    if (failed_) {
-      stop();
-      std::rethrow_exception(error_);
-    }
-    queue_.push(std::move(chunk));
-    chunk = MeshChunk{};
-  }
-  /// An empty chunk whose buffers may have room from an earlier slab.
-  MeshChunk recycled() {
-    auto chunk = threaded_ ? free_.tryPop() : std::nullopt;
-    return chunk ? std::move(*chunk) : MeshChunk{};
-  }
-
-  /// Waits for every chunk to be consumed; rethrows the writer's error.
-  void flush() {
-    stop();
-    if (error_) std::rethrow_exception(error_);
-  }
-
- private:
-  void stop() {
-    if (threaded_ && writer_.joinable()) {
-      queue_.close();
-      writer_.join();
-    }
-  }
-
-  MeshSink& sink_;
-  bool threaded_;
-  BoundedQueue<MeshChunk> queue_;
-  BoundedQueue<MeshChunk> free_;
-  std::thread writer_;
-  std::exception_ptr error_;
-  std::atomic<bool> failed_{false};
-  std::atomic<bool> abandoned_{false};
-};
-
-// One run of the pipeline: the ring, the feed and the drain, and the two ways of extracting.
+// One run of the pipeline: the ring and the feed, and the two ways of extracting.
+//
+// Threaded, it is a pipeline of three stages over runs of consecutive slabs, as in oneTBB's
+// parallel_pipeline: loading a run's slices (serial, in order), extracting the run (parallel),
+// and stitching and emitting its chunks (serial, in order). There is no thread per stage: each
+// of the N threads (the calling one among them) takes whatever is ready, emitting first (which
+// frees a run's place), then loading and extracting the next run. At most runsInFlight runs are
+// between loading and emitting, so the ring holds every slice they need, and each run's place
+// keeps its chunks' buffers for the run that takes the place next.
 class PipelineRun {
  public:
   PipelineRun(SliceSource& source, Extractor& extractor, MeshSink& sink, const PipelineOptions& options)
       : info_(source.info()),
         extractor_(extractor),
+        sink_(sink),
         below_(extractor.slicesBelow()),
         above_(extractor.slicesAbove()),
-        workers_(std::max(1, options.threads)),
-        // Slab z needs slices z - below .. z + 1 + above. With workers, two more slabs than workers
-        // are in flight, so that a slow slab does not idle the others, and the ring holds depth - 1
-        // more slices.
-        depth_(workers_ > 1 ? workers_ + 2 : 1),
-        ring_(info_.sliceVoxels(), below_ + 1 + above_ + depth_),
+        plan_(planThreads(info_, below_, above_, source.lendsSlices(), options)),
+        // Slab z needs slices z - below .. z + 1 + above; the runs in flight need their slabs' too.
+        ring_(info_.sliceVoxels(), below_ + 1 + above_ + inFlightSlabs()),
         progress_("extract", info_.dims[2] - 1, options.progress),
-        feed_(source, workers_ > 1, workers_ > 1 ? &extractor : nullptr),
-        drain_(sink, workers_ > 1) {
+        feed_(source, !threaded()) {
     result_.ringBytes = ring_.bytes();
+    result_.workers = plan_.workers;
+    result_.runSlabs = plan_.runSlabs;
   }
 
   PipelineResult& result() noexcept { return result_; }
-  bool threaded() const noexcept { return workers_ > 1; }
-  auto finishFeed() { return feed_.finish(); }
-  void flush() { drain_.flush(); }
+  bool threaded() const noexcept { return plan_.workers > 1; }
   void finishProgress() { progress_.finish(); }
 
   void runSequential() {
@@ -266,42 +114,143 @@ class PipelineRun {
     }
   }
 
-  // Slabs collected..dispatched-1 are in flight; the ring keeps every slice they need.
   void runThreaded() {
-    WorkerPool pool(extractor_, workers_, depth_);
-    SlabStitcher stitcher(extractor_.sliceSlots());
-    std::int64_t dispatched = 0;
-    for (std::int64_t collected = 0; collected < slabs(); ++collected) {
-      while (dispatched < slabs() && dispatched - collected < depth_) {
-        load(dispatched);
-        pool.submit(view(dispatched));
-        ++dispatched;
-      }
-      SlabPart& part = pool.collect(collected);
-      try {
-        stitcher.stitch(part);
-      } catch (const Error& e) {
-        throw Error(fmt::format("{}: {}", info_.source, e.what()));
-      }
-      emit(part.chunk);
-      part.chunk = drain_.recycled();
+    runs_ = (slabs() + plan_.runSlabs - 1) / plan_.runSlabs;
+    places_.resize(static_cast<std::size_t>(plan_.runsInFlight));
+    stitcher_.emplace(extractor_.sliceSlots());
+    std::vector<std::unique_ptr<SlabWorker>> workers;
+    for (int w = 0; w < plan_.workers; ++w) workers.push_back(extractor_.makeWorker());
+    std::vector<std::thread> threads;
+    try {
+      for (int w = 1; w < plan_.workers; ++w) threads.emplace_back([this, &workers, w] { work(*workers[w]); });
+    } catch (...) {
+      fail(std::current_exception());  // std::system_error: stop those that started
     }
-    result_.extractSeconds = pool.seconds();
+    work(*workers[0]);
+    for (auto& t : threads) t.join();
+    if (error_) std::rethrow_exception(error_);
+  }
+
+  /// The value range of every slice read.
+  std::optional<std::array<double, 2>> valueRange() {
+    range_.merge(feed_.range());
+    return range_.range();
   }
 
  private:
+  // A run's place among those in flight: run `index`, and what its worker made of it.
+  struct Place {
+    std::int64_t index = -1;
+    bool extracted = false;
+    SlabPart part;
+  };
+
   std::int64_t slabs() const noexcept { return info_.dims[2] - 1; }
+  int inFlightSlabs() const noexcept { return threaded() ? plan_.runsInFlight * static_cast<int>(plan_.runSlabs) : 1; }
+  Place& placeOf(std::int64_t run) noexcept { return places_[static_cast<std::size_t>(run) % places_.size()]; }
+
+  // One thread's part: until every run is emitted, or something failed.
+  void work(SlabWorker& worker) {
+    std::vector<SlabView> views;
+    std::unique_lock lock(mutex_);
+    while (!error_ && emitted_ < runs_) {
+      Place& head = placeOf(emitted_);
+      if (!emitting_ && head.index == emitted_ && head.extracted) {
+        emitting_ = true;
+        lock.unlock();
+        const bool ok = attempt([&] { emitRun(head.part); });
+        lock.lock();
+        emitting_ = false;
+        if (!ok) break;
+        head.extracted = false;
+        ++emitted_;
+        ready_.notify_all();
+        continue;
+      }
+      if (!loading_ && loaded_ < runs_ && loaded_ - emitted_ < plan_.runsInFlight) {
+        loading_ = true;
+        const std::int64_t run = loaded_;
+        lock.unlock();
+        const bool ok = attempt([&] { loadRun(run, views); });
+        lock.lock();
+        loading_ = false;
+        if (!ok) break;
+        ++loaded_;
+        ready_.notify_all();  // another thread may load the next run meanwhile
+        lock.unlock();
+        Place& place = placeOf(run);
+        ValueRange range;
+        const auto t = Clock::now();
+        const bool extracted = attempt([&] {
+          if (views.front().z == 0) range.add(views.front().slices[1], sliceVoxels());
+          for (const SlabView& v : views) range.add(v.slices[2], sliceVoxels());
+          worker.extract(views, place.part);
+        });
+        const double took = since(t);
+        lock.lock();
+        if (!extracted) break;
+        result_.extractSeconds += took;
+        range_.merge(range);
+        place.index = run;
+        place.extracted = true;
+        ready_.notify_all();
+        continue;
+      }
+      ready_.wait(lock);
+    }
+  }
+
+  // Runs fn; on an exception, records it (the first one wins) and stops every thread.
+  template <typename Fn>
+  bool attempt(Fn&& fn) {
+    try {
+      fn();
+      return true;
+    } catch (...) {
+      fail(std::current_exception());
+      return false;
+    }
+  }
+
+  void fail(std::exception_ptr e) {
+    std::lock_guard lock(mutex_);
+    if (!error_) error_ = std::move(e);
+    ready_.notify_all();
+  }
+
+  std::size_t sliceVoxels() const noexcept { return static_cast<std::size_t>(info_.sliceVoxels()); }
+
+  // The loading stage: reads the slices of `run` and sets up its views.
+  void loadRun(std::int64_t run, std::vector<SlabView>& views) {
+    const std::int64_t first = run * plan_.runSlabs;
+    const std::int64_t end = std::min(slabs(), first + plan_.runSlabs);
+    views.clear();
+    for (std::int64_t z = first; z < end; ++z) {
+      load(z);
+      views.push_back(view(z));
+    }
+  }
+
+  // The emitting stage: stitches a run's chunks and hands them to the sink.
+  void emitRun(SlabPart& part) {
+    try {
+      stitcher_->stitch(part);
+    } catch (const Error& e) {
+      throw Error(fmt::format("{}: {}", info_.source, e.what()));
+    }
+    for (MeshChunk& chunk : part.chunks) emit(chunk);
+  }
 
   // Reads the slices slab z needs.
   void load(std::int64_t z) {
     const std::int64_t nz = info_.dims[2];
     const std::int64_t need = std::min(nz - 1, z + 1 + above_);
     const auto t0 = Clock::now();
-    while (loaded_ <= need) {
-      if (!feed_.next(ring_, loaded_)) {
-        throw Error(fmt::format("{}: the data ended after {} of {} slices", info_.source, loaded_, nz));
+    while (slicesRead_ <= need) {
+      if (!feed_.next(ring_, slicesRead_)) {
+        throw Error(fmt::format("{}: the data ended after {} of {} slices", info_.source, slicesRead_, nz));
       }
-      ++loaded_;
+      ++slicesRead_;
     }
     result_.readSeconds += since(t0);
   }
@@ -312,35 +261,70 @@ class PipelineRun {
     v.dims = info_.dims;
     v.slices = {below_ > 0 ? ring_.slice(z - 1) : nullptr, ring_.slice(z), ring_.slice(z + 1),
                 above_ > 0 ? ring_.slice(z + 2) : nullptr};
-    v.rows = {nullptr, ring_.rows(z), ring_.rows(z + 1), above_ > 0 ? ring_.rows(z + 2) : nullptr};
     return v;
   }
 
   void emit(MeshChunk& chunk) {
     result_.vertices += chunk.positions.size();
     result_.triangles += chunk.triangles.size();
-    const std::int64_t slab = chunk.slab;
     const auto t0 = Clock::now();
-    drain_.push(chunk);  // may move the chunk away
+    sink_.consume(chunk);
     result_.writeSeconds += since(t0);
-    progress_.update(slab + 1);
+    progress_.update(chunk.slab + 1);
   }
 
   const VolumeInfo& info_;
   Extractor& extractor_;
+  MeshSink& sink_;
   int below_;
   int above_;
-  int workers_;
-  int depth_;
+  ThreadPlan plan_;
   SlabRing ring_;
   PipelineResult result_;
   Progress progress_;
   SliceFeed feed_;
-  ChunkDrain drain_;
+  std::int64_t slicesRead_ = 0;
+
+  // Threaded: the stages' state, guarded by mutex_ (the loading stage owns the ring, the feed and
+  // readSeconds while loading_; the emitting stage owns the stitcher, the sink and the counts
+  // while emitting_).
+  std::mutex mutex_;
+  std::condition_variable ready_;
+  std::int64_t runs_ = 0;
   std::int64_t loaded_ = 0;
+  std::int64_t emitted_ = 0;
+  bool loading_ = false;
+  bool emitting_ = false;
+  std::vector<Place> places_;
+  std::optional<SlabStitcher> stitcher_;
+  ValueRange range_;          // of the slices the workers read
+  std::exception_ptr error_;  // the first failure
 };
 
 }  // namespace
+
+ThreadPlan planThreads(const VolumeInfo& info, int below, int above, bool lends, const PipelineOptions& options) {
+  ThreadPlan plan;
+  const std::int64_t slabs = info.dims[2] - 1;
+  const std::int64_t sliceVoxels = std::max<std::int64_t>(1, info.sliceVoxels());
+  int workers = std::max(1, options.threads);
+  if (workers == 1 || slabs < 2 || sliceVoxels * info.dims[2] < options.sequentialVoxels) return plan;
+  std::int64_t runSlabs = (std::max<std::int64_t>(1, options.runVoxels) + sliceVoxels - 1) / sliceVoxels;
+  runSlabs = std::max<std::int64_t>(1, std::min(runSlabs, slabs / (4 * std::int64_t{workers})));
+  if (!lends && options.maxSliceBytes > 0) {
+    // The ring's below + 1 + above slices and the reader's, then (workers + 1) runs.
+    const auto sliceBytes = static_cast<std::size_t>(sliceVoxels) * sizeof(float);
+    const auto budget = static_cast<std::int64_t>(options.maxSliceBytes / sliceBytes);
+    const std::int64_t free = budget - (below + 1 + above);
+    while (workers > 1 && free < workers + 1) --workers;
+    if (workers == 1) return plan;
+    runSlabs = std::max<std::int64_t>(1, std::min(runSlabs, free / (workers + 1)));
+  }
+  plan.workers = workers;
+  plan.runSlabs = runSlabs;
+  plan.runsInFlight = workers + 1;
+  return plan;
+}
 
 PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& sink, const MeshHeader& header,
                            const PipelineOptions& options) {
@@ -355,9 +339,8 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
   } else {
     run.runSequential();
   }
-  result.valueRange = run.finishFeed();
+  result.valueRange = run.valueRange();
   t = Clock::now();
-  run.flush();
   sink.finish();
   result.writeSeconds += since(t);
   run.finishProgress();

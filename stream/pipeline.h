@@ -1,7 +1,7 @@
 // The driver: pulls slices from a source into the slab ring, hands each slab to the extractor (or
-// to its workers) and each resulting chunk to the sink. Memory is the ring (at most four slices,
-// plus N + 1 with N workers), a few slices queued by the reader, the extractors' per-slab caches
-// (one set per worker) and a few chunks.
+// runs of consecutive slabs to its workers) and each resulting chunk to the sink. Memory is the
+// ring (at most four slices, plus the slabs of the runs in flight with workers), a few slices
+// queued by the reader, the extractors' per-slab caches (one set per worker) and a few chunks.
 #pragma once
 
 #include <array>
@@ -17,13 +17,36 @@ namespace isoslab {
 struct PipelineOptions {
   /// Show a progress line on stderr (only if stderr is a terminal and the run is long).
   bool progress = false;
-  /// 1: everything on the calling thread. N > 1: N extraction workers (each with a detached
-  /// extractor; up to N + 2 slabs in flight, stitched in slab order), the source read on a thread
-  /// of its own and the sink fed on another, through small bounded queues. The ring holds N + 1
-  /// more slices.
-  /// The output is the same for every value.
+  /// 1: everything on the calling thread. N > 1: up to N extraction workers (planThreads), each
+  /// with a detached extractor taking runs of consecutive slabs, stitched in slab order; the
+  /// source is read on a thread of its own and the sink fed on another, through small bounded
+  /// queues. The output is the same for every value.
   int threads = 1;
+  /// With threads > 1, the most bytes of slices that the pipeline may hold (the ring and the
+  /// reader's), which caps the length of the runs and then the number of workers; 0: no cap.
+  /// Slices that the source lends cost nothing. One thread holds what it needs whatever this is.
+  std::size_t maxSliceBytes = 0;
+  /// The cost model (planThreads). Volumes of fewer voxels are extracted on one thread, as threads
+  /// would cost more than they save (bench/peers.py measures the crossover).
+  std::int64_t sequentialVoxels = std::int64_t{1} << 21;
+  /// A run is long enough to hold about this many voxels (a few milliseconds of extraction), so
+  /// that handing it over costs little against extracting it.
+  std::int64_t runVoxels = std::int64_t{1} << 20;
 };
+
+/// How a threaded pipeline divides the work.
+struct ThreadPlan {
+  /// Extraction workers; 1 means everything on the calling thread.
+  int workers = 1;
+  /// Slabs per run (a job of one worker), and runs in flight.
+  std::int64_t runSlabs = 1;
+  int runsInFlight = 1;
+};
+
+/// The plan for a volume of `info` whose extractor needs `below` and `above` extra slices, with
+/// `options`; `lends`: the source lends its slices. Runs hold about options.runVoxels but are
+/// short enough for each worker to get four; runs in flight are one more than the workers.
+ThreadPlan planThreads(const VolumeInfo& info, int below, int above, bool lends, const PipelineOptions& options);
 
 struct PipelineResult {
   /// Time the driving thread waited for slices.
@@ -36,6 +59,9 @@ struct PipelineResult {
   std::uint64_t vertices = 0;
   std::uint64_t triangles = 0;
   std::size_t ringBytes = 0;
+  /// The plan's workers and run length (ThreadPlan).
+  int workers = 1;
+  std::int64_t runSlabs = 1;
   /// The smallest and largest value over every slice read (NaN is skipped); empty when no slice
   /// held a value that is not NaN. Tracked as the slices stream past, so the volume is never held.
   std::optional<std::array<double, 2>> valueRange;

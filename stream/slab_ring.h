@@ -22,11 +22,9 @@
 
 namespace isoslab {
 
-/// A slice's values (owned, or lent by the source) and, optionally, its rows' spans, as a reader
-/// thread hands them over.
+/// A slice's values (owned, or lent by the source), as a reader thread hands them over.
 struct SliceBuffer {
   std::vector<float> values;
-  std::vector<RowSpan> rows;    // empty: not classified
   const float* lent = nullptr;  // the values when a source lends them (values is then unused)
 
   const float* data() const noexcept { return lent != nullptr ? lent : values.data(); }
@@ -37,7 +35,7 @@ class SlabRing {
   SlabRing(std::int64_t sliceVoxels, int capacity)
       : sliceVoxels_(static_cast<std::size_t>(sliceVoxels)),
         capacity_(capacity),
-        storage_(static_cast<std::size_t>(capacity), SliceBuffer{std::vector<float>(sliceVoxels_), {}}),
+        storage_(static_cast<std::size_t>(capacity)),  // allocated on first use: lent slices need none
         resident_(static_cast<std::size_t>(capacity), -1) {
     assert(capacity >= 2);
   }
@@ -46,37 +44,20 @@ class SlabRing {
 
   /// The slot to fill with slice k. Evicts slice k - capacity().
   std::span<float> acquire(std::int64_t k) {
-    assert(k > newest_);
-    newest_ = k;
-    const std::size_t slot = slotOf(k);
-    resident_[slot] = k;
-    SliceBuffer& b = storage_[slot];
-    b.rows.clear();
-    b.lent = nullptr;
+    SliceBuffer& b = claim(k);
     b.values.resize(sliceVoxels_);
     return b.values;
   }
 
   /// Makes `values`, lent by the source, slice k (evicting slice k - capacity()).
-  void lend(std::int64_t k, const float* values) {
-    acquire(k);
-    storage_[slotOf(k)].lent = values;
-  }
+  void lend(std::int64_t k, const float* values) { claim(k).lent = values; }
 
-  /// Makes `filled` (one slice's values, and perhaps its row spans) slice k, evicting slice
-  /// k - capacity(), whose buffer is returned for reuse.
+  /// Makes `filled` (one slice's values) slice k, evicting slice k - capacity(), whose buffer is
+  /// returned for reuse.
   SliceBuffer adopt(std::int64_t k, SliceBuffer filled) {
     assert(filled.lent != nullptr || filled.values.size() == sliceVoxels_);
-    acquire(k);
-    std::swap(storage_[slotOf(k)], filled);
+    std::swap(claim(k), filled);
     return filled;
-  }
-
-  /// Slice k's row spans, or nullptr if it is not resident or was not classified.
-  const RowSpan* rows(std::int64_t k) const noexcept {
-    if (slice(k) == nullptr) return nullptr;
-    const auto& r = storage_[slotOf(k)].rows;
-    return r.empty() ? nullptr : r.data();
   }
 
   /// Slice k, or nullptr if it is not resident.
@@ -86,10 +67,19 @@ class SlabRing {
     return resident_[slot] == k ? storage_[slot].data() : nullptr;
   }
 
-  /// Bytes of slice storage.
+  /// Bytes of slice storage, once every slot holds a slice of its own.
   std::size_t bytes() const noexcept { return storage_.size() * sliceVoxels_ * sizeof(float); }
 
  private:
+  SliceBuffer& claim(std::int64_t k) {
+    assert(k > newest_);
+    newest_ = k;
+    const std::size_t slot = slotOf(k);
+    resident_[slot] = k;
+    storage_[slot].lent = nullptr;
+    return storage_[slot];
+  }
+
   std::size_t slotOf(std::int64_t k) const noexcept { return static_cast<std::size_t>(k % capacity_); }
 
   std::size_t sliceVoxels_;

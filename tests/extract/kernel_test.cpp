@@ -168,25 +168,38 @@ TEST(Kernels, CubeEdgeVerticesAgreeAcrossMethods) {
   }
 }
 
-// Slab workers extract slabs in any order; stitched in slab order they give the sequential
-// extractor's chunks exactly, ids included.
+// Slab workers extract runs of slabs in any order; stitched in slab order they give the sequential
+// extractor's chunks exactly, ids included, however the slabs are cut into runs (here runs of 1 to
+// 4 slabs, in an order that is not the slabs', by one worker reused for all).
 TEST(Kernels, StitchedWorkerPartsEqualTheSequentialChunks) {
   const std::array<std::int64_t, 3> dims{10, 9, 12};
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   const Volume vol(dims, [&](std::int64_t, std::int64_t, std::int64_t) { return u(rng); });
+  const std::vector<std::int64_t> runStarts{0, 1, 3, 7, 8};  // runs of 1, 2, 4, 1 and 3 slabs
   for (Method m : kMethods) {
     const ExtractOptions o = options(m, 0.5);
     const Mesh want = sequential(vol, o);
     auto ex = makeExtractor(o, vol.info(), LatticeFrame::voxel());
-    std::vector<SlabPart> parts(static_cast<std::size_t>(dims[2] - 1));
+    std::vector<SlabPart> parts(runStarts.size());
     auto worker = ex->makeWorker();
-    for (std::int64_t z = dims[2] - 2; z >= 0; --z) worker->extract(vol.view(z), parts[static_cast<std::size_t>(z)]);
+    for (std::size_t r = runStarts.size(); r-- > 0;) {
+      const std::int64_t end = r + 1 < runStarts.size() ? runStarts[r + 1] : dims[2] - 1;
+      std::vector<SlabView> views;
+      for (std::int64_t z = runStarts[r]; z < end; ++z) views.push_back(vol.view(z));
+      worker->extract(views, parts[r]);
+    }
     SlabStitcher stitcher(ex->sliceSlots());
-    for (std::size_t z = 0; z < parts.size(); ++z) {
-      stitcher.stitch(parts[z]);
-      const MeshChunk& got = parts[z].chunk;
+    std::vector<MeshChunk> chunks;
+    for (SlabPart& part : parts) {
+      stitcher.stitch(part);
+      for (MeshChunk& c : part.chunks) chunks.push_back(c);
+    }
+    ASSERT_EQ(chunks.size(), want.chunks.size());
+    for (std::size_t z = 0; z < chunks.size(); ++z) {
+      const MeshChunk& got = chunks[z];
       const MeshChunk& exp = want.chunks[z];
+      EXPECT_EQ(got.slab, exp.slab) << methodName(m) << " slab " << z;
       EXPECT_EQ(got.firstVertex, exp.firstVertex) << methodName(m) << " slab " << z;
       EXPECT_EQ(got.positions, exp.positions) << methodName(m) << " slab " << z;
       EXPECT_EQ(got.normals, exp.normals) << methodName(m) << " slab " << z;
@@ -231,7 +244,7 @@ TEST(Kernels, TetInsideVolumeMatchesSampling) {
 // Kernels allocate, so they must be able to throw std::bad_alloc to the caller.
 static_assert(!noexcept(std::declval<Extractor&>().extractSlab(std::declval<const SlabView&>(),
                                                                std::declval<MeshChunk&>())));
-static_assert(!noexcept(std::declval<SlabWorker&>().extract(std::declval<const SlabView&>(),
+static_assert(!noexcept(std::declval<SlabWorker&>().extract(std::declval<std::span<const SlabView>>(),
                                                             std::declval<SlabPart&>())));
 
 }  // namespace

@@ -108,6 +108,7 @@ IndexedMesh run(const VolumeInfo& info, const std::vector<float>& values, const 
   TeeSink tee({&checks, &memory, &stats});
   PipelineOptions pipeline;
   pipeline.threads = threads;
+  pipeline.sequentialVoxels = 0;  // threads even on a small volume
   try {
     runPipeline(*source, *extractor, tee, header, pipeline);
   } catch (const Error& e) {

@@ -59,6 +59,7 @@ ComponentRun run(const std::function<float(std::int64_t, std::int64_t, std::int6
   TeeSink tee({&memory, &recorder, &components});
   PipelineOptions pipeline;
   pipeline.threads = threads;
+  pipeline.sequentialVoxels = 0;  // threads even on a small volume
   runPipeline(source, *extractor, tee, header, pipeline);
   return {memory.mesh(), recorder.chunks(), header, components.components()};
 }
@@ -330,6 +331,7 @@ FilterRun filterRun(const Field& field, std::array<std::int64_t, 3> dims, Method
   options.iso = iso;
   PipelineOptions pipeline;
   pipeline.threads = threads;
+  pipeline.sequentialVoxels = 0;  // threads even on a small volume
   testing::VectorSource first(dims, field);
   const LatticeFrame frame = LatticeFrame::physical(first.info());
   auto extractor = makeExtractor(options, first.info(), frame);

@@ -45,6 +45,7 @@ Decimated decimate(const Field& field, std::array<std::int64_t, 3> dims, Method 
   TeeSink before({&original, &decimation});
   PipelineOptions p;
   p.threads = threads;
+  p.sequentialVoxels = 0;  // threads even on a small volume
   runPipeline(*source, *extractor, before, header, p);
   return {original.mesh(), decimated.mesh(), stats.stats(), decimation.report()};
 }

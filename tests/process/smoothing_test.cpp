@@ -274,6 +274,7 @@ TEST(Smoothing, SameForEveryThreadCount) {
     SmoothingSink smooth(memory, o);
     PipelineOptions p;
     p.threads = threads;
+    p.sequentialVoxels = 0;  // threads even on a small volume
     runPipeline(*source, *extractor, smooth, extractionHeader(e, info, frame, *extractor), p);
     const Extracted x = extractChunks(lumpyTorus(), {32, 30, 34}, Method::kMarchingCubes, 0.0);
     const IndexedMesh expected = smoothStreamed(x, o);

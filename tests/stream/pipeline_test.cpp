@@ -102,9 +102,11 @@ class OutOfMemoryExtractor final : public Extractor {
   std::unique_ptr<SlabWorker> makeWorker() const override {
     struct Worker final : SlabWorker {
       std::unique_ptr<SlabWorker> inner;
-      void extract(const SlabView& slab, SlabPart& out) override {
-        if (slab.z == 2) throw std::bad_alloc();
-        inner->extract(slab, out);
+      void extract(std::span<const SlabView> slabs, SlabPart& out) override {
+        for (const SlabView& slab : slabs) {
+          if (slab.z == 2) throw std::bad_alloc();
+        }
+        inner->extract(slabs, out);
       }
     };
     auto w = std::make_unique<Worker>();
@@ -124,6 +126,7 @@ TEST(Pipeline, OutOfMemoryInAKernelReachesTheCaller) {
     MemoryMeshSink sink;
     PipelineOptions p;
     p.threads = threads;
+    p.sequentialVoxels = 0;  // threads even on a small volume
     EXPECT_THROW(runPipeline(source, ex, sink, MeshHeader{}, p), std::bad_alloc) << threads << " threads";
   }
 }
@@ -136,6 +139,7 @@ TEST(Pipeline, ASourceThatEndsEarlyIsAnError) {
     MemoryMeshSink sink;
     PipelineOptions p;
     p.threads = threads;
+    p.sequentialVoxels = 0;  // threads even on a small volume
     try {
       runPipeline(source, *ex, sink, MeshHeader{}, p);
       FAIL() << "no error";
@@ -185,9 +189,17 @@ TEST(Pipeline, ThreadsDeliverTheSameChunks) {
         RecordingSink sink;
         PipelineOptions p;
         p.threads = threads;
+        p.sequentialVoxels = 0;
+        // Runs of 1 slab (field 0), 3 slabs (field 1), and the default, as long as 4 runs a worker
+        // allow (5 slabs with 1 worker... 1 with 4).
+        p.runVoxels = field == 0 ? 1 : (field == 1 ? 3 * 19 * 17 : p.runVoxels);
         const PipelineResult r = runPipeline(source, *ex, sink, MeshHeader{}, p);
-        // Slab z needs at most slices z-1 .. z+2; with workers, N + 2 slabs are in flight.
-        const int depth = threads > 1 ? threads + 2 : 1;
+        EXPECT_EQ(r.workers, threads);
+        if (threads > 1) {
+          EXPECT_EQ(r.runSlabs, std::min<std::int64_t>(field == 0 ? 1 : (field == 1 ? 3 : 22), 22 / (4 * threads)));
+        }
+        // Slab z needs at most slices z-1 .. z+2; with workers, N + 1 runs are in flight.
+        const std::int64_t depth = threads > 1 ? (threads + 1) * r.runSlabs : 1;
         EXPECT_LE(r.ringBytes, static_cast<std::size_t>(3 + depth) * 19 * 17 * sizeof(float));
         ASSERT_EQ(sink.chunks.size(), 22u);
         if (run == 0) {
@@ -259,6 +271,7 @@ TEST(Pipeline, ErrorsOnOtherThreadsReachTheCaller) {
     FailingSink sink;
     PipelineOptions p;
     p.threads = threads;
+    p.sequentialVoxels = 0;  // threads even on a small volume
     try {
       runPipeline(source, *ex, sink, MeshHeader{}, p);
       ADD_FAILURE() << "no error with " << threads << " threads";
@@ -283,6 +296,7 @@ TEST(Pipeline, TracksTheValueRangeOfEverySliceSkippingNaN) {
       ContractSink sink;
       PipelineOptions p;
       p.threads = threads;
+      p.sequentialVoxels = 0;  // threads even on a small volume
       const PipelineResult r = runPipeline(source, *ex, sink, MeshHeader{}, p);
       EXPECT_EQ(r.triangles, 0u);
       ASSERT_TRUE(r.valueRange.has_value()) << threads << " " << lending;
@@ -301,7 +315,8 @@ TEST(SlabStitcher, RejectsPartsOutOfOrder) {
   auto ex = makeExtractor(ExtractOptions{}, source.info(), LatticeFrame::voxel());
   SlabStitcher stitcher(ex->sliceSlots());
   SlabPart part;
-  part.chunk.slab = 1;
+  part.chunks.resize(1);
+  part.chunks[0].slab = 1;
   try {
     stitcher.stitch(part);
     FAIL() << "no error";
