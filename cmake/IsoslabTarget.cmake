@@ -11,6 +11,13 @@ if(ISOSLAB_SANITIZE)
   add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all)
   add_link_options(-fsanitize=address,undefined)
 endif()
+if(ISOSLAB_TSAN)
+  if(ISOSLAB_SANITIZE)
+    message(FATAL_ERROR "ISOSLAB_TSAN and ISOSLAB_SANITIZE cannot be combined")
+  endif()
+  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=thread)
+endif()
 
 # The fuzz build instruments every target for coverage (fuzzer-no-link) and for ASan and UBSan;
 # only the targets in tests/fuzz/ link libFuzzer itself.
@@ -23,6 +30,13 @@ if(ISOSLAB_FUZZ)
   add_compile_options(-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined
                       -fno-omit-frame-pointer -g -fconstexpr-steps=100000000)
   add_link_options(-fsanitize=address,undefined)
+endif()
+if(ISOSLAB_TSAN)
+  if(ISOSLAB_SANITIZE)
+    message(FATAL_ERROR "ISOSLAB_TSAN and ISOSLAB_SANITIZE cannot be combined")
+  endif()
+  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=thread)
 endif()
 
 # isoslab_library(name folder sources...): a static library isoslab_<name>, aliased isoslab::<name>,
