@@ -202,6 +202,8 @@ struct ExtractArgs {
   bool quiet = false;
   std::string sphere;
   int threads = 0;
+  int maxMemory = 256;                 // MiB
+  std::int64_t sequentialVoxels = -1;  // the cost model's default
   int dracoLevel = 7;
   int quantBits = 0;
   std::int64_t chunkTriangles = 1 << 19;
@@ -453,10 +455,14 @@ int runExtract(const ExtractArgs& args) {
   const int threads =
       args.threads > 0 ? args.threads : static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 8u));
   WriterOptions writerOptions;
-  // With threads, the writer gathers chunks while up to `threads` others encode them: encoding
-  // then overlaps everything else (it is the slowest stage), and memory grows by one chunk's
-  // encoder per encoding thread.
-  writerOptions.encodeThreads = threads > 1 ? threads : 0;
+  // With threads, the writer gathers chunks while others encode them: encoding then overlaps
+  // everything else (it is the slowest stage). Each encoder holds about 200 bytes per triangle of
+  // its chunk (docs/performance.md), so --max-memory allows half its budget to as many encoders
+  // as fit, at least one, at most one per thread; the other half goes to slices in flight.
+  const auto budget = static_cast<std::size_t>(args.maxMemory) << 20;
+  const auto encoderBytes = static_cast<std::size_t>(std::max<std::int64_t>(1, args.chunkTriangles)) * 200;
+  writerOptions.encodeThreads =
+      threads > 1 ? static_cast<int>(std::clamp<std::size_t>(budget / 2 / encoderBytes, 1, threads)) : 0;
   writerOptions.dracoLevel = args.dracoLevel;
   writerOptions.quantBits = args.quantBits;
   writerOptions.chunkTriangles = args.chunkTriangles;
@@ -486,6 +492,8 @@ int runExtract(const ExtractArgs& args) {
   PipelineOptions pipelineOptions;
   pipelineOptions.progress = !args.quiet;
   pipelineOptions.threads = threads;
+  pipelineOptions.maxSliceBytes = budget / 2;
+  if (args.sequentialVoxels >= 0) pipelineOptions.sequentialVoxels = args.sequentialVoxels;
 
   // Component filters: a first pass finds and measures the components, and chooses; the second
   // (the run below) extracts again from the input reopened, and keeps only the chosen ones.
@@ -996,10 +1004,20 @@ int main(int argc, char** argv) {
   extract->add_flag("-q,--quiet", ex.quiet, "No progress line, notes or summary on stderr (warnings still print)");
   extract
       ->add_option("--threads", ex.threads,
-                   "Threads: N extraction workers beside a reader and a writer, and N .glb chunk encoders "
-                   "(default: the core count, at most 8); 1 uses the least memory. The output is the same for "
-                   "every count")
+                   "Threads (default: the core count, at most 8): N threads share reading, extracting and "
+                   "writing, and .glb chunks encode on up to N more, as --max-memory allows; volumes under 2 "
+                   "million voxels take 1. The output is the same for every count")
       ->check(integerIn(1, kMaxThreads));
+  extract
+      ->add_option("--max-memory", ex.maxMemory,
+                   "MiB for what grows with --threads: half for slices in flight (fewer extraction threads "
+                   "when it runs short), half for .glb encoders (about 100 MiB each at the default "
+                   "--chunk-triangles)")
+      ->check(integerIn(16, 1 << 20))
+      ->capture_default_str();
+  // The cost model's smallest volume for threads; a hidden hook for the tests, which check the
+  // threaded paths on small volumes.
+  extract->add_option("--sequential-voxels", ex.sequentialVoxels)->group("");
   extract->add_option("--draco-level", ex.dracoLevel, "Draco (.glb, .drc): 0 fastest .. 10 smallest")
       ->check(integerIn(0, 10))
       ->capture_default_str()
