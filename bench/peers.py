@@ -116,12 +116,45 @@ def flying_edges(image, iso, threads):
     return fe
 
 
-def extract_only(path, iso, threads, method="mc"):
-    """(median seconds, triangles, seconds to read the file once) from bench/isoslab_extract_only."""
-    out = subprocess.run([EXTRACT_ONLY, path, "--iso", str(iso), "--threads", str(threads), "--method", method,
-                          "--runs", str(RUNS)], check=True, capture_output=True, text=True).stdout
-    r = json.loads(out)
+def extract_only(path, iso, threads, method="mc", cpus=None, extra=()):
+    """(median seconds, triangles, seconds to read the file once) from bench/isoslab_extract_only;
+    cpus: a taskset CPU list to pin the process to."""
+    cmd = [EXTRACT_ONLY, path, "--iso", str(iso), "--threads", str(threads), "--method", method, "--runs", str(RUNS),
+           *extra]
+    if cpus is not None:
+        cmd = ["taskset", "-c", cpus] + cmd
+    r = json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
     return r["median_seconds"], r["triangles"], r["load_seconds"]
+
+
+def scaling(methods):
+    """mc extraction at 1 and 2 threads, alternated within each round so that the machine's drift
+    hits both alike (paired ratios, median over the rounds); pinned with taskset to one core and to
+    two. From the 2-thread ratio on two cores, Amdahl's serial fraction s = 2 T2 / T1 - 1 and the
+    speed-up it predicts for 4, 8 and 16 threads, 1 / (s + (1 - s) / N)."""
+    print()
+    print("Thread scaling, mc extraction only (medians of paired rounds; taskset pins the process):")
+    print()
+    print("| volume | 1 thread s | 2 threads s | speed-up | 2 threads on 1 core s | / 1 thread | serial fraction | model 4 | model 8 | model 16 |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    rounds = max(3, RUNS)
+    for name, path, iso in methods:
+        one, two, pinned, ratios, pinned_ratios = [], [], [], [], []
+        for _ in range(rounds):
+            t1, _, _ = extract_only(path, iso, 1, cpus="0,1")
+            t2, _, _ = extract_only(path, iso, 2, cpus="0,1")
+            tp, _, _ = extract_only(path, iso, 2, cpus="0")
+            one.append(t1)
+            two.append(t2)
+            pinned.append(tp)
+            ratios.append(t1 / t2)
+            pinned_ratios.append(tp / t1)
+        speedup = statistics.median(ratios)
+        s = max(0.0, min(1.0, 2.0 / speedup - 1.0))
+        model = [1.0 / (s + (1.0 - s) / n) for n in (4, 8, 16)]
+        print(f"| {name} | {statistics.median(one):.3f} | {statistics.median(two):.3f} | {speedup:.2f} | "
+              f"{statistics.median(pinned):.3f} | {statistics.median(pinned_ratios):.2f} | {s:.2f} | "
+              + " | ".join(f"{m:.1f}" for m in model) + " |")
 
 
 def run_isoslab(path, iso, threads=None):
@@ -212,6 +245,7 @@ def main():
             over_mc = f"{t1 / base['mc']:.2f}"
             over_mt6 = f"{t1 / base['mt6']:.2f}" if "mt6" in base else ""
             print(f"| {name} | {method} | {tris:,} | {t1:.3f} | {t2:.3f} | {over_mc} | {over_mt6} | {empty:.3f} | {load:.3f} |")
+    scaling(methods)
     dicom = os.path.join(ROOT, "..", "shared", "data", "ct-philips-head")
     if os.path.isdir(dicom):
         print()

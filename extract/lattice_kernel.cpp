@@ -102,7 +102,7 @@ void LatticeKernel::rollCaches() noexcept {
 
 void LatticeKernel::takeTop(std::vector<std::pair<CacheSlot, LocalVertex>>& top) {
   for (std::int64_t slot : cache_.touched(2)) {
-    top.emplace_back(CacheSlot{slot}, LocalVertex{cache_.id(2, slot)});
+    top.emplace_back(CacheSlot{slot}, LocalVertex{cache_.get(2, slot)});
   }
   cache_.clearAll();
 }
@@ -380,17 +380,19 @@ VertexId LatticeKernel::vertex(const EdgeRef& e, std::int64_t i, std::int64_t j)
     return id;
   }
   const std::int64_t slot = e.slot(i, j, nx_);
-  VertexId& id = cache_.id(e.plane, slot);
+  VertexId id = cache_.get(e.plane, slot);
   if (id == WeldingCache::kNone) {
     if (e.shared && foreign_ != nullptr && z_ > 0) {
       // The slab below created this vertex (every edge on slice z that a cell of this slab
       // crosses is an edge of a cell below too): refer to it by slot.
       id = kForeignVertex | static_cast<VertexId>(foreign_->size());
       foreign_->push_back(CacheSlot{slot});
+      cache_.set(e.plane, slot, id);
       cache_.touch(0, slot);
       return id;
     }
     id = static_cast<VertexId>(vertexCount_++);
+    cache_.set(e.plane, slot, id);
     cache_.touch(e.plane, slot);
     createVertex(e, i, j);
   }

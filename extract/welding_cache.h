@@ -4,9 +4,13 @@
 // used, not the plane's size. Rolling makes slice z + 1's plane the next slab's slice z.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <cstdlib>
 #include <limits>
+#include <memory>
+#include <new>
 #include <vector>
 
 #include "core/mesh_sink.h"
@@ -18,19 +22,24 @@ class WeldingCache {
   static constexpr VertexId kNone = std::numeric_limits<VertexId>::max();
 
   /// Sizes the planes: sliceClasses slots per lattice point on planes 0 and 2, centreClasses on 1.
+  /// The planes hold id + 1, so that 0 means unset and they can come zeroed from calloc: the
+  /// system then maps a page only when a slot in it is first set, and a plane the surface barely
+  /// crosses costs next to nothing (a memset of every plane would fault in all their pages).
   void allocate(std::size_t sliceClasses, std::size_t centreClasses, std::int64_t planeSize) {
     const auto points = static_cast<std::size_t>(planeSize);
-    planes_[0].assign(sliceClasses * points, kNone);
-    planes_[1].assign(centreClasses * points, kNone);
-    planes_[2].assign(sliceClasses * points, kNone);
+    const std::array<std::size_t, 3> sizes{sliceClasses * points, centreClasses * points, sliceClasses * points};
+    for (std::size_t p = 0; p < 3; ++p) {
+      planes_[p].reset(static_cast<VertexId*>(std::calloc(std::max<std::size_t>(1, sizes[p]), sizeof(VertexId))));
+      if (!planes_[p]) throw std::bad_alloc();
+    }
     allocated_ = true;
   }
   bool allocated() const noexcept { return allocated_; }
 
   /// The id in `slot` of `plane` (kNone when unset).
-  VertexId& id(int plane, std::int64_t slot) noexcept {
-    return planes_[static_cast<std::size_t>(plane)][static_cast<std::size_t>(slot)];
-  }
+  VertexId get(int plane, std::int64_t slot) const noexcept { return at(plane, slot) - 1; }
+  /// Sets `slot` of `plane` to `id` (not kNone); touch() records it for clear().
+  void set(int plane, std::int64_t slot, VertexId id) noexcept { at(plane, slot) = id + 1; }
   /// Records that `slot` of `plane` was set, for clear().
   void touch(int plane, std::int64_t slot) { touched_[static_cast<std::size_t>(plane)].push_back(slot); }
   const std::vector<std::int64_t>& touched(int plane) const noexcept {
@@ -38,9 +47,8 @@ class WeldingCache {
   }
 
   void clear(int plane) noexcept {
-    auto& ids = planes_[static_cast<std::size_t>(plane)];
     auto& touched = touched_[static_cast<std::size_t>(plane)];
-    for (std::int64_t slot : touched) ids[static_cast<std::size_t>(slot)] = kNone;
+    for (std::int64_t slot : touched) at(plane, slot) = 0;
     touched.clear();
   }
   void clearAll() noexcept {
@@ -55,7 +63,14 @@ class WeldingCache {
   }
 
  private:
-  std::array<std::vector<VertexId>, 3> planes_;
+  struct Free {
+    void operator()(VertexId* p) const noexcept { std::free(p); }
+  };
+  VertexId& at(int plane, std::int64_t slot) const noexcept {
+    return planes_[static_cast<std::size_t>(plane)][static_cast<std::size_t>(slot)];
+  }
+
+  std::array<std::unique_ptr<VertexId[], Free>, 3> planes_;
   std::array<std::vector<std::int64_t>, 3> touched_;
   bool allocated_ = false;
 };
