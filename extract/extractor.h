@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -52,9 +53,11 @@ class SlabWorker {
  public:
   virtual ~SlabWorker() = default;
   /// Extracts `slabs`, which are consecutive (slabs[k].z = slabs[0].z + k) and not empty, into
-  /// `out`, whose chunks it resizes to slabs.size() (keeping their buffers). Allocates; throws
-  /// std::bad_alloc.
-  virtual void extract(std::span<const SlabView> slabs, SlabPart& out) = 0;
+  /// `out`, whose chunks it resizes to slabs.size() (keeping their buffers). Calls `before` (if
+  /// set) with each slab just before extracting it, while its slices are about to be read anyway
+  /// (the pipeline takes their value range there). Allocates; throws std::bad_alloc.
+  virtual void extract(std::span<const SlabView> slabs, SlabPart& out,
+                       const std::function<void(const SlabView&)>& before) = 0;
 };
 
 /// "mc", "mt5", "mt6", "bcc12", "mt24", "mc33".

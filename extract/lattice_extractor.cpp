@@ -18,7 +18,8 @@ class LatticeSlabWorker final : public SlabWorker {
 
   // The first slab stands alone; the others follow it, carrying the caches and the row spans, so
   // that vertex ids run on over the whole run.
-  void extract(std::span<const SlabView> slabs, SlabPart& part) override {
+  void extract(std::span<const SlabView> slabs, SlabPart& part,
+               const std::function<void(const SlabView&)>& before) override {
     part.chunks.resize(slabs.size());
     part.foreign.clear();
     part.top.clear();
@@ -28,6 +29,7 @@ class LatticeSlabWorker final : public SlabWorker {
       chunk.clear();
       chunk.slab = slabs[k].z;
       chunk.firstVertex = 0;
+      if (before) before(slabs[k]);
       kernel_.extractSlab(slabs[k], chunk, k == 0 ? &part.foreign : nullptr);
       if (k + 1 < slabs.size()) kernel_.rollCaches();
     }

@@ -182,9 +182,10 @@ class PipelineRun {
         ValueRange range;
         const auto t = Clock::now();
         const bool extracted = attempt([&] {
-          if (views.front().z == 0) range.add(views.front().slices[1], sliceVoxels());
-          for (const SlabView& v : views) range.add(v.slices[2], sliceVoxels());
-          worker.extract(views, place.part);
+          worker.extract(views, place.part, [&](const SlabView& v) {
+            if (v.z == 0) range.add(v.slices[1], sliceVoxels());
+            range.add(v.slices[2], sliceVoxels());
+          });
         });
         const double took = since(t);
         lock.lock();

@@ -187,7 +187,7 @@ TEST(Kernels, StitchedWorkerPartsEqualTheSequentialChunks) {
       const std::int64_t end = r + 1 < runStarts.size() ? runStarts[r + 1] : dims[2] - 1;
       std::vector<SlabView> views;
       for (std::int64_t z = runStarts[r]; z < end; ++z) views.push_back(vol.view(z));
-      worker->extract(views, parts[r]);
+      worker->extract(views, parts[r], {});
     }
     SlabStitcher stitcher(ex->sliceSlots());
     std::vector<MeshChunk> chunks;
@@ -244,8 +244,9 @@ TEST(Kernels, TetInsideVolumeMatchesSampling) {
 // Kernels allocate, so they must be able to throw std::bad_alloc to the caller.
 static_assert(!noexcept(std::declval<Extractor&>().extractSlab(std::declval<const SlabView&>(),
                                                                std::declval<MeshChunk&>())));
-static_assert(!noexcept(std::declval<SlabWorker&>().extract(std::declval<std::span<const SlabView>>(),
-                                                            std::declval<SlabPart&>())));
+static_assert(
+    !noexcept(std::declval<SlabWorker&>().extract(std::declval<std::span<const SlabView>>(), std::declval<SlabPart&>(),
+                                                  std::declval<const std::function<void(const SlabView&)>&>())));
 
 }  // namespace
 }  // namespace isoslab

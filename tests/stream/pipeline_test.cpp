@@ -102,11 +102,12 @@ class OutOfMemoryExtractor final : public Extractor {
   std::unique_ptr<SlabWorker> makeWorker() const override {
     struct Worker final : SlabWorker {
       std::unique_ptr<SlabWorker> inner;
-      void extract(std::span<const SlabView> slabs, SlabPart& out) override {
+      void extract(std::span<const SlabView> slabs, SlabPart& out,
+                   const std::function<void(const SlabView&)>& before) override {
         for (const SlabView& slab : slabs) {
           if (slab.z == 2) throw std::bad_alloc();
         }
-        inner->extract(slabs, out);
+        inner->extract(slabs, out, before);
       }
     };
     auto w = std::make_unique<Worker>();
