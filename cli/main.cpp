@@ -458,11 +458,12 @@ int runExtract(const ExtractArgs& args) {
   // With threads, the writer gathers chunks while others encode them: encoding then overlaps
   // everything else (it is the slowest stage). Each encoder holds about 200 bytes per triangle of
   // its chunk (docs/performance.md), so --max-memory allows half its budget to as many encoders
-  // as fit, at least one, at most one per thread; the other half goes to slices in flight.
+  // as fit, at most one per thread; when none fits, chunks encode on the writer's thread, as with
+  // one thread. The other half goes to slices in flight.
   const auto budget = static_cast<std::size_t>(args.maxMemory) << 20;
   const auto encoderBytes = static_cast<std::size_t>(std::max<std::int64_t>(1, args.chunkTriangles)) * 200;
   writerOptions.encodeThreads =
-      threads > 1 ? static_cast<int>(std::clamp<std::size_t>(budget / 2 / encoderBytes, 1, threads)) : 0;
+      threads > 1 ? static_cast<int>(std::min<std::size_t>(budget / 2 / encoderBytes, threads)) : 0;
   writerOptions.dracoLevel = args.dracoLevel;
   writerOptions.quantBits = args.quantBits;
   writerOptions.chunkTriangles = args.chunkTriangles;
@@ -1011,8 +1012,8 @@ int main(int argc, char** argv) {
   extract
       ->add_option("--max-memory", ex.maxMemory,
                    "MiB for what grows with --threads: half for slices in flight (fewer extraction threads "
-                   "when it runs short), half for .glb encoders (about 100 MiB each at the default "
-                   "--chunk-triangles)")
+                   "when it runs short), half for .glb encoders on threads of their own (about 100 MiB "
+                   "each at the default --chunk-triangles; none fits under 200, and chunks then encode in turn)")
       ->check(integerIn(16, 1 << 20))
       ->capture_default_str();
   // The cost model's smallest volume for threads; a hidden hook for the tests, which check the

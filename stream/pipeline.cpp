@@ -84,7 +84,8 @@ class PipelineRun {
         // Slab z needs slices z - below .. z + 1 + above; the runs in flight need their slabs' too.
         ring_(info_.sliceVoxels(), below_ + 1 + above_ + inFlightSlabs()),
         progress_("extract", info_.dims[2] - 1, options.progress),
-        feed_(source, !threaded()) {
+        feed_(source, !threaded()),
+        runTriangles_(std::max<std::int64_t>(1, options.runTriangles)) {
     result_.ringBytes = ring_.bytes();
     result_.workers = plan_.workers;
     result_.runSlabs = plan_.runSlabs;
@@ -115,7 +116,6 @@ class PipelineRun {
   }
 
   void runThreaded() {
-    runs_ = (slabs() + plan_.runSlabs - 1) / plan_.runSlabs;
     places_.resize(static_cast<std::size_t>(plan_.runsInFlight));
     stitcher_.emplace(extractor_.sliceSlots());
     std::vector<std::unique_ptr<SlabWorker>> workers;
@@ -142,6 +142,7 @@ class PipelineRun {
   struct Place {
     std::int64_t index = -1;
     bool extracted = false;
+    std::int64_t triangles = 0;  // once emitted
     SlabPart part;
   };
 
@@ -153,25 +154,31 @@ class PipelineRun {
   void work(SlabWorker& worker) {
     std::vector<SlabView> views;
     std::unique_lock lock(mutex_);
-    while (!error_ && emitted_ < runs_) {
+    while (!error_ && emittedSlabs_ < slabs()) {
       Place& head = placeOf(emitted_);
       if (!emitting_ && head.index == emitted_ && head.extracted) {
         emitting_ = true;
         lock.unlock();
-        const bool ok = attempt([&] { emitRun(head.part); });
+        const bool ok = attempt([&] { head.triangles = emitRun(head.part); });
         lock.lock();
         emitting_ = false;
         if (!ok) break;
         head.extracted = false;
         ++emitted_;
+        const auto runLength = static_cast<std::int64_t>(head.part.chunks.size());
+        emittedSlabs_ += runLength;
+        trianglesPerSlab_ = head.triangles / runLength;
         ready_.notify_all();
         continue;
       }
-      if (!loading_ && loaded_ < runs_ && loaded_ - emitted_ < plan_.runsInFlight) {
+      if (!loading_ && nextSlab_ < slabs() && loaded_ - emitted_ < plan_.runsInFlight) {
         loading_ = true;
         const std::int64_t run = loaded_;
+        const std::int64_t first = nextSlab_;
+        nextSlab_ = std::min(slabs(), first + runLength());
+        const std::int64_t end = nextSlab_;
         lock.unlock();
-        const bool ok = attempt([&] { loadRun(run, views); });
+        const bool ok = attempt([&] { loadRun(first, end, views); });
         lock.lock();
         loading_ = false;
         if (!ok) break;
@@ -221,10 +228,16 @@ class PipelineRun {
 
   std::size_t sliceVoxels() const noexcept { return static_cast<std::size_t>(info_.sliceVoxels()); }
 
-  // The loading stage: reads the slices of `run` and sets up its views.
-  void loadRun(std::int64_t run, std::vector<SlabView>& views) {
-    const std::int64_t first = run * plan_.runSlabs;
-    const std::int64_t end = std::min(slabs(), first + plan_.runSlabs);
+  // The next run's length: plan_.runSlabs, or fewer when the slabs emitted last held so many
+  // triangles that the runs in flight would hold more than options.runTriangles each (each run's
+  // place keeps its chunks' buffers). The output does not depend on it.
+  std::int64_t runLength() const noexcept {
+    if (trianglesPerSlab_ == 0) return plan_.runSlabs;
+    return std::clamp<std::int64_t>(runTriangles_ / trianglesPerSlab_, 1, plan_.runSlabs);
+  }
+
+  // The loading stage: reads the slices of slabs first .. end - 1 and sets up their views.
+  void loadRun(std::int64_t first, std::int64_t end, std::vector<SlabView>& views) {
     views.clear();
     for (std::int64_t z = first; z < end; ++z) {
       load(z);
@@ -233,13 +246,18 @@ class PipelineRun {
   }
 
   // The emitting stage: stitches a run's chunks and hands them to the sink.
-  void emitRun(SlabPart& part) {
+  std::int64_t emitRun(SlabPart& part) {
     try {
       stitcher_->stitch(part);
     } catch (const Error& e) {
       throw Error(fmt::format("{}: {}", info_.source, e.what()));
     }
-    for (MeshChunk& chunk : part.chunks) emit(chunk);
+    std::uint64_t triangles = 0;
+    for (MeshChunk& chunk : part.chunks) {
+      triangles += chunk.triangles.size();
+      emit(chunk);
+    }
+    return static_cast<std::int64_t>(triangles);
   }
 
   // Reads the slices slab z needs.
@@ -291,9 +309,12 @@ class PipelineRun {
   // while emitting_).
   std::mutex mutex_;
   std::condition_variable ready_;
-  std::int64_t runs_ = 0;
-  std::int64_t loaded_ = 0;
-  std::int64_t emitted_ = 0;
+  std::int64_t loaded_ = 0;   // runs
+  std::int64_t emitted_ = 0;  // runs
+  std::int64_t nextSlab_ = 0;
+  std::int64_t emittedSlabs_ = 0;
+  std::int64_t trianglesPerSlab_ = 0;  // in the last run emitted
+  std::int64_t runTriangles_;
   bool loading_ = false;
   bool emitting_ = false;
   std::vector<Place> places_;

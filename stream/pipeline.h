@@ -32,6 +32,10 @@ struct PipelineOptions {
   /// A run is long enough to hold about this many voxels (a few milliseconds of extraction), so
   /// that handing it over costs little against extracting it.
   std::int64_t runVoxels = std::int64_t{1} << 20;
+  /// Runs shorten (down to one slab) where the slabs hold so many triangles that a run would hold
+  /// more than this many: the runs in flight keep their chunks' buffers, so this bounds their
+  /// memory on dense surfaces (foams). The output does not depend on it.
+  std::int64_t runTriangles = std::int64_t{1} << 17;
 };
 
 /// How a threaded pipeline divides the work.
