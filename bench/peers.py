@@ -12,7 +12,10 @@ vtkMarchingCubes (python3-vtk9) and scikit-image's marching_cubes (python3-skima
   writer threads beside them).
 - Per method (isoslab only): extraction at 1 and 2 threads, and the paper's "constant time": the
   extraction with an iso value above every voxel (no cell handled) against one read of the file.
-- The DICOM series (../shared/data/ct-philips-head) to .glb, end to end, when present.
+- The DICOM series (../shared/data/ct-philips-head) to .glb, end to end, when present; and
+  Draco's encoder options against meshoptimizer's codec on its mesh (bench/isoslab_codecs).
+- Thread scaling: mc extraction at 1 and 2 threads in paired rounds, pinned with taskset to two
+  cores and to one, and Amdahl's model for 4, 8 and 16 threads from the measured serial fraction.
 - peak RSS: the process's maximum resident set size.
 
 Usage: bench/peers.py [BUILD_DIR] [--runs N] [--quick]   (prints a Markdown table)
@@ -264,6 +267,16 @@ def main():
                 times.append(r["seconds"]["total"])
                 rss = max(rss, r["peak_rss_mib"])
             print(f"| ct-philips-head | -400 | {threads} | {statistics.median(times):.2f} | {r['triangles']:,} | {r['output']['bytes']:,} | {rss:.0f} |")
+        codecs = os.path.join(BUILD, "bench", "isoslab_codecs")
+        if os.path.exists(codecs):
+            # Draco's encoder options and meshoptimizer's codec on the same mesh (bench/codecs.cpp).
+            ply = os.path.join(TMP, "dicom.ply")
+            subprocess.run([ISOSLAB, "extract", dicom, "--iso", "-400", "-q", "--threads", "1", "-o", ply], check=True,
+                           stderr=subprocess.DEVNULL)
+            print()
+            print("Codecs on the same mesh, whole (bench/codecs.cpp):")
+            print()
+            print(subprocess.run([codecs, ply, "--runs", str(RUNS)], check=True, capture_output=True, text=True).stdout)
 
 
 if __name__ == "__main__":
