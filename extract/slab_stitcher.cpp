@@ -2,7 +2,10 @@
 
 #include <string>
 
+#include <algorithm>
+#include <cstdlib>
 #include <limits>
+#include <new>
 
 #include "core/error.h"
 
@@ -14,7 +17,12 @@ std::size_t index(CacheSlot slot) noexcept {
 }
 }  // namespace
 
-SlabStitcher::SlabStitcher(std::size_t sliceSlots) : top_(sliceSlots, kUnset) {}
+// top_ holds id + 1 (0: unset) and comes zeroed from calloc, so that only the pages of slots a
+// slab sets are mapped (a slice of 2048 x 2048 points has 50 MB of slots for mc).
+SlabStitcher::SlabStitcher(std::size_t sliceSlots)
+    : top_(static_cast<VertexId*>(std::calloc(std::max<std::size_t>(1, sliceSlots), sizeof(VertexId)))) {
+  if (!top_) throw std::bad_alloc();
+}
 
 void SlabStitcher::stitch(SlabPart& part) {
   if (part.chunks.empty()) throw Error("internal error: an empty run of slabs");
@@ -30,7 +38,7 @@ void SlabStitcher::stitch(SlabPart& part) {
   const auto first = static_cast<VertexId>(next_);
   resolved_.resize(part.foreign.size());
   for (std::size_t k = 0; k < part.foreign.size(); ++k) {
-    const VertexId id = top_[index(part.foreign[k])];
+    const VertexId id = top_[index(part.foreign[k])] - 1;
     if (id == kUnset) {
       throw Error("internal error: slab " + std::to_string(slab_) + " references a vertex that slab " +
                   std::to_string(slab_ - 1) + " did not create");
@@ -45,10 +53,10 @@ void SlabStitcher::stitch(SlabPart& part) {
     chunk.firstVertex = chunkFirst;
     chunkFirst += static_cast<VertexId>(chunk.positions.size());
   }
-  for (CacheSlot slot : set_) top_[index(slot)] = kUnset;
+  for (CacheSlot slot : set_) top_[index(slot)] = 0;
   set_.clear();
   for (const auto& [slot, local] : part.top) {
-    top_[index(slot)] = first + static_cast<VertexId>(local);
+    top_[index(slot)] = first + static_cast<VertexId>(local) + 1;
     set_.push_back(slot);
   }
   slab_ += static_cast<std::int64_t>(part.chunks.size());
