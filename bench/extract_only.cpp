@@ -3,9 +3,9 @@
 // into a sink that only counts, and the median wall time is printed as JSON. The in-memory source
 // lends its slices (SliceSource::lendSlice), as VTK reads its in-memory array without a copy.
 // Usage: isoslab_extract_only INPUT --iso V [--method M] [--threads N] [--runs R] [--cell-volumes]
-//          [--run-voxels V] [--sequential-voxels V] [--trim-threshold BYTES]
+//          [--run-voxels V] [--run-triangles T] [--sequential-voxels V] [--trim-threshold BYTES]
 // load_seconds is the time to read the file once (opening, decoding, converting to float).
-// --run-voxels and --sequential-voxels set the pipeline's cost model (PipelineOptions), to
+// --run-voxels, --run-triangles and --sequential-voxels set the pipeline's cost model (PipelineOptions), to
 // measure it. glibc's malloc is set as the isoslab program sets it (a fixed mmap threshold of
 // 256 KiB); --trim-threshold also keeps up to that many freed bytes at the top of each heap, as a
 // long-lived process would find its heaps from its earlier runs.
@@ -92,6 +92,8 @@ int main(int argc, char** argv) {
       cellVolumes = true;
     } else if (arg == "--run-voxels") {
       p.runVoxels = std::stoll(value());
+    } else if (arg == "--run-triangles") {
+      p.runTriangles = std::stoll(value());
     } else if (arg == "--sequential-voxels") {
       p.sequentialVoxels = std::stoll(value());
     } else if (arg == "--trim-threshold") {

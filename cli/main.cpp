@@ -1006,8 +1006,8 @@ int main(int argc, char** argv) {
   extract
       ->add_option("--threads", ex.threads,
                    "Threads (default: the core count, at most 8): N threads share reading, extracting and "
-                   "writing, and .glb chunks encode on up to N more, as --max-memory allows; volumes under 2 "
-                   "million voxels take 1. The output is the same for every count")
+                   "writing, and .glb chunks encode on up to N more, as --max-memory allows; volumes under "
+                   "2^24 voxels take 1. The output is the same for every count")
       ->check(integerIn(1, kMaxThreads));
   extract
       ->add_option("--max-memory", ex.maxMemory,

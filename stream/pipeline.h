@@ -28,7 +28,7 @@ struct PipelineOptions {
   std::size_t maxSliceBytes = 0;
   /// The cost model (planThreads). Volumes of fewer voxels are extracted on one thread, as threads
   /// would cost more than they save (bench/peers.py measures the crossover).
-  std::int64_t sequentialVoxels = std::int64_t{1} << 21;
+  std::int64_t sequentialVoxels = std::int64_t{1} << 24;
   /// A run is long enough to hold about this many voxels (a few milliseconds of extraction), so
   /// that handing it over costs little against extracting it.
   std::int64_t runVoxels = std::int64_t{1} << 20;
