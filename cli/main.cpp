@@ -459,7 +459,7 @@ int runExtract(const ExtractArgs& args) {
   // everything else (it is the slowest stage). Each encoder holds about 200 bytes per triangle of
   // its chunk (docs/performance.md), so --max-memory allows half its budget to as many encoders
   // as fit, at most one per thread; when none fits, chunks encode on the writer's thread, as with
-  // one thread. The other half goes to slices in flight.
+  // one thread. The other half goes to slices in flight and the threads' caches.
   const auto budget = static_cast<std::size_t>(args.maxMemory) << 20;
   const auto encoderBytes = static_cast<std::size_t>(std::max<std::int64_t>(1, args.chunkTriangles)) * 200;
   writerOptions.encodeThreads =
@@ -493,7 +493,7 @@ int runExtract(const ExtractArgs& args) {
   PipelineOptions pipelineOptions;
   pipelineOptions.progress = !args.quiet;
   pipelineOptions.threads = threads;
-  pipelineOptions.maxSliceBytes = budget / 2;
+  pipelineOptions.maxThreadBytes = budget / 2;
   if (args.sequentialVoxels >= 0) pipelineOptions.sequentialVoxels = args.sequentialVoxels;
 
   // Component filters: a first pass finds and measures the components, and chooses; the second
@@ -1011,8 +1011,9 @@ int main(int argc, char** argv) {
       ->check(integerIn(1, kMaxThreads));
   extract
       ->add_option("--max-memory", ex.maxMemory,
-                   "MiB for what grows with --threads: half for slices in flight (fewer extraction threads "
-                   "when it runs short), half for .glb encoders on threads of their own (about 100 MiB "
+                   "MiB for what grows with --threads: half for slices in flight and each thread's caches "
+                   "(shorter runs, then fewer extraction threads, when it runs short), half for .glb encoders on "
+                   "threads of their own (about 100 MiB "
                    "each at the default --chunk-triangles; none fits under 200, and chunks then encode in turn)")
       ->check(integerIn(16, 1 << 20))
       ->capture_default_str();

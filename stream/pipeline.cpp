@@ -80,7 +80,7 @@ class PipelineRun {
         sink_(sink),
         below_(extractor.slicesBelow()),
         above_(extractor.slicesAbove()),
-        plan_(planThreads(info_, below_, above_, source.lendsSlices(), options)),
+        plan_(planThreads(info_, source.lendsSlices(), 3 * extractor.sliceSlots() * sizeof(VertexId), options)),
         // Slab z needs slices z - below .. z + 1 + above; the runs in flight need their slabs' too.
         ring_(info_.sliceVoxels(), below_ + 1 + above_ + inFlightSlabs()),
         progress_("extract", info_.dims[2] - 1, options.progress),
@@ -325,7 +325,7 @@ class PipelineRun {
 
 }  // namespace
 
-ThreadPlan planThreads(const VolumeInfo& info, int below, int above, bool lends, const PipelineOptions& options) {
+ThreadPlan planThreads(const VolumeInfo& info, bool lends, std::size_t cacheBytes, const PipelineOptions& options) {
   ThreadPlan plan;
   const std::int64_t slabs = info.dims[2] - 1;
   const std::int64_t sliceVoxels = std::max<std::int64_t>(1, info.sliceVoxels());
@@ -333,14 +333,19 @@ ThreadPlan planThreads(const VolumeInfo& info, int below, int above, bool lends,
   if (workers == 1 || slabs < 2 || sliceVoxels * info.dims[2] < options.sequentialVoxels) return plan;
   std::int64_t runSlabs = (std::max<std::int64_t>(1, options.runVoxels) + sliceVoxels - 1) / sliceVoxels;
   runSlabs = std::max<std::int64_t>(1, std::min(runSlabs, slabs / (4 * std::int64_t{workers})));
-  if (!lends && options.maxSliceBytes > 0) {
-    // The ring's below + 1 + above slices and the reader's, then (workers + 1) runs.
-    const auto sliceBytes = static_cast<std::size_t>(sliceVoxels) * sizeof(float);
-    const auto budget = static_cast<std::int64_t>(options.maxSliceBytes / sliceBytes);
-    const std::int64_t free = budget - (below + 1 + above);
-    while (workers > 1 && free < workers + 1) --workers;
+  if (options.maxThreadBytes > 0) {
+    // What threads add to one thread's memory: the ring's slices of (workers + 1) runs beyond the
+    // one slab in flight (nothing when the source lends them), each worker's caches beyond the
+    // one extractor's, and the stitcher's slots (a third of a worker's).
+    const auto sliceBytes = lends ? 0.0 : static_cast<double>(sliceVoxels) * sizeof(float);
+    const auto caches = static_cast<double>(cacheBytes);
+    const auto budget = static_cast<double>(options.maxThreadBytes);
+    auto extra = [&](int w, std::int64_t k) {
+      return static_cast<double>((w + 1) * k - 1) * sliceBytes + (w - 1) * caches + caches / 3;
+    };
+    while (workers > 1 && extra(workers, 1) > budget) --workers;
     if (workers == 1) return plan;
-    runSlabs = std::max<std::int64_t>(1, std::min(runSlabs, free / (workers + 1)));
+    while (runSlabs > 1 && extra(workers, runSlabs) > budget) --runSlabs;
   }
   plan.workers = workers;
   plan.runSlabs = runSlabs;

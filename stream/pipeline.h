@@ -22,10 +22,10 @@ struct PipelineOptions {
   /// source is read on a thread of its own and the sink fed on another, through small bounded
   /// queues. The output is the same for every value.
   int threads = 1;
-  /// With threads > 1, the most bytes of slices that the pipeline may hold (the ring and the
-  /// reader's), which caps the length of the runs and then the number of workers; 0: no cap.
-  /// Slices that the source lends cost nothing. One thread holds what it needs whatever this is.
-  std::size_t maxSliceBytes = 0;
+  /// With threads > 1, the most bytes that threads may add to what one thread holds: the slices
+  /// of the runs in flight (nothing when the source lends them), each extra worker's welding
+  /// caches and the stitcher's slots. It shortens the runs, then takes workers away; 0: no cap.
+  std::size_t maxThreadBytes = 0;
   /// The cost model (planThreads). Volumes of fewer voxels are extracted on one thread, as threads
   /// would cost more than they save (bench/peers.py measures the crossover).
   std::int64_t sequentialVoxels = std::int64_t{1} << 24;
@@ -47,10 +47,10 @@ struct ThreadPlan {
   int runsInFlight = 1;
 };
 
-/// The plan for a volume of `info` whose extractor needs `below` and `above` extra slices, with
-/// `options`; `lends`: the source lends its slices. Runs hold about options.runVoxels but are
-/// short enough for each worker to get four; runs in flight are one more than the workers.
-ThreadPlan planThreads(const VolumeInfo& info, int below, int above, bool lends, const PipelineOptions& options);
+/// The plan for a volume of `info` whose extractor needs `cacheBytes` of welding caches per
+/// worker, with `options`; `lends`: the source lends its slices. Runs hold about
+/// options.runVoxels but are short enough for each worker to get four; runs in flight are one more than the workers.
+ThreadPlan planThreads(const VolumeInfo& info, bool lends, std::size_t cacheBytes, const PipelineOptions& options);
 
 struct PipelineResult {
   /// Time the driving thread waited for slices.
