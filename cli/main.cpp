@@ -458,7 +458,7 @@ int runExtract(const ExtractArgs& args) {
   // With threads, the writer gathers chunks while others encode them: encoding then overlaps
   // everything else (it is the slowest stage). Each encoder holds about 200 bytes per triangle of
   // its chunk (docs/performance.md), so --max-memory allows half its budget to as many encoders
-  // as fit, at most one per thread; when none fits, chunks encode on the writer's thread, as with
+  // as fit, at most one per thread; when none fits, chunks encode in the emit stage, as with
   // one thread. The other half goes to slices in flight and the threads' caches.
   const auto budget = static_cast<std::size_t>(args.maxMemory) << 20;
   const auto encoderBytes = static_cast<std::size_t>(std::max<std::int64_t>(1, args.chunkTriangles)) * 200;

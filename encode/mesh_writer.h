@@ -26,7 +26,7 @@ struct WriterOptions {
   /// .glb: a chunk closes at the first slab boundary after it holds this many triangles.
   std::int64_t chunkTriangles = 1 << 19;
   /// .glb: chunks encoded at the same time on threads of their own, while the writer gathers the
-  /// next one; 0 encodes on the writer's thread. Each holds one chunk's encoder memory.
+  /// next one; 0 encodes on the thread that consumes the chunks. Each holds one chunk's encoder memory.
   int encodeThreads = 0;
   /// The smallest voxel edge in output units, for the default quantization.
   double voxelSize = 1;

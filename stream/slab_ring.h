@@ -22,7 +22,7 @@
 
 namespace isoslab {
 
-/// A slice's values (owned, or lent by the source), as a reader thread hands them over.
+/// A slice's values: owned, or lent by the source.
 struct SliceBuffer {
   std::vector<float> values;
   const float* lent = nullptr;  // the values when a source lends them (values is then unused)

@@ -262,7 +262,7 @@ class FailingSink final : public MeshSink {
   bool finished = false;
 };
 
-// An error in the sink (on the writer thread when threaded) reaches the caller, whatever the
+// An error in the sink (in the emit stage, on any thread, when threaded) reaches the caller, whatever the
 // thread count, and nothing hangs. (Source errors: ASourceThatEndsEarlyIsAnError.)
 TEST(Pipeline, ErrorsOnOtherThreadsReachTheCaller) {
   for (int threads : {1, 2, 4}) {
