@@ -31,13 +31,6 @@ if(ISOSLAB_FUZZ)
                       -fno-omit-frame-pointer -g -fconstexpr-steps=100000000)
   add_link_options(-fsanitize=address,undefined)
 endif()
-if(ISOSLAB_TSAN)
-  if(ISOSLAB_SANITIZE)
-    message(FATAL_ERROR "ISOSLAB_TSAN and ISOSLAB_SANITIZE cannot be combined")
-  endif()
-  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
-  add_link_options(-fsanitize=thread)
-endif()
 
 # isoslab_library(name folder sources...): a static library isoslab_<name>, aliased isoslab::<name>,
 # whose headers are included as "<folder>/<file>.h" from the project root.

@@ -1,28 +1,19 @@
 #include "extract/slab_stitcher.h"
 
-#include <string>
-
-#include <algorithm>
-#include <cstdlib>
 #include <limits>
-#include <new>
+#include <string>
 
 #include "core/error.h"
 
 namespace isoslab {
 namespace {
-constexpr VertexId kUnset = std::numeric_limits<VertexId>::max();
+constexpr VertexId kUnset = ZeroedIds::kUnset;
 std::size_t index(CacheSlot slot) noexcept {
   return static_cast<std::size_t>(slot);
 }
 }  // namespace
 
-// top_ holds id + 1 (0: unset) and comes zeroed from calloc, so that only the pages of slots a
-// slab sets are mapped (a slice of 2048 x 2048 points has 50 MB of slots for mc).
-SlabStitcher::SlabStitcher(std::size_t sliceSlots)
-    : top_(static_cast<VertexId*>(std::calloc(std::max<std::size_t>(1, sliceSlots), sizeof(VertexId)))) {
-  if (!top_) throw std::bad_alloc();
-}
+SlabStitcher::SlabStitcher(std::size_t sliceSlots) : top_(sliceSlots) {}
 
 void SlabStitcher::stitch(SlabPart& part) {
   if (part.chunks.empty()) throw Error("internal error: an empty run of slabs");
@@ -38,7 +29,7 @@ void SlabStitcher::stitch(SlabPart& part) {
   const auto first = static_cast<VertexId>(next_);
   resolved_.resize(part.foreign.size());
   for (std::size_t k = 0; k < part.foreign.size(); ++k) {
-    const VertexId id = top_[index(part.foreign[k])] - 1;
+    const VertexId id = top_.get(index(part.foreign[k]));
     if (id == kUnset) {
       throw Error("internal error: slab " + std::to_string(slab_) + " references a vertex that slab " +
                   std::to_string(slab_ - 1) + " did not create");
@@ -53,10 +44,10 @@ void SlabStitcher::stitch(SlabPart& part) {
     chunk.firstVertex = chunkFirst;
     chunkFirst += static_cast<VertexId>(chunk.positions.size());
   }
-  for (CacheSlot slot : set_) top_[index(slot)] = 0;
+  for (CacheSlot slot : set_) top_.unset(index(slot));
   set_.clear();
   for (const auto& [slot, local] : part.top) {
-    top_[index(slot)] = first + static_cast<VertexId>(local) + 1;
+    top_.set(index(slot), first + static_cast<VertexId>(local));
     set_.push_back(slot);
   }
   slab_ += static_cast<std::int64_t>(part.chunks.size());

@@ -4,11 +4,10 @@
 #pragma once
 
 #include <cstdint>
-#include <cstdlib>
-#include <memory>
 #include <vector>
 
 #include "extract/extractor.h"
+#include "extract/welding_cache.h"
 
 namespace isoslab {
 
@@ -23,11 +22,8 @@ class SlabStitcher {
   std::uint64_t vertexCount() const noexcept { return next_; }
 
  private:
-  struct Free {
-    void operator()(VertexId* p) const noexcept { std::free(p); }
-  };
-  std::unique_ptr<VertexId[], Free> top_;  // 1 + the global ids of the last slab's vertices on its slice z + 1
-  std::vector<CacheSlot> set_;             // slots of top_ in use
+  ZeroedIds top_;               // global ids of the last slab's vertices on its slice z + 1 (mapped as used)
+  std::vector<CacheSlot> set_;  // slots of top_ in use
   std::vector<VertexId> resolved_;
   std::uint64_t next_ = 0;
   std::int64_t slab_ = 0;

@@ -17,29 +17,48 @@
 
 namespace isoslab {
 
+/// Vertex ids by slot, all unset at first. It comes zeroed from calloc and holds id + 1 (0:
+/// unset), so the system maps a page only when a slot in it is first set: an array that a surface
+/// barely crosses costs next to nothing (filling it with a marker would map every page).
+class ZeroedIds {
+ public:
+  static constexpr VertexId kUnset = std::numeric_limits<VertexId>::max();
+
+  ZeroedIds() = default;
+  explicit ZeroedIds(std::size_t n)
+      : ids_(static_cast<VertexId*>(std::calloc(std::max<std::size_t>(1, n), sizeof(VertexId)))) {
+    if (!ids_) throw std::bad_alloc();
+  }
+  /// The id in `slot`, kUnset when unset.
+  VertexId get(std::size_t slot) const noexcept { return ids_[slot] - 1; }
+  /// Sets `slot` to `id` (not kUnset).
+  void set(std::size_t slot, VertexId id) noexcept { ids_[slot] = id + 1; }
+  void unset(std::size_t slot) noexcept { ids_[slot] = 0; }
+
+ private:
+  struct Free {
+    void operator()(VertexId* p) const noexcept { std::free(p); }
+  };
+  std::unique_ptr<VertexId[], Free> ids_;
+};
+
 class WeldingCache {
  public:
-  static constexpr VertexId kNone = std::numeric_limits<VertexId>::max();
+  static constexpr VertexId kNone = ZeroedIds::kUnset;
 
-  /// Sizes the planes: sliceClasses slots per lattice point on planes 0 and 2, centreClasses on 1.
-  /// The planes hold id + 1, so that 0 means unset and they can come zeroed from calloc: the
-  /// system then maps a page only when a slot in it is first set, and a plane the surface barely
-  /// crosses costs next to nothing (a memset of every plane would fault in all their pages).
+  /// Sizes the planes: sliceClasses slots per lattice point on planes 0 and 2, centreClasses on 1
+  /// (mapped as they are used: ZeroedIds).
   void allocate(std::size_t sliceClasses, std::size_t centreClasses, std::int64_t planeSize) {
     const auto points = static_cast<std::size_t>(planeSize);
-    const std::array<std::size_t, 3> sizes{sliceClasses * points, centreClasses * points, sliceClasses * points};
-    for (std::size_t p = 0; p < 3; ++p) {
-      planes_[p].reset(static_cast<VertexId*>(std::calloc(std::max<std::size_t>(1, sizes[p]), sizeof(VertexId))));
-      if (!planes_[p]) throw std::bad_alloc();
-    }
+    planes_ = {ZeroedIds(sliceClasses * points), ZeroedIds(centreClasses * points), ZeroedIds(sliceClasses * points)};
     allocated_ = true;
   }
   bool allocated() const noexcept { return allocated_; }
 
   /// The id in `slot` of `plane` (kNone when unset).
-  VertexId get(int plane, std::int64_t slot) const noexcept { return at(plane, slot) - 1; }
+  VertexId get(int plane, std::int64_t slot) const noexcept { return planeOf(plane).get(index(slot)); }
   /// Sets `slot` of `plane` to `id` (not kNone); touch() records it for clear().
-  void set(int plane, std::int64_t slot, VertexId id) noexcept { at(plane, slot) = id + 1; }
+  void set(int plane, std::int64_t slot, VertexId id) noexcept { planeOf(plane).set(index(slot), id); }
   /// Records that `slot` of `plane` was set, for clear().
   void touch(int plane, std::int64_t slot) { touched_[static_cast<std::size_t>(plane)].push_back(slot); }
   const std::vector<std::int64_t>& touched(int plane) const noexcept {
@@ -48,7 +67,7 @@ class WeldingCache {
 
   void clear(int plane) noexcept {
     auto& touched = touched_[static_cast<std::size_t>(plane)];
-    for (std::int64_t slot : touched) at(plane, slot) = 0;
+    for (std::int64_t slot : touched) planeOf(plane).unset(index(slot));
     touched.clear();
   }
   void clearAll() noexcept {
@@ -63,14 +82,11 @@ class WeldingCache {
   }
 
  private:
-  struct Free {
-    void operator()(VertexId* p) const noexcept { std::free(p); }
-  };
-  VertexId& at(int plane, std::int64_t slot) const noexcept {
-    return planes_[static_cast<std::size_t>(plane)][static_cast<std::size_t>(slot)];
-  }
+  static std::size_t index(std::int64_t slot) noexcept { return static_cast<std::size_t>(slot); }
+  ZeroedIds& planeOf(int plane) noexcept { return planes_[static_cast<std::size_t>(plane)]; }
+  const ZeroedIds& planeOf(int plane) const noexcept { return planes_[static_cast<std::size_t>(plane)]; }
 
-  std::array<std::unique_ptr<VertexId[], Free>, 3> planes_;
+  std::array<ZeroedIds, 3> planes_;
   std::array<std::vector<std::int64_t>, 3> touched_;
   bool allocated_ = false;
 };

@@ -142,7 +142,6 @@ class PipelineRun {
   struct Place {
     std::int64_t index = -1;
     bool extracted = false;
-    std::int64_t triangles = 0;  // once emitted
     SlabPart part;
   };
 
@@ -159,7 +158,8 @@ class PipelineRun {
       if (!emitting_ && head.index == emitted_ && head.extracted) {
         emitting_ = true;
         lock.unlock();
-        const bool ok = attempt([&] { head.triangles = emitRun(head.part); });
+        std::int64_t triangles = 0;
+        const bool ok = attempt([&] { triangles = emitRun(head.part); });
         lock.lock();
         emitting_ = false;
         if (!ok) break;
@@ -167,7 +167,7 @@ class PipelineRun {
         ++emitted_;
         const auto runLength = static_cast<std::int64_t>(head.part.chunks.size());
         emittedSlabs_ += runLength;
-        trianglesPerSlab_ = head.triangles / runLength;
+        trianglesPerSlab_ = triangles / runLength;
         ready_.notify_all();
         continue;
       }

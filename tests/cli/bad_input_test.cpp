@@ -1147,6 +1147,12 @@ const Case kCases[] = {
        return std::string("--chunk-triangles: '0'");
      },
      "extract {dir}/v.nrrd --chunk-triangles 0 --iso 1 -o {dir}/out.glb", 2},
+    {"UsageMaxMemoryTooSmall",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\n\n" + voxels(64));
+       return std::string("--max-memory: '5'");
+     },
+     "extract {dir}/v.nrrd --max-memory 5 --threads 2 --iso 1 -o {dir}/out.glb", 2},
     // (end of helper 2 section)
     // --- Fuzz regressions ---------------------------------------------------------------------------
     // tests/fuzz/fuzz_mesh: `decode` to Draco quantized a vertex outside the volume's box that the
