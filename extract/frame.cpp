@@ -53,12 +53,8 @@ LatticeFrame LatticeFrame::physical(const VolumeInfo& info) {
   return f;
 }
 
-Vec3d LatticeFrame::map(double i, double j, double k) const noexcept {
+Vec3d LatticeFrame::mapPerSlice(double i, double j, double k) const noexcept {
   const auto& m = linear_;
-  if (sliceOrigins_.empty()) {
-    return {origin_[0] + m[0] * i + m[1] * j + m[2] * k, origin_[1] + m[3] * i + m[4] * j + m[5] * k,
-            origin_[2] + m[6] * i + m[7] * j + m[8] * k};
-  }
   const auto last = static_cast<double>(sliceOrigins_.size() - 1);
   const double kc = std::fmin(std::fmax(k, 0.0), last);
   const auto k0 = static_cast<std::size_t>(std::fmin(std::floor(kc), last - 1));

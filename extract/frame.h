@@ -25,8 +25,14 @@ class LatticeFrame {
   /// Throws isoslab::Error for another name.
   static LatticeFrame forSpace(const VolumeInfo& info, const std::string& space);
 
-  /// Position of lattice point (i, j, k); k may be fractional between slices.
-  Vec3d map(double i, double j, double k) const noexcept;
+  /// Position of lattice point (i, j, k); k may be fractional between slices. The affine case is
+  /// inline: extraction maps every vertex.
+  Vec3d map(double i, double j, double k) const noexcept {
+    if (!sliceOrigins_.empty()) return mapPerSlice(i, j, k);
+    const auto& m = linear_;
+    return {origin_[0] + m[0] * i + m[1] * j + m[2] * k, origin_[1] + m[3] * i + m[4] * j + m[5] * k,
+            origin_[2] + m[6] * i + m[7] * j + m[8] * k};
+  }
 
   /// Converts a gradient taken with respect to lattice coordinates into one with respect to output
   /// coordinates (multiplies by the inverse transpose of the linear part).
@@ -57,6 +63,8 @@ class LatticeFrame {
   const std::string& name() const noexcept { return name_; }
 
  private:
+  Vec3d mapPerSlice(double i, double j, double k) const noexcept;
+
   std::string name_ = "voxel";
   Vec3d origin_{0, 0, 0};
   std::array<double, 9> linear_{1, 0, 0, 0, 1, 0, 0, 0, 1};    // row-major, columns per axis
