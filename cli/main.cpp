@@ -22,6 +22,7 @@
 
 #include "cli/arguments.h"
 #include "cli/compare.h"
+#include "cli/mpi_group.h"
 #include "cli/render.h"
 #include "cli/view.h"
 #include "core/atomic_file.h"
@@ -53,6 +54,7 @@
 #include "stream/iso_choice.h"
 #include "stream/pipeline.h"
 #include "stream/progress.h"
+#include "stream/rank_group.h"
 #include "stream/value_histogram.h"
 
 namespace isoslab {
@@ -414,7 +416,24 @@ bool sameFile(const std::string& a, const std::string& b) {
   return ca == cb;
 }
 
+// The ranks of an extraction under mpirun (cli/mpi_group.h), or nullptr.
+RankGroup* gRanks = nullptr;
+
+// Whether this process prints the error that ends it. Under mpirun one rank does: rank 0 when
+// the failure was shared through the pipeline (it holds the failing rank's message), else the
+// lowest rank that failed (the ranks agree on it here, as every rank ends in an agree()).
+bool reportsFailure() {
+  if (gRanks == nullptr || gRanks->size() < 2) return true;
+  if (gRanks->failureShared()) return gRanks->rank() == 0;
+  const int lowest = gRanks->agree(false);
+  gRanks->setFailureShared();
+  return lowest == gRanks->rank();
+}
+
 int runExtract(const ExtractArgs& args) {
+  // Under mpirun every rank runs this function with the same arguments; rank 0 alone writes the
+  // outputs and prints, and the others extract their slabs for it (runPipeline).
+  const bool primary = gRanks == nullptr || gRanks->rank() == 0;
   const auto method = parseMethod(args.method);
   if (!method)
     throw UsageError(
@@ -435,14 +454,14 @@ int runExtract(const ExtractArgs& args) {
     n = cli::withFlags(n);
     if (n.rfind("warning: ", 0) == 0) {
       warnings.push_back(n.substr(9));
-      printWarning(warnings.back());
-    } else if (!args.quiet) {
+      if (primary) printWarning(warnings.back());
+    } else if (!args.quiet && primary) {
       std::fprintf(stderr, "isoslab: %s\n", n.c_str());
     }
   }
   if (!args.roi.empty()) source = cropToRoi(std::move(source), args, roi.emplace());
   const IsoChoice isoChoice = chooseIsoValue(args, source, roi ? &*roi : nullptr);
-  if (!isoChoice.note.empty() && !args.quiet)
+  if (!isoChoice.note.empty() && !args.quiet && primary)
     std::fprintf(stderr, "isoslab: %s\n", cli::withFlags(isoChoice.note).c_str());
   const VolumeInfo info = source->info();  // a copy: a component filter reopens the source
   const double iso = isoChoice.value;
@@ -473,7 +492,8 @@ int runExtract(const ExtractArgs& args) {
   // The mesh and the report appear together or not at all: both are completed under temporary
   // names, and renamed into place only once the report is written.
   CommitGroup outputs;
-  auto writer = makeMeshWriter(args.output, writerOptions);
+  std::unique_ptr<MeshFileSink> writer;
+  if (primary) writer = makeMeshWriter(args.output, writerOptions);
   std::optional<Sphere> sphere = phantomSphere(info);
   if (!args.sphere.empty()) sphere = parseSphere(args.sphere);
   ExtractOptions options;
@@ -491,7 +511,8 @@ int runExtract(const ExtractArgs& args) {
   // and value range stay the volume's own).
   if (args.closeBoundary) source = std::make_unique<PadSource>(std::move(source));
   PipelineOptions pipelineOptions;
-  pipelineOptions.progress = !args.quiet;
+  pipelineOptions.progress = !args.quiet && primary;
+  pipelineOptions.ranks = gRanks;
   pipelineOptions.threads = threads;
   pipelineOptions.maxThreadBytes = budget / 2;
   if (args.sequentialVoxels >= 0) pipelineOptions.sequentialVoxels = args.sequentialVoxels;
@@ -524,7 +545,8 @@ int runExtract(const ExtractArgs& args) {
 
   MeshStatsSink stats;
   std::optional<SphereErrorSink> sphereErrors;
-  std::vector<MeshSink*> sinks{writer.get(), &stats};
+  std::vector<MeshSink*> sinks{&stats};
+  if (writer) sinks.insert(sinks.begin(), writer.get());
   // The report lists the connected components (memory: the live front and the components); with
   // filters, those of the first pass.
   if (!args.report.empty() && !rules.any()) sinks.push_back(&components.emplace());
@@ -567,7 +589,7 @@ int runExtract(const ExtractArgs& args) {
   }
   if (rules.any()) target = &filter.emplace(*target, std::move(keepPart));
   const PipelineResult run = runPipeline(*source, *extractor, *target, header, pipelineOptions);
-  if (preview) {
+  if (preview && primary) {
     const render::Image image = preview->image();
     writePng(args.preview, image.width, image.height, image.rgb);
   }
@@ -575,9 +597,11 @@ int runExtract(const ExtractArgs& args) {
   const std::size_t readerWarnings = warnings.size();
   for (std::string& w : source->warnings()) warnings.push_back(std::move(w));
   if (auto w = emptySurfaceWarning(iso, isoName, run.valueRange, s.triangles)) warnings.push_back(*w);
-  for (std::size_t n = readerWarnings; n < warnings.size(); ++n) printWarning(warnings[n]);
+  if (primary) {
+    for (std::size_t n = readerWarnings; n < warnings.size(); ++n) printWarning(warnings[n]);
+  }
 
-  if (!args.report.empty()) {
+  if (!args.report.empty() && primary) {
     nlohmann::ordered_json r;
     r["generator"] = fmt::format("isoslab {}", kVersion);
     r["input"] =
@@ -670,7 +694,15 @@ int runExtract(const ExtractArgs& args) {
   }
   throwIfInterrupted();
   outputs.commit();
-  if (!args.quiet) {
+  // Every rank ends here together: a rank that failed after the last extraction (rank 0 writing
+  // the report) tells the others.
+  if (gRanks != nullptr && gRanks->size() > 1) {
+    if (const int failed = gRanks->agree(true); failed >= 0) {
+      gRanks->setFailureShared();
+      throw RankFailed(failed);
+    }
+  }
+  if (!args.quiet && primary) {
     std::fprintf(stderr, "isoslab: %s at iso %g%s: %llu triangles, %llu vertices, %s, %.2f s -> %s\n",
                  header.method.c_str(), iso,
                  args.iso.empty() ? " (the input's suggestion)"
@@ -1284,7 +1316,13 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  // Under mpirun, extract joins the other ranks (MPI is finalised when `ranks` goes).
+  std::unique_ptr<RankGroup> ranks;
   try {
+    if (*extract) {
+      ranks = cli::joinRanks();
+      gRanks = ranks.get();
+    }
     if (*extract) return runExtract(ex);
     if (*info) return runInfo(infoInputs, infoRaw, infoHistogram ? infoBins : 0);
     if (*phantom) return runPhantom(phantomSpec, phantomOut, phantomCompress);
@@ -1293,21 +1331,23 @@ int main(int argc, char** argv) {
     if (*viewCmd) return cli::runView(viewInput, viewReport, viewPage);
     if (*metrics) return runMetrics(metricsInput, metricsSphere, metricsReport);
     if (*compare) return runCompare(cmp);
+  } catch (const RankFailed&) {
+    return 1;  // the rank that failed, or rank 0, printed why
   } catch (const UsageError& e) {
-    printError(e.what());
+    if (reportsFailure()) printError(e.what());
     return 2;
   } catch (const Interrupted& e) {
     // Unwinding has joined the threads and removed every temporary file.
     std::fprintf(stderr, "%sisoslab: interrupted by SIG%s\n", ex.quiet ? "" : "\n", sigabbrev_np(e.signal()));
     return 128 + e.signal();
   } catch (const Error& e) {
-    printError(e.what());
+    if (reportsFailure()) printError(e.what());
     return 1;
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "isoslab: error: out of memory\n");
+    if (reportsFailure()) std::fprintf(stderr, "isoslab: error: out of memory\n");
     return 1;
   } catch (const std::exception& e) {
-    printError(e.what());
+    if (reportsFailure()) printError(e.what());
     return 1;
   }
   return 0;

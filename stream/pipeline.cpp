@@ -5,9 +5,13 @@
 #include <algorithm>
 #include <atomic>
 #include <cassert>
+#include <cerrno>
 #include <chrono>
 #include <condition_variable>
+#include <cstdio>
+#include <cstring>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -19,6 +23,7 @@
 #include "extract/slab_stitcher.h"
 #include "io/interrupt.h"
 #include "stream/progress.h"
+#include "stream/rank_group.h"
 #include "stream/slab_ring.h"
 #include "stream/value_range.h"
 
@@ -57,6 +62,14 @@ class SliceFeed {
 
   const ValueRange& range() const noexcept { return range_; }
 
+  /// Moves past the first n slices without reading them (a rank that starts higher up).
+  void skip(std::int64_t n) {
+    if (n > 0 && source_.skipSlices(n) != n) {
+      throw Error(
+          fmt::format("{}: the data ended before slice {} of {}", source_.info().source, n, source_.info().dims[2]));
+    }
+  }
+
  private:
   SliceSource& source_;
   bool trackRange_;
@@ -74,17 +87,25 @@ class SliceFeed {
 // keeps its chunks' buffers for the run that takes the place next.
 class PipelineRun {
  public:
-  PipelineRun(SliceSource& source, Extractor& extractor, MeshSink& sink, const PipelineOptions& options)
+  /// `range`: the slabs to extract (a rank's); `partOut`, if set, takes each run's part in slab
+  /// order instead of the stitcher and the sink (a rank above 0). Either forces the staged path,
+  /// whose runs can start anywhere.
+  PipelineRun(SliceSource& source, Extractor& extractor, MeshSink& sink, const PipelineOptions& options,
+              std::optional<SlabRange> range = std::nullopt, std::function<void(SlabPart&)> partOut = {})
       : info_(source.info()),
         extractor_(extractor),
         sink_(sink),
         below_(extractor.slicesBelow()),
         above_(extractor.slicesAbove()),
-        plan_(planThreads(info_, source.lendsSlices(), 3 * extractor.sliceSlots() * sizeof(VertexId), options)),
+        range_(range.value_or(SlabRange{0, info_.dims[2] - 1})),
+        ranged_(range.has_value()),
+        partOut_(std::move(partOut)),
+        plan_(stagedPlan(info_, source.lendsSlices(), 3 * extractor.sliceSlots() * sizeof(VertexId), options,
+                         range.has_value())),
         // Slab z needs slices z - below .. z + 1 + above; the runs in flight need their slabs' too.
         ring_(info_.sliceVoxels(), below_ + 1 + above_ + inFlightSlabs()),
-        progress_("extract", info_.dims[2] - 1, options.progress),
-        feed_(source, !threaded()),
+        progress_("extract", info_.dims[2] - 1, options.progress && !partOut_),
+        feed_(source, !staged()),
         runTriangles_(std::max<std::int64_t>(1, options.runTriangles)) {
     result_.ringBytes = ring_.bytes();
     result_.workers = plan_.workers;
@@ -92,7 +113,8 @@ class PipelineRun {
   }
 
   PipelineResult& result() noexcept { return result_; }
-  bool threaded() const noexcept { return plan_.workers > 1; }
+  /// Through the load / extract / emit stages: with threads, or for a rank's range.
+  bool staged() const noexcept { return plan_.workers > 1 || ranged_; }
   void finishProgress() { progress_.finish(); }
 
   void runSequential() {
@@ -116,8 +138,14 @@ class PipelineRun {
   }
 
   void runThreaded() {
+    // A rank's range starts at its first slab, whose slices start `below_` lower.
+    const std::int64_t skip = std::max<std::int64_t>(0, range_.first - below_);
+    feed_.skip(skip);
+    slicesRead_ = skip;
+    nextSlab_ = range_.first;
+    emittedSlabs_ = range_.first;
     places_.resize(static_cast<std::size_t>(plan_.runsInFlight));
-    stitcher_.emplace(extractor_.sliceSlots());
+    startStitching();
     std::vector<std::unique_ptr<SlabWorker>> workers;
     for (int w = 0; w < plan_.workers; ++w) workers.push_back(extractor_.makeWorker());
     std::vector<std::thread> threads;
@@ -133,8 +161,30 @@ class PipelineRun {
 
   /// The value range of every slice read.
   std::optional<std::array<double, 2>> valueRange() {
-    range_.merge(feed_.range());
-    return range_.range();
+    values_.merge(feed_.range());
+    return values_.range();
+  }
+  ValueRange& values() noexcept { return values_; }
+  void startStitching() {
+    if (!stitcher_) stitcher_.emplace(extractor_.sliceSlots());
+  }
+
+  // The emitting stage: stitches a run's chunks and hands them to the sink (or hands the run to
+  // partOut_). Returns its triangles. Rank 0 also calls it with the other ranks' runs.
+  std::int64_t emitRun(SlabPart& part) {
+    std::uint64_t triangles = 0;
+    for (const MeshChunk& chunk : part.chunks) triangles += chunk.triangles.size();
+    if (partOut_) {
+      partOut_(part);
+      return static_cast<std::int64_t>(triangles);
+    }
+    try {
+      stitcher_->stitch(part);
+    } catch (const Error& e) {
+      throw Error(fmt::format("{}: {}", info_.source, e.what()));
+    }
+    for (MeshChunk& chunk : part.chunks) emit(chunk);
+    return static_cast<std::int64_t>(triangles);
   }
 
  private:
@@ -145,8 +195,23 @@ class PipelineRun {
     SlabPart part;
   };
 
-  std::int64_t slabs() const noexcept { return info_.dims[2] - 1; }
-  int inFlightSlabs() const noexcept { return threaded() ? plan_.runsInFlight * static_cast<int>(plan_.runSlabs) : 1; }
+  // The end of the slabs this run extracts (the volume's last slab + 1 without ranks).
+  std::int64_t slabs() const noexcept { return range_.end; }
+  int inFlightSlabs() const noexcept { return staged() ? plan_.runsInFlight * static_cast<int>(plan_.runSlabs) : 1; }
+
+  // planThreads, and for a rank's range (ranged) a staged plan even on one thread: runs of about
+  // options.runVoxels, one in flight.
+  static ThreadPlan stagedPlan(const VolumeInfo& info, bool lends, std::size_t cacheBytes,
+                               const PipelineOptions& options, bool ranged) {
+    ThreadPlan plan = planThreads(info, lends, cacheBytes, options);
+    if (ranged && plan.workers == 1) {
+      const std::int64_t sliceVoxels = std::max<std::int64_t>(1, info.sliceVoxels());
+      plan.runSlabs =
+          std::max<std::int64_t>(1, (std::max<std::int64_t>(1, options.runVoxels) + sliceVoxels - 1) / sliceVoxels);
+      plan.runsInFlight = 1;
+    }
+    return plan;
+  }
   Place& placeOf(std::int64_t run) noexcept { return places_[static_cast<std::size_t>(run) % places_.size()]; }
 
   // One thread's part: until every run is emitted, or something failed.
@@ -198,7 +263,7 @@ class PipelineRun {
         lock.lock();
         if (!extracted) break;
         result_.extractSeconds += took;
-        range_.merge(range);
+        values_.merge(range);
         place.index = run;
         place.extracted = true;
         ready_.notify_all();
@@ -245,21 +310,6 @@ class PipelineRun {
     }
   }
 
-  // The emitting stage: stitches a run's chunks and hands them to the sink.
-  std::int64_t emitRun(SlabPart& part) {
-    try {
-      stitcher_->stitch(part);
-    } catch (const Error& e) {
-      throw Error(fmt::format("{}: {}", info_.source, e.what()));
-    }
-    std::uint64_t triangles = 0;
-    for (MeshChunk& chunk : part.chunks) {
-      triangles += chunk.triangles.size();
-      emit(chunk);
-    }
-    return static_cast<std::int64_t>(triangles);
-  }
-
   // Reads the slices slab z needs.
   void load(std::int64_t z) {
     const std::int64_t nz = info_.dims[2];
@@ -297,6 +347,9 @@ class PipelineRun {
   MeshSink& sink_;
   int below_;
   int above_;
+  SlabRange range_;
+  bool ranged_ = false;
+  std::function<void(SlabPart&)> partOut_;
   ThreadPlan plan_;
   SlabRing ring_;
   PipelineResult result_;
@@ -319,7 +372,7 @@ class PipelineRun {
   bool emitting_ = false;
   std::vector<Place> places_;
   std::optional<SlabStitcher> stitcher_;
-  ValueRange range_;          // of the slices the workers read
+  ValueRange values_;         // of the slices the workers read
   std::exception_ptr error_;  // the first failure
 };
 
@@ -353,15 +406,330 @@ ThreadPlan planThreads(const VolumeInfo& info, bool lends, std::size_t cacheByte
   return plan;
 }
 
+namespace {
+
+class NullSink final : public MeshSink {
+ public:
+  void begin(const MeshHeader&) override {}
+  void consume(const MeshChunk&) override {}
+  void finish() override {}
+};
+
+// Ranks' messages (rank_group.h): a run, the end of a rank's runs, a rank's failure; rank 0's outcome.
+enum class Message : std::uint8_t { kPart = 'P', kEnd = 'E', kFailed = 'X', kOk = 'O', kStop = 'F' };
+
+// Messages in the machine's own byte order (the ranks run one build on one kind of machine).
+class MessageWriter {
+ public:
+  explicit MessageWriter(Message type) { put(static_cast<std::uint8_t>(type)); }
+  template <typename T>
+  void put(const T& value) {
+    const auto* p = reinterpret_cast<const std::byte*>(&value);
+    bytes_.insert(bytes_.end(), p, p + sizeof(T));
+  }
+  template <typename T>
+  void putVector(const std::vector<T>& values) {
+    put(static_cast<std::uint64_t>(values.size()));
+    const auto* p = reinterpret_cast<const std::byte*>(values.data());
+    bytes_.insert(bytes_.end(), p, p + values.size() * sizeof(T));
+  }
+  void putString(const std::string& text) {
+    put(static_cast<std::uint64_t>(text.size()));
+    const auto* p = reinterpret_cast<const std::byte*>(text.data());
+    bytes_.insert(bytes_.end(), p, p + text.size());
+  }
+  std::vector<std::byte>& bytes() noexcept { return bytes_; }
+
+ private:
+  std::vector<std::byte> bytes_;
+};
+
+class MessageReader {
+ public:
+  explicit MessageReader(std::span<const std::byte> bytes) : bytes_(bytes) {}
+  Message type() { return static_cast<Message>(get<std::uint8_t>()); }
+  template <typename T>
+  T get() {
+    T value;
+    take(&value, sizeof(T));
+    return value;
+  }
+  template <typename T>
+  void getVector(std::vector<T>& values) {
+    const auto n = get<std::uint64_t>();
+    if (n > (bytes_.size() - at_) / sizeof(T)) throw Error("a rank's message is truncated");
+    values.resize(static_cast<std::size_t>(n));
+    take(values.data(), values.size() * sizeof(T));
+  }
+  std::string getString() {
+    std::vector<char> text;
+    getVector(text);
+    return {text.begin(), text.end()};
+  }
+
+ private:
+  void take(void* out, std::size_t n) {
+    if (n > bytes_.size() - at_) throw Error("a rank's message is truncated");
+    if (n > 0) std::memcpy(out, bytes_.data() + at_, n);
+    at_ += n;
+  }
+  std::span<const std::byte> bytes_;
+  std::size_t at_ = 0;
+};
+
+void writePart(MessageWriter& w, const SlabPart& part) {
+  w.put(static_cast<std::uint64_t>(part.chunks.size()));
+  for (const MeshChunk& c : part.chunks) {
+    w.put(c.slab);
+    w.put(c.cellVolume);
+    w.putVector(c.positions);
+    w.putVector(c.normals);
+    w.putVector(c.boundary);
+    w.putVector(c.triangles);
+  }
+  w.putVector(part.foreign);
+  w.put(static_cast<std::uint64_t>(part.top.size()));
+  for (const auto& [slot, id] : part.top) {
+    w.put(slot);
+    w.put(id);
+  }
+}
+
+void readPart(MessageReader& r, SlabPart& part) {
+  const auto chunks = r.get<std::uint64_t>();
+  if (chunks > (std::uint64_t{1} << 32)) throw Error("a rank's message is malformed");
+  part.chunks.resize(static_cast<std::size_t>(chunks));
+  for (MeshChunk& c : part.chunks) {
+    c.slab = r.get<std::int64_t>();
+    c.firstVertex = 0;
+    c.cellVolume = r.get<double>();
+    r.getVector(c.positions);
+    r.getVector(c.normals);
+    r.getVector(c.boundary);
+    r.getVector(c.triangles);
+  }
+  r.getVector(part.foreign);
+  const auto top = r.get<std::uint64_t>();
+  part.top.clear();
+  for (std::uint64_t k = 0; k < top; ++k) {
+    const auto slot = r.get<CacheSlot>();
+    const auto id = r.get<LocalVertex>();
+    part.top.emplace_back(slot, id);
+  }
+}
+
+// A rank's runs between extracting and sending: length-prefixed messages in a temporary file
+// (removed when closed), so that a rank holds one run at a time, however many it extracts.
+class PartSpool {
+ public:
+  PartSpool() : file_(std::tmpfile()) {
+    if (file_ == nullptr) throw Error(fmt::format("cannot create a temporary file: {}", std::strerror(errno)));
+  }
+  PartSpool(const PartSpool&) = delete;
+  PartSpool& operator=(const PartSpool&) = delete;
+  ~PartSpool() { std::fclose(file_); }
+
+  void add(std::span<const std::byte> message) {
+    const auto n = static_cast<std::uint64_t>(message.size());
+    if (std::fwrite(&n, sizeof n, 1, file_) != 1 ||
+        std::fwrite(message.data(), 1, message.size(), file_) != message.size()) {
+      throw Error(fmt::format("cannot write a temporary file: {}", std::strerror(errno)));
+    }
+    ++count_;
+  }
+  /// Calls fn with each message, in the order added.
+  void replay(const std::function<void(std::span<const std::byte>)>& fn) {
+    if (std::fflush(file_) != 0 || std::fseek(file_, 0, SEEK_SET) != 0) {
+      throw Error(fmt::format("cannot read a temporary file: {}", std::strerror(errno)));
+    }
+    std::vector<std::byte> message;
+    for (std::int64_t k = 0; k < count_; ++k) {
+      std::uint64_t n = 0;
+      if (std::fread(&n, sizeof n, 1, file_) != 1) throw Error("cannot read a temporary file: it is short");
+      message.resize(static_cast<std::size_t>(n));
+      if (std::fread(message.data(), 1, message.size(), file_) != message.size()) {
+        throw Error("cannot read a temporary file: it is short");
+      }
+      fn(message);
+    }
+  }
+
+ private:
+  std::FILE* file_;
+  std::int64_t count_ = 0;
+};
+
+std::string messageOf(const std::exception_ptr& e) {
+  try {
+    std::rethrow_exception(e);
+  } catch (const std::bad_alloc&) {
+    return "out of memory";
+  } catch (const std::exception& x) {
+    return x.what();
+  }
+}
+
+// A rank above 0: extracts its range into the spool, sends it to rank 0, and learns the outcome.
+PipelineResult runRank(RankGroup& group, SliceSource& source, Extractor& extractor, const PipelineOptions& options) {
+  const auto start = Clock::now();
+  std::exception_ptr error;
+  std::optional<PartSpool> spool;
+  NullSink none;
+  PipelineResult result;
+  ValueRange values;
+  try {
+    spool.emplace();
+    const SlabRange range = rankSlabs(source.info().dims[2] - 1, group.rank(), group.size());
+    PipelineRun run(source, extractor, none, options, range, [&](SlabPart& part) {
+      MessageWriter w(Message::kPart);
+      writePart(w, part);
+      spool->add(w.bytes());
+    });
+    if (range.end > range.first) run.runThreaded();
+    run.valueRange();
+    values = run.values();
+    result = run.result();
+  } catch (...) {
+    error = std::current_exception();
+  }
+  if (!error) {
+    try {
+      spool->replay([&](std::span<const std::byte> m) { group.send(0, m); });
+    } catch (...) {
+      error = std::current_exception();
+    }
+  }
+  spool.reset();
+  MessageWriter last(error ? Message::kFailed : Message::kEnd);
+  if (error) {
+    last.putString(messageOf(error));
+  } else {
+    const auto r = values.range();
+    last.put(static_cast<std::uint8_t>(r.has_value()));
+    last.put(static_cast<float>(r ? (*r)[0] : 0.0));  // floats' bounds: exact
+    last.put(static_cast<float>(r ? (*r)[1] : 0.0));
+    last.put(result.readSeconds);
+    last.put(result.extractSeconds);
+  }
+  group.send(0, last.bytes());
+  const std::vector<std::byte> outcome = group.receive(0);
+  MessageReader r(outcome);
+  if (r.type() != Message::kOk) {
+    group.setFailureShared();
+    throw RankFailed(r.get<std::int32_t>());
+  }
+  result.totalSeconds = since(start);
+  return result;
+}
+
+// Rank 0: extracts and emits its own range, then the other ranks' runs in rank order, and tells
+// every rank the outcome. The first failure (its own, or the lowest rank's) is the one reported.
+PipelineResult runRankZero(RankGroup& group, SliceSource& source, Extractor& extractor, MeshSink& sink,
+                           const MeshHeader& header, const PipelineOptions& options) {
+  const auto start = Clock::now();
+  const SlabRange range = rankSlabs(source.info().dims[2] - 1, 0, group.size());
+  std::exception_ptr error;
+  std::int32_t failedRank = -1;
+  std::optional<PipelineRun> run;
+  auto attempt = [&](auto&& fn) {
+    if (error) return;
+    try {
+      fn();
+    } catch (...) {
+      error = std::current_exception();
+      failedRank = 0;
+    }
+  };
+  attempt([&] {
+    run.emplace(source, extractor, sink, options, range);
+    auto t = Clock::now();
+    sink.begin(header);
+    run->result().writeSeconds += since(t);
+    run->startStitching();
+    if (range.end > range.first) run->runThreaded();
+  });
+  SlabPart part;
+  for (int q = 1; q < group.size(); ++q) {
+    for (bool more = true; more;) {
+      const std::vector<std::byte> m = group.receive(q);
+      MessageReader r(m);
+      switch (r.type()) {
+        case Message::kPart:
+          attempt([&] {
+            readPart(r, part);
+            run->emitRun(part);
+          });
+          break;
+        case Message::kEnd:
+          attempt([&] {
+            const bool hasRange = r.get<std::uint8_t>() != 0;
+            const std::array<float, 2> bounds{r.get<float>(), r.get<float>()};
+            if (hasRange) run->values().add(bounds.data(), 2);
+            run->result().readSeconds += r.get<double>();
+            run->result().extractSeconds += r.get<double>();
+          });
+          more = false;
+          break;
+        case Message::kFailed:
+          if (!error) {
+            error = std::make_exception_ptr(Error(r.getString()));
+            failedRank = q;
+          }
+          more = false;
+          break;
+        default:
+          attempt([&] { throw Error(fmt::format("rank {} sent a message that is not part of the protocol", q)); });
+          more = false;
+      }
+    }
+  }
+  attempt([&] {
+    run->result().valueRange = run->valueRange();
+    const auto t = Clock::now();
+    sink.finish();
+    run->result().writeSeconds += since(t);
+  });
+  for (int q = 1; q < group.size(); ++q) {
+    MessageWriter w(error ? Message::kStop : Message::kOk);
+    w.put(failedRank);
+    group.send(q, w.bytes());
+  }
+  if (error) {
+    group.setFailureShared();
+    std::rethrow_exception(error);
+  }
+  run->finishProgress();
+  PipelineResult result = run->result();
+  result.totalSeconds = since(start);
+  return result;
+}
+
+}  // namespace
+
+SlabRange rankSlabs(std::int64_t slabs, int rank, int ranks) noexcept {
+  const std::int64_t n = std::max(1, ranks);
+  auto at = [&](std::int64_t r) { return slabs * r / n; };
+  return {at(rank), at(rank + 1)};
+}
+
 PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& sink, const MeshHeader& header,
                            const PipelineOptions& options) {
+  if (options.ranks != nullptr && options.ranks->size() > 1) {
+    RankGroup& group = *options.ranks;
+    if (const int failed = group.agree(true); failed >= 0) {
+      group.setFailureShared();
+      throw RankFailed(failed);
+    }
+    if (group.rank() > 0) return runRank(group, source, extractor, options);
+    return runRankZero(group, source, extractor, sink, header, options);
+  }
   const auto start = Clock::now();
   PipelineRun run(source, extractor, sink, options);
   PipelineResult& result = run.result();
   auto t = Clock::now();
   sink.begin(header);
   result.writeSeconds += since(t);
-  if (run.threaded()) {
+  if (run.staged()) {
     run.runThreaded();
   } else {
     run.runSequential();

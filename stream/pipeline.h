@@ -14,6 +14,8 @@
 
 namespace isoslab {
 
+class RankGroup;
+
 struct PipelineOptions {
   /// Show a progress line on stderr (only if stderr is a terminal and the run is long).
   bool progress = false;
@@ -36,6 +38,11 @@ struct PipelineOptions {
   /// more than this many: the runs in flight keep their chunks' buffers, so this bounds their
   /// memory on dense surfaces (foams). The output does not depend on it.
   std::int64_t runTriangles = std::int64_t{1} << 17;
+  /// Processes that share the run (stream/rank_group.h; not owned): with more than one, each rank
+  /// extracts its range of slabs (rankSlabs) with its own threads, and rank 0 stitches them and
+  /// feeds `sink`; the other ranks' sinks get nothing. Every rank calls runPipeline() with the
+  /// same source and options. The output is the same for every number of ranks.
+  RankGroup* ranks = nullptr;
 };
 
 /// How a threaded pipeline divides the work.
