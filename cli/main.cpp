@@ -681,6 +681,7 @@ int runExtract(const ExtractArgs& args) {
                     {"write", run.writeSeconds},
                     {"total", run.totalSeconds + firstPassSeconds}};
     if (rules.any()) r["seconds"]["component_pass"] = firstPassSeconds;
+    if (gRanks != nullptr && gRanks->size() > 1) r["ranks"] = gRanks->size();
     r["ring_bytes"] = run.ringBytes;
     r["peak_rss_mib"] = peakRssMib();
     nlohmann::ordered_json output = {{"path", args.output}, {"bytes", writer->bytes()}};

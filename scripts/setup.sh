@@ -12,6 +12,8 @@ packages=(
   # Peers for bench/topology.py (scikit-image's Lewiner MC33, the DICOM read by pydicom).
   python3-skimage python3-pydicom
   clang libclang-rt-14-dev
+  # isoslab extract under mpirun (issue 20).
+  libopenmpi-dev openmpi-bin
   chromium
 )
 # Node.js runs the real glTF clients in the tests; use the machine's own when it has one.

@@ -1,0 +1,167 @@
+// `isoslab extract` under mpirun (issue 20): every number of ranks gives the bytes of one process,
+// and a rank that fails stops every rank with one line and no output. The ranks run as root in
+// CI, hence --allow-run-as-root; -q keeps mpirun's own banners off stderr, so that stderr is
+// isoslab's alone. ASan's leak check is off for the ranks: Open MPI keeps memory until exit.
+// orte_abort_on_non_zero_status 0 lets every rank end by itself (mpirun otherwise kills the rest
+// when the first exits non-zero), so that each rank's exit status can be checked.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "test_support.h"
+
+namespace isoslab {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::runCli;
+using testing::slurp;
+
+#if defined(ISOSLAB_TEST_MPI)
+
+struct RanksResult {
+  int exitCode = -1;
+  std::string err;
+  std::vector<int> rankCodes;  // each rank's own exit status, by rank
+};
+
+// `isoslab ARGS` on `ranks` MPI ranks; each rank's exit status is recorded through a shell.
+// With `eachRank`, every rank runs to its end (then mpirun's own status is 0).
+RanksResult runRanks(int ranks, const std::string& args, bool eachRank = true) {
+  const std::string dir = testing::tempDir();
+  const std::string cmd = fmt::format(
+      "ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 timeout 300 {} -q --allow-run-as-root --oversubscribe {} -np {} "
+      "sh -c '\"$0\" \"$@\"; rc=$?; echo $rc > {}/rc.$OMPI_COMM_WORLD_RANK; exit $rc' {} {} 2>{}/stderr </dev/null "
+      ">/dev/null",
+      ISOSLAB_MPIEXEC, eachRank ? "--mca orte_abort_on_non_zero_status 0" : "", ranks, dir, ISOSLAB_CLI_PATH, args,
+      dir);
+  const int status = std::system(cmd.c_str());
+  RanksResult r;
+  r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.err = slurp(dir + "/stderr");
+  for (int k = 0; k < ranks; ++k) {
+    const std::string code = slurp(fmt::format("{}/rc.{}", dir, k));
+    r.rankCodes.push_back(code.empty() ? -1 : std::stoi(code));
+  }
+  fs::remove_all(dir);
+  return r;
+}
+
+// Every method, .ply and .glb, on 1, 2 and 3 ranks of a noisy phantom (40 slices: ranges of 39,
+// 19 + 20, 13 + 13 + 13 slabs), against one process; and with threads inside the ranks.
+TEST(Mpi, EveryNumberOfRanksWritesTheBytesOfOneProcess) {
+  const std::string dir = testing::tempDir();
+  const std::string input = "'phantom:head?n=48,44,40&noise=60' --iso 0 --normals -q";
+  for (const Method m : testing::kAllMethods) {
+    const std::string method(methodName(m));
+    for (const std::string ext : {"ply", "glb"}) {
+      const std::string single = fmt::format("{}/{}.{}", dir, method, ext);
+      const auto one = runCli(fmt::format("extract {} --method {} -o {}", input, method, single));
+      ASSERT_EQ(one.exitCode, 0) << one.err;
+      const std::string expected = slurp(single);
+      ASSERT_FALSE(expected.empty());
+      for (const int ranks : {1, 2, 3}) {
+        const std::string out = fmt::format("{}/{}-{}.{}", dir, method, ranks, ext);
+        const auto r = runRanks(ranks, fmt::format("extract {} --method {} -o {}", input, method, out));
+        ASSERT_EQ(r.exitCode, 0) << method << " " << ranks << " ranks: " << r.err;
+        EXPECT_EQ(r.err, "");
+        EXPECT_TRUE(slurp(out) == expected) << method << " ." << ext << " on " << ranks << " ranks";
+      }
+    }
+  }
+  // Ranks with threads of their own, the caps, a report and a component filter (two passes).
+  const std::string options = "--method mt6 --threads 2 --sequential-voxels 0 --close-boundary --keep-largest 2";
+  const auto one = runCli(fmt::format("extract {} {} -o {}/f.glb --report {}/f.json", input, options, dir, dir));
+  ASSERT_EQ(one.exitCode, 0) << one.err;
+  const auto r = runRanks(3, fmt::format("extract {} {} -o {}/f3.glb --report {}/f3.json", input, options, dir, dir));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_TRUE(slurp(dir + "/f3.glb") == slurp(dir + "/f.glb"));
+  const std::string report = slurp(dir + "/f3.json");
+  EXPECT_NE(report.find("\"ranks\": 3"), std::string::npos) << report.substr(0, 400);
+}
+
+// The Philips series (140 slices, 1 mm) on two ranks: rank 1 reads only its own 70 files.
+TEST(Mpi, PhilipsSeriesOnTwoRanks) {
+  const std::string philips = testing::sharedData("ct-philips-head");
+  if (philips.empty()) GTEST_SKIP() << "../shared/data/ct-philips-head is absent";
+  const std::string dir = testing::tempDir();
+  for (const std::string ext : {"ply", "glb"}) {
+    const auto one = runCli(fmt::format("extract {} --iso 300 -q -o {}/one.{}", philips, dir, ext));
+    ASSERT_EQ(one.exitCode, 0) << one.err;
+    const auto r = runRanks(2, fmt::format("extract {} --iso 300 -q -o {}/two.{}", philips, dir, ext));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.err, "");
+    const std::string expected = slurp(fmt::format("{}/one.{}", dir, ext));
+    EXPECT_GT(expected.size(), 1000000u);
+    EXPECT_TRUE(slurp(fmt::format("{}/two.{}", dir, ext)) == expected) << ext;
+  }
+}
+
+// A corrupt slice in the last rank's range: every rank exits 1, stderr holds the one line that
+// one process prints for the same input (naming the file), and no output is left.
+TEST(Mpi, ARankThatFailsStopsEveryRank) {
+  const std::string dir = testing::tempDir();
+  // A gzip NIfTI cut at 70% of its bytes: the header and the low slices read, slice ~28 of 40 does not.
+  const auto w = runCli(fmt::format("phantom 'phantom:head?n=48,44,40&noise=60' -o {}/v.nii.gz", dir));
+  ASSERT_EQ(w.exitCode, 0) << w.err;
+  fs::resize_file(dir + "/v.nii.gz", fs::file_size(dir + "/v.nii.gz") * 7 / 10);
+  const auto one = runCli(fmt::format("extract {}/v.nii.gz --iso 0 -q -o {}/one.glb", dir, dir));
+  ASSERT_EQ(one.exitCode, 1);
+  ASSERT_NE(one.err.find(dir + "/v.nii.gz: "), std::string::npos) << one.err;
+  ASSERT_EQ(std::count(one.err.begin(), one.err.end(), '\n'), 1) << one.err;
+  for (const int ranks : {2, 3}) {
+    const auto r = runRanks(
+        ranks, fmt::format("extract {}/v.nii.gz --iso 0 -q -o {}/out.glb --report {}/out.json", dir, dir, dir));
+    EXPECT_EQ(r.err, one.err) << ranks << " ranks";
+    EXPECT_EQ(r.rankCodes, std::vector<int>(static_cast<std::size_t>(ranks), 1)) << ranks << " ranks";
+    EXPECT_FALSE(fs::exists(dir + "/out.glb"));
+    EXPECT_FALSE(fs::exists(dir + "/out.json"));
+    EXPECT_EQ(testing::fileCount(dir), 1) << "only v.nii.gz: no temporary file is left";
+  }
+  // mpirun as users run it: its status is non-zero.
+  const auto plain = runRanks(2, fmt::format("extract {}/v.nii.gz --iso 0 -q -o {}/out.glb", dir, dir), false);
+  EXPECT_NE(plain.exitCode, 0);
+  EXPECT_EQ(plain.err, one.err);
+
+  // A DICOM file of the Philips series cut short in its pixel data: I1210 is slice 120 of 140
+  // (the files' numbers follow z), in rank 1's range of two and rank 2's of three.
+  const std::string philips = testing::sharedData("ct-philips-head");
+  if (philips.empty()) GTEST_SKIP() << "../shared/data/ct-philips-head is absent";
+  const std::string series = dir + "/philips";
+  fs::copy(philips, series);
+  fs::resize_file(series + "/I1210", fs::file_size(series + "/I1210") - 200000);
+  const auto single = runCli(fmt::format("extract {} --iso 300 -q -o {}/p.glb", series, dir));
+  ASSERT_EQ(single.exitCode, 1);
+  ASSERT_EQ(single.err, fmt::format("isoslab: error: {}/I1210: not a readable DICOM file: I/O suspension or "
+                                    "premature end of stream\n",
+                                    series));
+  for (const int ranks : {2, 3}) {
+    const auto r = runRanks(ranks, fmt::format("extract {} --iso 300 -q -o {}/p.glb", series, dir));
+    EXPECT_EQ(r.err, single.err) << ranks << " ranks";
+    EXPECT_EQ(r.rankCodes, std::vector<int>(static_cast<std::size_t>(ranks), 1)) << ranks << " ranks";
+    EXPECT_FALSE(fs::exists(dir + "/p.glb"));
+  }
+}
+
+// An error that every rank meets before extracting (an unknown input) prints once.
+TEST(Mpi, AnErrorOfEveryRankPrintsOnce) {
+  const std::string dir = testing::tempDir();
+  const auto one = runCli(fmt::format("extract {}/missing.nii --iso 1 -q -o {}/o.ply", dir, dir));
+  ASSERT_EQ(one.exitCode, 1);
+  const auto r = runRanks(3, fmt::format("extract {}/missing.nii --iso 1 -q -o {}/o.ply", dir, dir));
+  EXPECT_EQ(r.err, one.err);
+  EXPECT_EQ(r.rankCodes, std::vector<int>(3, 1));
+}
+
+#else
+
+TEST(Mpi, EveryNumberOfRanksWritesTheBytesOfOneProcess) {
+  GTEST_SKIP() << "built without MPI (ISOSLAB_MPI)";
+}
+
+#endif
+
+}  // namespace
+}  // namespace isoslab
