@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "cli/arguments.h"
+#include "cli/batch.h"
 #include "cli/compare.h"
 #include "cli/mpi_group.h"
 #include "cli/render.h"
@@ -1240,6 +1241,25 @@ int main(int argc, char** argv) {
 
   addRawOptions(extract, ex.raw);
 
+  cli::BatchArgs bx;
+  auto* batch = app.add_subcommand(
+      "batch",
+      "Extract many inputs, one per line of LIST, each to OUT/NAME.FORMAT with OUT/NAME.json (also under mpirun)");
+  batch
+      ->add_option("LIST", bx.list,
+                   "A text file: one input per line; blank lines and lines starting with # are skipped")
+      ->required();
+  batch->add_option("EXTRACT_OPTIONS", bx.extract,
+                    "After --: options for every isoslab extract, e.g. -- --iso 300 --method mt6");
+  batch->add_option("--out", bx.out, "Folder for the meshes, their reports and batch.json (created)")->required();
+  batch->add_option("--format", bx.format, "The meshes' format: glb, drc, ply, stl or obj")
+      ->transform(oneOf("format", {"glb", "drc", "ply", "stl", "obj"}))
+      ->capture_default_str();
+  batch->add_option("--jobs", bx.jobs, "Extractions at once (per rank under mpirun)")
+      ->check(integerIn(1, 256))
+      ->capture_default_str();
+  batch->add_flag("-q,--quiet", bx.quiet, "No summary table on stdout");
+
   std::vector<std::string> infoInputs;
   RawArgs infoRaw;
   auto* info = app.add_subcommand("info", "Print a volume's geometry and value range; list DICOM series");
@@ -1320,11 +1340,12 @@ int main(int argc, char** argv) {
   // Under mpirun, extract joins the other ranks (MPI is finalised when `ranks` goes).
   std::unique_ptr<RankGroup> ranks;
   try {
-    if (*extract) {
+    if (*extract || *batch) {
       ranks = cli::joinRanks();
       gRanks = ranks.get();
     }
     if (*extract) return runExtract(ex);
+    if (*batch) return cli::runBatch(bx, gRanks != nullptr && gRanks->size() > 1 ? gRanks : nullptr);
     if (*info) return runInfo(infoInputs, infoRaw, infoHistogram ? infoBins : 0);
     if (*phantom) return runPhantom(phantomSpec, phantomOut, phantomCompress);
     if (*decode) return runDecode(decodeInput, decodeOutput);

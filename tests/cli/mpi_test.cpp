@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "test_support.h"
@@ -153,6 +154,27 @@ TEST(Mpi, AnErrorOfEveryRankPrintsOnce) {
   const auto r = runRanks(3, fmt::format("extract {}/missing.nii --iso 1 -q -o {}/o.ply", dir, dir));
   EXPECT_EQ(r.err, one.err);
   EXPECT_EQ(r.rankCodes, std::vector<int>(3, 1));
+}
+
+// isoslab batch over 3 ranks: rank r takes inputs r, r + 3, ...; rank 0 writes the summary. The
+// meshes are those of one process's batch, and one bad input fails alone.
+TEST(Mpi, BatchSpreadsTheInputsOverTheRanks) {
+  const std::string dir = testing::tempDir();
+  std::ofstream(dir + "/list.txt") << "phantom:head?n=24,20,16&noise=60\nphantom:sphere?n=20\n"
+                                   << dir << "/absent.nii\nphantom:torus?n=24\nphantom:box?n=20\n";
+  const auto one = runCli(fmt::format("batch {0}/list.txt --out {0}/one -q -- --iso 0 --method mc", dir));
+  ASSERT_EQ(one.exitCode, 1) << one.err;
+  const auto r = runRanks(3, fmt::format("batch {0}/list.txt --out {0}/three -q -- --iso 0 --method mc", dir));
+  EXPECT_EQ(r.rankCodes, std::vector<int>(3, 1));
+  EXPECT_EQ(r.err, fmt::format("isoslab: batch: 1 of 5 inputs failed ({}/three/batch.json)\n", dir));
+  for (const std::string name : {"head_n_24_20_16_noise_60", "sphere_n_20", "torus_n_24", "box_n_20"}) {
+    const std::string mesh = slurp(fmt::format("{}/one/{}.glb", dir, name));
+    EXPECT_FALSE(mesh.empty()) << name;
+    EXPECT_TRUE(slurp(fmt::format("{}/three/{}.glb", dir, name)) == mesh) << name;
+  }
+  const std::string summary = slurp(dir + "/three/batch.json");
+  EXPECT_NE(summary.find("\"ranks\": 3"), std::string::npos);
+  EXPECT_NE(summary.find("\"failed\": 1"), std::string::npos);
 }
 
 #else
