@@ -1,13 +1,20 @@
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <condition_variable>
+#include <deque>
 #include <limits>
+#include <map>
+#include <mutex>
 #include <new>
+#include <thread>
 
 #include "core/error.h"
 #include "extract/frame.h"
 #include "extract/slab_stitcher.h"
 #include "stream/pipeline.h"
+#include "stream/rank_group.h"
 #include "test_support.h"
 
 namespace isoslab {
@@ -155,8 +162,9 @@ class RecordingSink final : public MeshSink {
  public:
   void begin(const MeshHeader&) override {}
   void consume(const MeshChunk& c) override { chunks.push_back(c); }
-  void finish() override {}
+  void finish() override { finished = true; }
   std::vector<MeshChunk> chunks;
+  bool finished = false;
 };
 
 bool sameChunk(const MeshChunk& a, const MeshChunk& b) {
@@ -219,6 +227,174 @@ TEST(Pipeline, ThreadsDeliverTheSameChunks) {
         }
       }
     }
+  }
+}
+
+// Ranks as threads of one process (the protocol of stream/rank_group.h without MPI): a mailbox per
+// pair of ranks, and agree() as a reduction that every rank waits for.
+class ThreadRanks {
+ public:
+  explicit ThreadRanks(int size) : size_(size) {}
+
+  class Member final : public RankGroup {
+   public:
+    Member(ThreadRanks& all, int rank) : all_(all), rank_(rank) {}
+    int rank() const noexcept override { return rank_; }
+    int size() const noexcept override { return all_.size_; }
+    void send(int to, std::span<const std::byte> message) override {
+      std::lock_guard lock(all_.mutex_);
+      all_.boxes_[{rank_, to}].emplace_back(message.begin(), message.end());
+      all_.changed_.notify_all();
+    }
+    std::vector<std::byte> receive(int from) override {
+      std::unique_lock lock(all_.mutex_);
+      auto& box = all_.boxes_[{from, rank_}];
+      all_.changed_.wait(lock, [&] { return !box.empty(); });
+      std::vector<std::byte> m = std::move(box.front());
+      box.pop_front();
+      return m;
+    }
+    int agree(bool ok) override {
+      std::unique_lock lock(all_.mutex_);
+      const std::int64_t round = all_.round_;
+      if (!ok) all_.lowest_ = std::min(all_.lowest_, rank_);
+      if (++all_.arrived_ == all_.size_) {
+        all_.result_ = all_.lowest_ == std::numeric_limits<int>::max() ? -1 : all_.lowest_;
+        all_.arrived_ = 0;
+        all_.lowest_ = std::numeric_limits<int>::max();
+        ++all_.round_;
+        all_.changed_.notify_all();
+      } else {
+        all_.changed_.wait(lock, [&] { return all_.round_ != round; });
+      }
+      return all_.result_;
+    }
+
+   private:
+    ThreadRanks& all_;
+    int rank_;
+  };
+
+ private:
+  int size_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::map<std::pair<int, int>, std::deque<std::vector<std::byte>>> boxes_;
+  int arrived_ = 0;
+  int lowest_ = std::numeric_limits<int>::max();
+  int result_ = -1;
+  std::int64_t round_ = 0;
+};
+
+// A source whose slice `bad` cannot be read.
+class FailingSource final : public SliceSource {
+ public:
+  FailingSource(std::unique_ptr<SliceSource> inner, std::int64_t bad) : inner_(std::move(inner)), bad_(bad) {}
+  const VolumeInfo& info() const noexcept override { return inner_->info(); }
+  bool readSlice(std::span<float> slice) override {
+    if (next_++ == bad_) throw Error(fmt::format("slice{}.raw: cannot read: Input/output error", bad_));
+    return inner_->readSlice(slice);
+  }
+
+ private:
+  std::unique_ptr<SliceSource> inner_;
+  std::int64_t bad_;
+  std::int64_t next_ = 0;
+};
+
+float rankField(std::int64_t i, std::int64_t j, std::int64_t k) {
+  return static_cast<float>((i * 31 + j * 17 + k * 7) % 13);
+}
+
+// Every rank count (2, 3 and 5 ranks on 22 slabs; 30 ranks, more than slabs, so that some ranks
+// have none), with one and two threads a rank, gives rank 0's sink the chunks of one process; the
+// other ranks' sinks get nothing; the value range covers every rank's slices.
+TEST(Pipeline, RanksDeliverTheChunksOfOneProcess) {
+  for (Method m : testing::kAllMethods) {
+    ExtractOptions o;
+    o.method = m;
+    o.iso = 6;
+    o.normals = true;
+    testing::VectorSource whole({19, 17, 23}, rankField);
+    auto ex = makeExtractor(o, whole.info(), LatticeFrame::physical(whole.info()));
+    RecordingSink expected;
+    const PipelineResult single = runPipeline(whole, *ex, expected, MeshHeader{});
+    ASSERT_EQ(expected.chunks.size(), 22u);
+    for (const int size : {2, 3, 5, 30}) {
+      for (const int threads : {1, 2}) {
+        ThreadRanks all(size);
+        std::vector<RecordingSink> sinks(static_cast<std::size_t>(size));
+        std::vector<PipelineResult> results(static_cast<std::size_t>(size));
+        std::vector<std::thread> ranks;
+        for (int r = 0; r < size; ++r) {
+          ranks.emplace_back([&, r] {
+            ThreadRanks::Member me(all, r);
+            testing::VectorSource source({19, 17, 23}, rankField);
+            source.setLending(r % 2 == 1);
+            auto rex = makeExtractor(o, source.info(), LatticeFrame::physical(source.info()));
+            PipelineOptions p;
+            p.threads = threads;
+            p.sequentialVoxels = 0;
+            p.runVoxels = 2 * 19 * 17;
+            p.ranks = &me;
+            results[static_cast<std::size_t>(r)] =
+                runPipeline(source, *rex, sinks[static_cast<std::size_t>(r)], MeshHeader{}, p);
+          });
+        }
+        for (auto& t : ranks) t.join();
+        const std::string what = fmt::format("{} on {} ranks, {} threads", methodName(m), size, threads);
+        ASSERT_EQ(sinks[0].chunks.size(), 22u) << what;
+        for (std::size_t z = 0; z < 22; ++z)
+          EXPECT_TRUE(sameChunk(expected.chunks[z], sinks[0].chunks[z])) << what << " slab " << z;
+        for (std::size_t r = 1; r < sinks.size(); ++r) EXPECT_TRUE(sinks[r].chunks.empty()) << what;
+        EXPECT_EQ(results[0].vertices, single.vertices) << what;
+        EXPECT_EQ(results[0].triangles, single.triangles) << what;
+        EXPECT_EQ(results[0].valueRange, single.valueRange) << what;
+      }
+    }
+  }
+}
+
+// A slice that fails on one rank: rank 0 throws that rank's error, every other rank RankFailed,
+// and rank 0's sink is never finished.
+TEST(Pipeline, ARankThatFailsStopsEveryRank) {
+  for (const int bad : {1, 12, 22}) {  // rank 0's range, rank 1's, rank 2's (of 3)
+    ThreadRanks all(3);
+    std::vector<RecordingSink> sinks(3);
+    std::vector<std::string> errors(3);
+    std::vector<int> failedRank(3, -2);
+    std::vector<std::thread> ranks;
+    for (int r = 0; r < 3; ++r) {
+      ranks.emplace_back([&, r] {
+        ThreadRanks::Member me(all, r);
+        auto inner = std::make_unique<testing::VectorSource>(std::array<std::int64_t, 3>{19, 17, 23}, rankField);
+        FailingSource source(std::move(inner), bad);
+        ExtractOptions o;
+        o.iso = 6;
+        auto ex = makeExtractor(o, source.info(), LatticeFrame::physical(source.info()));
+        PipelineOptions p;
+        p.ranks = &me;
+        try {
+          runPipeline(source, *ex, sinks[static_cast<std::size_t>(r)], MeshHeader{}, p);
+        } catch (const RankFailed& e) {
+          failedRank[static_cast<std::size_t>(r)] = e.failedRank();
+          EXPECT_TRUE(me.failureShared());
+        } catch (const Error& e) {
+          errors[static_cast<std::size_t>(r)] = e.what();
+          EXPECT_TRUE(me.failureShared());
+        }
+      });
+    }
+    for (auto& t : ranks) t.join();
+    // Ranges of slabs 0..6, 7..13 and 14..21, reading slices up to 7, 14 and 22. The source skips by
+    // reading, so the higher ranks meet a low bad slice too; rank 0 reports the lowest rank's.
+    const int owner = bad <= 7 ? 0 : (bad <= 14 ? 1 : 2);
+    EXPECT_EQ(errors[0], fmt::format("slice{}.raw: cannot read: Input/output error", bad)) << "bad slice " << bad;
+    for (int r = 1; r < 3; ++r) {
+      EXPECT_EQ(failedRank[static_cast<std::size_t>(r)], owner) << "bad slice " << bad << " rank " << r;
+      EXPECT_EQ(errors[static_cast<std::size_t>(r)], "") << "bad slice " << bad << " rank " << r;
+    }
+    EXPECT_FALSE(sinks[0].finished) << "bad slice " << bad;
   }
 }
 
