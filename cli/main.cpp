@@ -12,6 +12,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -417,6 +418,21 @@ bool sameFile(const std::string& a, const std::string& b) {
   return ca == cb;
 }
 
+// --threads' default: the core count, at most 8; with ranks, divided among the ranks on this
+// machine (Open MPI's OMPI_COMM_WORLD_LOCAL_SIZE), so that N ranks on one machine use its cores once.
+int defaultThreads(bool ranked) {
+  unsigned cores = std::clamp(std::thread::hardware_concurrency(), 1u, 8u);
+  if (ranked) {
+    if (const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE")) {
+      const long n = std::strtol(local, nullptr, 10);
+      if (n > 0)
+        cores = std::max(1u, std::clamp(std::thread::hardware_concurrency(), 1u, 1024u) / static_cast<unsigned>(n));
+      cores = std::min(cores, 8u);
+    }
+  }
+  return static_cast<int>(cores);
+}
+
 // The ranks of an extraction under mpirun (cli/mpi_group.h), or nullptr.
 RankGroup* gRanks = nullptr;
 
@@ -472,8 +488,8 @@ int runExtract(const ExtractArgs& args) {
                                                : fmt::format("--iso {} ({})", args.iso, iso);
 
   const LatticeFrame frame = LatticeFrame::forSpace(info, args.space);
-  const int threads =
-      args.threads > 0 ? args.threads : static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 8u));
+  // The default: the cores, at most 8; under mpirun, the cores shared among this machine's ranks.
+  const int threads = args.threads > 0 ? args.threads : defaultThreads(gRanks != nullptr && gRanks->size() > 1);
   WriterOptions writerOptions;
   // With threads, the writer gathers chunks while others encode them: encoding then overlaps
   // everything else (it is the slowest stage). Each encoder holds about 200 bytes per triangle of
@@ -1039,7 +1055,8 @@ int main(int argc, char** argv) {
   extract->add_flag("-q,--quiet", ex.quiet, "No progress line, notes or summary on stderr (warnings still print)");
   extract
       ->add_option("--threads", ex.threads,
-                   "Threads (default: the core count, at most 8): N threads share reading, extracting and "
+                   "Threads (default: the core count, at most 8, shared among the ranks on a machine under mpirun): N "
+                   "threads share reading, extracting and "
                    "writing, and .glb chunks encode on up to N more, as --max-memory allows; volumes under "
                    "2^24 voxels take 1. The output is the same for every count")
       ->check(integerIn(1, kMaxThreads));
