@@ -168,7 +168,7 @@ TEST(Cli, UsageErrorsExitWithTwoAndOneLine) {
       {"extrct 'phantom:sphere?n=16'" + out, "unknown command 'extrct'; did you mean 'extract'?"},
       {"inf x", "unknown command 'inf'; did you mean 'info'?"},
       {"frobnicate",
-       "unknown command 'frobnicate' (use extract, metrics, compare, decode, render, view, info or phantom)"},
+       "unknown command 'frobnicate' (use extract, metrics, compare, decode, render, view, batch, info or phantom)"},
       {"--bogus", "A subcommand is required (see isoslab --help)"},
       {"info " + dir + "/v.raw --raw-dims 4,4,4 --spacing 1,nan,1",
        "--spacing: '1,nan,1' is not a comma-separated "
