@@ -14,6 +14,8 @@ packages=(
   clang libclang-rt-14-dev
   # isoslab extract under mpirun (issue 20).
   libopenmpi-dev openmpi-bin
+  # The Python module and its tests (issue 21).
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-scipy
   chromium
 )
 # Node.js runs the real glTF clients in the tests; use the machine's own when it has one.

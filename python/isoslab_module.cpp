@@ -1,0 +1,413 @@
+// isoslab._isoslab: the library from NumPy (issue 21). The Python package (python/isoslab/
+// __init__.py) gives the public functions and their argument checks; this module does the work,
+// with the GIL released while it extracts or reads.
+//
+// Axes: a C-ordered array volume[a0, a1, a2] is a lattice whose x (fastest) is a2, y is a1 and z
+// (the slices) is a0, so each volume[k] is one slice, lent in place when the array is float32 and
+// C-contiguous. Vertices come back in array index order (a0, a1, a2), as scikit-image gives them.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "encode/indexed_mesh.h"
+#include "extract/extractor.h"
+#include "extract/frame.h"
+#include "io/open_source.h"
+#include "metrics/components.h"
+#include "metrics/mesh_stats.h"
+#include "metrics/report.h"
+#include "metrics/sphere_metrics.h"
+#include "stream/pipeline.h"
+
+namespace py = pybind11;
+
+namespace isoslab {
+namespace {
+
+// A volume in a NumPy array of any real dtype and strides, as slices of float. The array's
+// buffer is read without the GIL (the caller keeps the array alive and unchanged).
+class ArraySource final : public SliceSource {
+ public:
+  explicit ArraySource(const py::array& a) {
+    if (a.ndim() != 3) throw py::value_error("volume must be a 3D array");
+    data_ = static_cast<const char*>(a.data());
+    for (int k = 0; k < 3; ++k) {
+      shape_[static_cast<std::size_t>(k)] = a.shape(k);
+      strides_[static_cast<std::size_t>(k)] = a.strides(k);
+    }
+    info_.dims = {shape_[2], shape_[1], shape_[0]};
+    info_.type = VoxelType::kF32;
+    info_.reader = "numpy";
+    info_.source = "volume";
+    const py::dtype dt = a.dtype();
+    kind_ = dt.kind();
+    itemsize_ = static_cast<int>(dt.itemsize());
+    if (!((kind_ == 'f' && (itemsize_ == 4 || itemsize_ == 8)) || kind_ == 'i' || kind_ == 'u' || kind_ == 'b')) {
+      throw py::value_error("volume must hold real numbers (bool, integer or floating point)");
+    }
+    if (!dt.attr("isnative").cast<bool>()) throw py::value_error("volume must be in the machine's byte order");
+    lends_ = kind_ == 'f' && itemsize_ == 4 && strides_[2] == 4 && strides_[1] == 4 * shape_[2] &&
+             strides_[0] == 4 * shape_[2] * shape_[1];
+  }
+
+  const VolumeInfo& info() const noexcept override { return info_; }
+  bool lendsSlices() const noexcept override { return lends_; }
+  const float* lendSlice() override {
+    if (next_ >= shape_[0]) return nullptr;
+    return reinterpret_cast<const float*>(data_ + strides_[0] * next_++);
+  }
+  bool readSlice(std::span<float> out) override {
+    if (next_ >= shape_[0]) return false;
+    const char* slice = data_ + strides_[0] * next_++;
+    std::size_t n = 0;
+    for (py::ssize_t j = 0; j < shape_[1]; ++j) {
+      const char* row = slice + strides_[1] * j;
+      for (py::ssize_t i = 0; i < shape_[2]; ++i) out[n++] = value(row + strides_[2] * i);
+    }
+    return true;
+  }
+  std::int64_t skipSlices(std::int64_t n) override {
+    const std::int64_t k = std::min<std::int64_t>(n, shape_[0] - next_);
+    next_ += k;
+    return k;
+  }
+  void rewind() noexcept { next_ = 0; }
+
+  // The smallest and largest value (NaN skipped); nothing if every value is NaN.
+  std::optional<std::array<double, 2>> range() const {
+    double lo = std::numeric_limits<double>::infinity();
+    double hi = -lo;
+    for (py::ssize_t k = 0; k < shape_[0]; ++k) {
+      for (py::ssize_t j = 0; j < shape_[1]; ++j) {
+        const char* row = data_ + strides_[0] * k + strides_[1] * j;
+        for (py::ssize_t i = 0; i < shape_[2]; ++i) {
+          const double v = value(row + strides_[2] * i);
+          lo = v < lo ? v : lo;
+          hi = v > hi ? v : hi;
+        }
+      }
+    }
+    if (lo > hi) return std::nullopt;
+    return std::array<double, 2>{lo, hi};
+  }
+
+  // The value at index (k, j, i) = (a0, a1, a2).
+  float at(std::int64_t k, std::int64_t j, std::int64_t i) const noexcept {
+    return value(data_ + strides_[0] * k + strides_[1] * j + strides_[2] * i);
+  }
+
+ private:
+  float value(const char* p) const noexcept {
+    switch (kind_) {
+      case 'f':
+        if (itemsize_ == 4) return load<float>(p);
+        return static_cast<float>(load<double>(p));
+      case 'b':
+        return static_cast<float>(load<std::uint8_t>(p) != 0);
+      case 'i':
+        switch (itemsize_) {
+          case 1:
+            return static_cast<float>(load<std::int8_t>(p));
+          case 2:
+            return static_cast<float>(load<std::int16_t>(p));
+          case 4:
+            return static_cast<float>(load<std::int32_t>(p));
+          default:
+            return static_cast<float>(load<std::int64_t>(p));
+        }
+      default:
+        switch (itemsize_) {
+          case 1:
+            return static_cast<float>(load<std::uint8_t>(p));
+          case 2:
+            return static_cast<float>(load<std::uint16_t>(p));
+          case 4:
+            return static_cast<float>(load<std::uint32_t>(p));
+          default:
+            return static_cast<float>(load<std::uint64_t>(p));
+        }
+    }
+  }
+  template <typename T>
+  static T load(const char* p) noexcept {
+    T v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+  }
+
+  VolumeInfo info_;
+  const char* data_ = nullptr;
+  std::array<py::ssize_t, 3> shape_{};
+  std::array<py::ssize_t, 3> strides_{};
+  char kind_ = 'f';
+  int itemsize_ = 4;
+  bool lends_ = false;
+  std::int64_t next_ = 0;
+};
+
+std::array<double, 2> volumeRange(const py::array& volume) {
+  ArraySource source(volume);
+  std::optional<std::array<double, 2>> r;
+  {
+    py::gil_scoped_release release;
+    r = source.range();
+  }
+  if (!r) return {std::nan(""), std::nan("")};
+  return *r;
+}
+
+// Per vertex, scikit-image's `values`: the largest span (max - min, with the iso value between)
+// of the values of a cell around the vertex. A vertex lies on a lattice edge or diagonal; its
+// cells are those whose closed box holds it (at most 8, for a vertex on a lattice point).
+std::vector<float> vertexValues(const ArraySource& source, const std::vector<std::array<double, 3>>& lattice,
+                                double level) {
+  const auto& d = source.info().dims;  // x, y, z
+  std::vector<float> values(lattice.size(), 0.0f);
+  for (std::size_t v = 0; v < lattice.size(); ++v) {
+    std::array<std::array<std::int64_t, 2>, 3> range{};
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double c = lattice[v][a];
+      const auto f = static_cast<std::int64_t>(std::floor(c));
+      const std::int64_t cells = d[a] - 1;
+      // On a lattice plane (c integral): the cells on both sides.
+      std::int64_t lo = (static_cast<double>(f) == c) ? f - 1 : f;
+      std::int64_t hi = f;
+      lo = std::clamp<std::int64_t>(lo, 0, cells - 1);
+      hi = std::clamp<std::int64_t>(hi, 0, cells - 1);
+      range[a] = {lo, hi};
+    }
+    double best = 0;
+    for (std::int64_t z = range[2][0]; z <= range[2][1]; ++z) {
+      for (std::int64_t y = range[1][0]; y <= range[1][1]; ++y) {
+        for (std::int64_t x = range[0][0]; x <= range[0][1]; ++x) {
+          double top = 0, bottom = 0;  // relative to the level, as scikit-image's vmax - vmin
+          for (int c = 0; c < 8; ++c) {
+            const double value = source.at(z + ((c >> 2) & 1), y + ((c >> 1) & 1), x + (c & 1)) - level;
+            top = std::max(top, value);
+            bottom = std::min(bottom, value);
+          }
+          best = std::max(best, top - bottom);
+        }
+      }
+    }
+    values[v] = static_cast<float>(best);
+  }
+  return values;
+}
+
+// Extracts the iso-surface of `volume`; returns verts (V, 3) float32 in array index order and
+// scaled by spacing, faces (F, 3) int32, normals (V, 3) float32 (unit, from high to low values,
+// in the scaled frame; zeros when `normals` is false) and values (V,) float32.
+py::tuple marchingCubes(const py::array& volume, double level, const std::array<double, 3>& spacing,
+                        const std::string& method, int threads, bool ascent) {
+  const auto m = parseMethod(method);
+  if (!m)
+    throw py::value_error("unknown method '" + method + "' (use " + [] {
+      std::string names;
+      for (const auto& n : methodNames()) names += (names.empty() ? "" : ", ") + n;
+      return names;
+    }() + ")");
+  ArraySource source(volume);
+  ExtractOptions options;
+  options.method = *m;
+  options.iso = level;
+  options.normals = true;
+  options.cellVolumes = false;
+  MemoryMeshSink sink;
+  IndexedMesh mesh;
+  std::vector<float> values;
+  {
+    py::gil_scoped_release release;
+    // In the voxel frame, as scikit-image extracts: the normals are the field's gradient in index
+    // space, and the vertices are scaled by the spacing afterwards.
+    const LatticeFrame frame = LatticeFrame::voxel();
+    auto extractor = makeExtractor(options, source.info(), frame);
+    PipelineOptions pipeline;
+    pipeline.threads = std::max(1, threads);
+    runPipeline(source, *extractor, sink, extractionHeader(options, source.info(), frame, *extractor), pipeline);
+    mesh = sink.mesh();
+    std::vector<std::array<double, 3>> lattice(mesh.positions.size());
+    for (std::size_t v = 0; v < lattice.size(); ++v) {
+      const Vec3f& p = mesh.positions[v];
+      lattice[v] = {p.x, p.y, p.z};
+    }
+    values = vertexValues(source, lattice, level);
+  }
+  const auto nv = static_cast<py::ssize_t>(mesh.positions.size());
+  const auto nf = static_cast<py::ssize_t>(mesh.triangles.size());
+  py::array_t<float> verts({nv, py::ssize_t{3}});
+  py::array_t<float> norms({nv, py::ssize_t{3}});
+  py::array_t<std::int32_t> faces({nf, py::ssize_t{3}});
+  py::array_t<float> vals(nv);
+  {
+    auto vw = verts.mutable_unchecked<2>();
+    auto nw = norms.mutable_unchecked<2>();
+    auto fw = faces.mutable_unchecked<2>();
+    auto lw = vals.mutable_unchecked<1>();
+    for (py::ssize_t v = 0; v < nv; ++v) {
+      const Vec3f& p = mesh.positions[static_cast<std::size_t>(v)];
+      const Vec3f& n = mesh.normals[static_cast<std::size_t>(v)];
+      vw(v, 0) = static_cast<float>(p.z * spacing[0]);
+      vw(v, 1) = static_cast<float>(p.y * spacing[1]);
+      vw(v, 2) = static_cast<float>(p.x * spacing[2]);
+      nw(v, 0) = n.z;
+      nw(v, 1) = n.y;
+      nw(v, 2) = n.x;
+      lw(v) = values[static_cast<std::size_t>(v)];
+    }
+    // Reversing the axes mirrors the mesh, which reverses the winding: isoslab's (counter-clockwise
+    // from the lower values) becomes scikit-image's "descent" order; "ascent" reverses it back.
+    for (py::ssize_t f = 0; f < nf; ++f) {
+      const auto& t = mesh.triangles[static_cast<std::size_t>(f)];
+      fw(f, 0) = static_cast<std::int32_t>(t[0]);
+      fw(f, 1) = static_cast<std::int32_t>(ascent ? t[2] : t[1]);
+      fw(f, 2) = static_cast<std::int32_t>(ascent ? t[1] : t[2]);
+    }
+  }
+  return py::make_tuple(verts, faces, norms, vals);
+}
+
+py::dict infoDict(const VolumeInfo& info) {
+  py::dict d;
+  // In array index order (slices first), as the arrays iter_slices yields stack.
+  d["shape"] = py::make_tuple(info.dims[2], info.dims[1], info.dims[0]);
+  d["dims"] = py::make_tuple(info.dims[0], info.dims[1], info.dims[2]);
+  d["spacing"] = py::make_tuple(info.spacing[0], info.spacing[1], info.spacing[2]);
+  d["origin"] = py::make_tuple(info.origin[0], info.origin[1], info.origin[2]);
+  d["direction"] = py::cast(std::vector<double>(info.direction.begin(), info.direction.end()));
+  d["voxel_type"] = std::string(voxelTypeName(info.type));
+  d["frame"] = info.frame;
+  d["reader"] = info.reader;
+  d["modality"] = info.modality;
+  d["value_range"] = info.valueRange ? py::object(py::make_tuple((*info.valueRange)[0], (*info.valueRange)[1]))
+                                     : py::object(py::none());
+  d["suggested_iso"] = info.suggestedIso ? py::object(py::float_(*info.suggestedIso)) : py::object(py::none());
+  d["slice_origins"] = info.sliceOrigins.empty() ? py::object(py::none()) : py::object(py::cast(info.sliceOrigins));
+  return d;
+}
+
+// Slices of a file, one at a time, as float32 arrays (y, x) with their index and origin.
+class SliceReader {
+ public:
+  explicit SliceReader(const std::vector<std::string>& inputs) : source_(openSource(inputs, SourceOptions{})) {}
+  SliceReader& iter() { return *this; }
+  py::tuple next() {
+    const VolumeInfo& info = source_->info();
+    if (k_ >= info.dims[2]) throw py::stop_iteration();
+    py::array_t<float> slice({info.dims[1], info.dims[0]});
+    bool ok = false;
+    {
+      float* out = slice.mutable_data();
+      py::gil_scoped_release release;
+      ok = source_->readSlice({out, static_cast<std::size_t>(info.sliceVoxels())});
+    }
+    if (!ok) throw py::stop_iteration();
+    std::array<double, 3> origin = info.origin;
+    if (!info.sliceOrigins.empty()) {
+      origin = info.sliceOrigins[static_cast<std::size_t>(k_)];
+    } else {
+      for (std::size_t a = 0; a < 3; ++a)
+        origin[a] += info.direction[3 * a + 2] * info.spacing[2] * static_cast<double>(k_);
+    }
+    py::dict geometry;
+    geometry["index"] = k_;
+    geometry["origin"] = py::make_tuple(origin[0], origin[1], origin[2]);
+    geometry["spacing"] = py::make_tuple(info.spacing[0], info.spacing[1], info.spacing[2]);
+    geometry["direction"] = py::cast(std::vector<double>(info.direction.begin(), info.direction.end()));
+    ++k_;
+    return py::make_tuple(slice, geometry);
+  }
+  py::dict info() const { return infoDict(source_->info()); }
+
+ private:
+  std::unique_ptr<SliceSource> source_;
+  std::int64_t k_ = 0;
+};
+
+// The paper's measures and the mesh statistics of any triangle mesh, as the JSON text of
+// `isoslab metrics`.
+std::string meshMetrics(const py::array_t<float, py::array::c_style | py::array::forcecast>& verts,
+                        const py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>& faces,
+                        const std::optional<std::array<double, 4>>& sphere) {
+  if (verts.ndim() != 2 || verts.shape(1) != 3) throw py::value_error("verts must be an (N, 3) array");
+  if (faces.ndim() != 2 || faces.shape(1) != 3)
+    throw py::value_error("faces must be an (M, 3) array of vertex indices");
+  IndexedMesh mesh;
+  const auto nv = verts.shape(0);
+  auto v = verts.unchecked<2>();
+  for (py::ssize_t i = 0; i < nv; ++i) mesh.positions.push_back({v(i, 0), v(i, 1), v(i, 2)});
+  auto f = faces.unchecked<2>();
+  for (py::ssize_t i = 0; i < faces.shape(0); ++i) {
+    Triangle t{};
+    for (py::ssize_t c = 0; c < 3; ++c) {
+      const std::int64_t id = f(i, c);
+      if (id < 0 || id >= nv) {
+        throw py::value_error("faces[" + std::to_string(i) + "] refers to vertex " + std::to_string(id) +
+                              ", not one of the " + std::to_string(nv) + " verts");
+      }
+      t[static_cast<std::size_t>(c)] = static_cast<VertexId>(id);
+    }
+    mesh.triangles.push_back(t);
+  }
+  MeshStatsSink stats;
+  ComponentSink components;
+  std::optional<SphereErrorSink> errors;
+  std::vector<MeshSink*> sinks{&stats, &components};
+  std::optional<Sphere> s;
+  if (sphere) {
+    if (!((*sphere)[3] > 0)) throw py::value_error("sphere must be (cx, cy, cz, r) with r > 0");
+    s = Sphere{{(*sphere)[0], (*sphere)[1], (*sphere)[2]}, (*sphere)[3]};
+    errors.emplace(*s);
+    sinks.push_back(&*errors);
+  }
+  nlohmann::ordered_json r;
+  {
+    py::gil_scoped_release release;
+    TeeSink tee(sinks);
+    feedMesh(mesh, MeshHeader{}, tee);
+    addStatsJson(r, stats.stats());
+    r["interior_boundary_edges"] = nullptr;  // unknown: no volume faces
+    r["components"] = componentsJson(components.components());
+    if (s) r["sphere"] = sphereJson(sphereReport(*s, stats.stats(), *errors));
+  }
+  return r.dump();
+}
+
+}  // namespace
+}  // namespace isoslab
+
+PYBIND11_MODULE(_isoslab, m) {
+  m.doc() = "isoslab's library from NumPy (see the isoslab package)";
+  m.attr("__version__") = ISOSLAB_VERSION;
+  static py::exception<isoslab::Error> error(m, "Error", PyExc_RuntimeError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const isoslab::Error& e) {
+      error(e.what());
+    }
+  });
+  m.def("marching_cubes", &isoslab::marchingCubes, py::arg("volume"), py::arg("level"), py::arg("spacing"),
+        py::arg("method"), py::arg("threads"), py::arg("ascent"));
+  m.def("volume_range", &isoslab::volumeRange, py::arg("volume"));
+  m.def("read_volume_info", [](const std::vector<std::string>& inputs) {
+    auto source = isoslab::openSource(inputs, isoslab::SourceOptions{});
+    return isoslab::infoDict(source->info());
+  });
+  py::class_<isoslab::SliceReader>(m, "SliceReader")
+      .def(py::init<const std::vector<std::string>&>())
+      .def("__iter__", &isoslab::SliceReader::iter, py::return_value_policy::reference_internal)
+      .def("__next__", &isoslab::SliceReader::next)
+      .def_property_readonly("info", &isoslab::SliceReader::info);
+  m.def("metrics", &isoslab::meshMetrics, py::arg("verts"), py::arg("faces"), py::arg("sphere") = py::none());
+}
