@@ -8,12 +8,15 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <sys/mman.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <new>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -28,6 +31,7 @@
 #include "metrics/report.h"
 #include "metrics/sphere_metrics.h"
 #include "stream/pipeline.h"
+#include "stream/value_range.h"
 
 namespace py = pybind11;
 
@@ -85,6 +89,12 @@ class ArraySource final : public SliceSource {
 
   // The smallest and largest value (NaN skipped); nothing if every value is NaN.
   std::optional<std::array<double, 2>> range() const {
+    if (lends_) {
+      ValueRange r;
+      const auto n = static_cast<std::size_t>(shape_[1] * shape_[2]);
+      for (py::ssize_t k = 0; k < shape_[0]; ++k) r.add(reinterpret_cast<const float*>(data_ + strides_[0] * k), n);
+      return r.range();
+    }
     double lo = std::numeric_limits<double>::infinity();
     double hi = -lo;
     for (py::ssize_t k = 0; k < shape_[0]; ++k) {
@@ -103,6 +113,7 @@ class ArraySource final : public SliceSource {
 
   // The value at index (k, j, i) = (a0, a1, a2).
   float at(std::int64_t k, std::int64_t j, std::int64_t i) const noexcept {
+    if (lends_) return reinterpret_cast<const float*>(data_)[(k * shape_[1] + j) * shape_[2] + i];
     return value(data_ + strides_[0] * k + strides_[1] * j + strides_[2] * i);
   }
 
@@ -166,115 +177,176 @@ std::array<double, 2> volumeRange(const py::array& volume) {
   return *r;
 }
 
-// Per vertex, scikit-image's `values`: the largest span (max - min, with the iso value between)
-// of the values of a cell around the vertex. A vertex lies on a lattice edge or diagonal; its
-// cells are those whose closed box holds it (at most 8, for a vertex on a lattice point).
-std::vector<float> vertexValues(const ArraySource& source, const std::vector<std::array<double, 3>>& lattice,
-                                double level) {
-  const auto& d = source.info().dims;  // x, y, z
-  std::vector<float> values(lattice.size(), 0.0f);
-  for (std::size_t v = 0; v < lattice.size(); ++v) {
-    std::array<std::array<std::int64_t, 2>, 3> range{};
+// A growing array of T in pages of its own (mmap), grown by mremap, which moves pages instead of
+// copying them: the mesh is never held twice, and no time goes to copies. Handed to NumPy
+// without a copy; the array's capsule unmaps it.
+template <typename T>
+class GrowBuffer {
+ public:
+  GrowBuffer() = default;
+  GrowBuffer(const GrowBuffer&) = delete;
+  GrowBuffer& operator=(const GrowBuffer&) = delete;
+  ~GrowBuffer() {
+    if (data_ != nullptr) ::munmap(data_, bytes_);
+  }
+
+  T* extend(std::size_t n) {
+    if ((size_ + n) * sizeof(T) > bytes_) {
+      // Huge pages where the system gives them on request (madvise): a page fault per 2 MiB
+      // instead of per 4 KiB, which on a virtual machine is most of the time of filling them.
+      const std::size_t page = std::size_t{1} << 21;
+      const std::size_t want = std::max((size_ + n) * sizeof(T), bytes_ + bytes_ / 2);
+      const std::size_t bytes = (want + page - 1) / page * page;
+      void* p = data_ == nullptr ? ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0)
+                                 : ::mremap(data_, bytes_, bytes, MREMAP_MAYMOVE);
+      if (p == MAP_FAILED) throw std::bad_alloc();
+      ::madvise(p, bytes, MADV_HUGEPAGE);  // advice only: no error if the system has none
+      data_ = static_cast<T*>(p);
+      bytes_ = bytes;
+    }
+    T* out = data_ + size_;
+    size_ += n;
+    return out;
+  }
+
+  // A NumPy array of shape (size / columns, columns) (or (size,) for columns 0) that owns the data.
+  py::array release(py::ssize_t columns) {
+    if (data_ == nullptr) extend(0);
+    struct Mapping {
+      void* data;
+      std::size_t bytes;
+    };
+    auto* mapping = new Mapping{data_, bytes_};
+    py::capsule unmap(mapping, [](void* q) {
+      auto* m = static_cast<Mapping*>(q);
+      ::munmap(m->data, m->bytes);
+      delete m;
+    });
+    T* owned = data_;
+    const auto n = static_cast<py::ssize_t>(size_);
+    data_ = nullptr;
+    bytes_ = 0;
+    size_ = 0;
+    if (columns == 0) return py::array_t<T>({n}, owned, unmap);
+    return py::array_t<T>({n / columns, columns}, owned, unmap);
+  }
+
+ private:
+  T* data_ = nullptr;
+  std::size_t size_ = 0;
+  std::size_t bytes_ = 0;
+};
+
+// Streams the chunks into scikit-image's arrays as they come: vertices in array index order and
+// scaled, normals likewise, faces in the winding asked for, and each vertex's value (the largest
+// value span of a cell around it).
+class ArraySink final : public MeshSink {
+ public:
+  ArraySink(const ArraySource& source, const std::array<double, 3>& spacing, double level, bool ascent)
+      : source_(source), spacing_(spacing), level_(level), ascent_(ascent) {}
+
+  void begin(const MeshHeader&) override {}
+  void consume(const MeshChunk& c) override {
+    const std::size_t n = c.positions.size();
+    float* v = verts.extend(3 * n);
+    float* nn = normals.extend(3 * n);
+    float* val = values.extend(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const Vec3f& p = c.positions[k];
+      v[3 * k] = static_cast<float>(p.z * spacing_[0]);
+      v[3 * k + 1] = static_cast<float>(p.y * spacing_[1]);
+      v[3 * k + 2] = static_cast<float>(p.x * spacing_[2]);
+      const Vec3f& q = c.normals[k];
+      nn[3 * k] = q.z;
+      nn[3 * k + 1] = q.y;
+      nn[3 * k + 2] = q.x;
+      val[k] = valueAt(p);
+    }
+    // Reversing the axes mirrors the mesh, which reverses the winding: isoslab's (counter-clockwise
+    // from the lower values) becomes scikit-image's "descent" order; "ascent" reverses it back.
+    std::int32_t* f = faces.extend(3 * c.triangles.size());
+    for (const Triangle& t : c.triangles) {
+      *f++ = static_cast<std::int32_t>(t[0]);
+      *f++ = static_cast<std::int32_t>(ascent_ ? t[2] : t[1]);
+      *f++ = static_cast<std::int32_t>(ascent_ ? t[1] : t[2]);
+    }
+  }
+  void finish() override {}
+
+  GrowBuffer<float> verts, normals, values;
+  GrowBuffer<std::int32_t> faces;
+
+ private:
+  // scikit-image's value of a vertex: the largest span (max - min, the level between) of the
+  // values of a cell around it. A vertex lies on a lattice edge or diagonal; its cells are those
+  // whose closed box holds it (at most 8, for a vertex on a lattice point).
+  float valueAt(const Vec3f& p) const noexcept {
+    const auto& d = source_.info().dims;  // x, y, z
+    const std::array<double, 3> c{p.x, p.y, p.z};
+    std::array<std::int64_t, 3> lo{}, cells{};  // the first cell and the cell count (1 or 2) per axis
     for (std::size_t a = 0; a < 3; ++a) {
-      const double c = lattice[v][a];
-      const auto f = static_cast<std::int64_t>(std::floor(c));
-      const std::int64_t cells = d[a] - 1;
-      // On a lattice plane (c integral): the cells on both sides.
-      std::int64_t lo = (static_cast<double>(f) == c) ? f - 1 : f;
-      std::int64_t hi = f;
-      lo = std::clamp<std::int64_t>(lo, 0, cells - 1);
-      hi = std::clamp<std::int64_t>(hi, 0, cells - 1);
-      range[a] = {lo, hi};
+      const auto f = static_cast<std::int64_t>(std::floor(c[a]));
+      const std::int64_t last = d[a] - 2;
+      const std::int64_t first = static_cast<double>(f) == c[a] ? f - 1 : f;  // on a plane: both sides
+      lo[a] = std::clamp<std::int64_t>(first, 0, last);
+      cells[a] = std::clamp<std::int64_t>(f, 0, last) - lo[a] + 1;
+    }
+    // The points of those cells, each read once (at most 3 x 3 x 3), then each cell's min and max.
+    float v[3][3][3];
+    for (std::int64_t z = 0; z <= cells[2]; ++z) {
+      for (std::int64_t y = 0; y <= cells[1]; ++y) {
+        for (std::int64_t x = 0; x <= cells[0]; ++x) v[z][y][x] = source_.at(lo[2] + z, lo[1] + y, lo[0] + x);
+      }
     }
     double best = 0;
-    for (std::int64_t z = range[2][0]; z <= range[2][1]; ++z) {
-      for (std::int64_t y = range[1][0]; y <= range[1][1]; ++y) {
-        for (std::int64_t x = range[0][0]; x <= range[0][1]; ++x) {
-          double top = 0, bottom = 0;  // relative to the level, as scikit-image's vmax - vmin
-          for (int c = 0; c < 8; ++c) {
-            const double value = source.at(z + ((c >> 2) & 1), y + ((c >> 1) & 1), x + (c & 1)) - level;
+    for (std::int64_t z = 0; z < cells[2]; ++z) {
+      for (std::int64_t y = 0; y < cells[1]; ++y) {
+        for (std::int64_t x = 0; x < cells[0]; ++x) {
+          float top = v[z][y][x], bottom = top;
+          for (int k = 1; k < 8; ++k) {
+            const float value = v[z + ((k >> 2) & 1)][y + ((k >> 1) & 1)][x + (k & 1)];
             top = std::max(top, value);
             bottom = std::min(bottom, value);
           }
-          best = std::max(best, top - bottom);
+          // As scikit-image's vmax - vmin, relative to the level and 0 at least on each side.
+          best = std::max(best, std::max(0.0, top - level_) - std::min(0.0, bottom - level_));
         }
       }
     }
-    values[v] = static_cast<float>(best);
+    return static_cast<float>(best);
   }
-  return values;
-}
+
+  const ArraySource& source_;
+  std::array<double, 3> spacing_;
+  double level_;
+  bool ascent_;
+};
 
 // Extracts the iso-surface of `volume`; returns verts (V, 3) float32 in array index order and
 // scaled by spacing, faces (F, 3) int32, normals (V, 3) float32 (unit, from high to low values,
-// in the scaled frame; zeros when `normals` is false) and values (V,) float32.
+// in index space, as scikit-image's) and values (V,) float32.
 py::tuple marchingCubes(const py::array& volume, double level, const std::array<double, 3>& spacing,
                         const std::string& method, int threads, bool ascent) {
   const auto m = parseMethod(method);
-  if (!m)
-    throw py::value_error("unknown method '" + method + "' (use " + [] {
-      std::string names;
-      for (const auto& n : methodNames()) names += (names.empty() ? "" : ", ") + n;
-      return names;
-    }() + ")");
+  if (!m) throw py::value_error("unknown method '" + method + "'");
   ArraySource source(volume);
   ExtractOptions options;
   options.method = *m;
   options.iso = level;
   options.normals = true;
   options.cellVolumes = false;
-  MemoryMeshSink sink;
-  IndexedMesh mesh;
-  std::vector<float> values;
+  ArraySink sink(source, spacing, level, ascent);
   {
     py::gil_scoped_release release;
     // In the voxel frame, as scikit-image extracts: the normals are the field's gradient in index
-    // space, and the vertices are scaled by the spacing afterwards.
+    // space, and the vertices are scaled by the spacing as they are stored.
     const LatticeFrame frame = LatticeFrame::voxel();
     auto extractor = makeExtractor(options, source.info(), frame);
     PipelineOptions pipeline;
     pipeline.threads = std::max(1, threads);
     runPipeline(source, *extractor, sink, extractionHeader(options, source.info(), frame, *extractor), pipeline);
-    mesh = sink.mesh();
-    std::vector<std::array<double, 3>> lattice(mesh.positions.size());
-    for (std::size_t v = 0; v < lattice.size(); ++v) {
-      const Vec3f& p = mesh.positions[v];
-      lattice[v] = {p.x, p.y, p.z};
-    }
-    values = vertexValues(source, lattice, level);
   }
-  const auto nv = static_cast<py::ssize_t>(mesh.positions.size());
-  const auto nf = static_cast<py::ssize_t>(mesh.triangles.size());
-  py::array_t<float> verts({nv, py::ssize_t{3}});
-  py::array_t<float> norms({nv, py::ssize_t{3}});
-  py::array_t<std::int32_t> faces({nf, py::ssize_t{3}});
-  py::array_t<float> vals(nv);
-  {
-    auto vw = verts.mutable_unchecked<2>();
-    auto nw = norms.mutable_unchecked<2>();
-    auto fw = faces.mutable_unchecked<2>();
-    auto lw = vals.mutable_unchecked<1>();
-    for (py::ssize_t v = 0; v < nv; ++v) {
-      const Vec3f& p = mesh.positions[static_cast<std::size_t>(v)];
-      const Vec3f& n = mesh.normals[static_cast<std::size_t>(v)];
-      vw(v, 0) = static_cast<float>(p.z * spacing[0]);
-      vw(v, 1) = static_cast<float>(p.y * spacing[1]);
-      vw(v, 2) = static_cast<float>(p.x * spacing[2]);
-      nw(v, 0) = n.z;
-      nw(v, 1) = n.y;
-      nw(v, 2) = n.x;
-      lw(v) = values[static_cast<std::size_t>(v)];
-    }
-    // Reversing the axes mirrors the mesh, which reverses the winding: isoslab's (counter-clockwise
-    // from the lower values) becomes scikit-image's "descent" order; "ascent" reverses it back.
-    for (py::ssize_t f = 0; f < nf; ++f) {
-      const auto& t = mesh.triangles[static_cast<std::size_t>(f)];
-      fw(f, 0) = static_cast<std::int32_t>(t[0]);
-      fw(f, 1) = static_cast<std::int32_t>(ascent ? t[2] : t[1]);
-      fw(f, 2) = static_cast<std::int32_t>(ascent ? t[1] : t[2]);
-    }
-  }
-  return py::make_tuple(verts, faces, norms, vals);
+  return py::make_tuple(sink.verts.release(3), sink.faces.release(3), sink.normals.release(3), sink.values.release(0));
 }
 
 py::dict infoDict(const VolumeInfo& info) {
