@@ -111,9 +111,6 @@ class ArraySource final : public SliceSource {
     return std::array<double, 2>{lo, hi};
   }
 
-  /// The voxels as one C-ordered float array, when they are one (the slices are lent); else nullptr.
-  const float* floats() const noexcept { return lends_ ? reinterpret_cast<const float*>(data_) : nullptr; }
-
   // The value at index (k, j, i) = (a0, a1, a2).
   float at(std::int64_t k, std::int64_t j, std::int64_t i) const noexcept {
     if (lends_) return reinterpret_cast<const float*>(data_)[(k * shape_[1] + j) * shape_[2] + i];
@@ -294,11 +291,6 @@ class ArraySink final : public MeshSink {
       lo[a] = std::clamp<std::int64_t>(first, 0, last);
       cells[a] = std::clamp<std::int64_t>(f, 0, last) - lo[a] + 1;
     }
-    if (const float* all = source_.floats(); all != nullptr) {
-      // A vertex on a lattice edge (mc's, and most of the others'): its cells share the edge.
-      const int fractional = (c[0] != std::floor(c[0])) + (c[1] != std::floor(c[1])) + (c[2] != std::floor(c[2]));
-      if (fractional == 1 && cells[0] * cells[1] * cells[2] == 4) return edgeValue(all, c, lo, cells);
-    }
     // The points of those cells, each read once (at most 3 x 3 x 3), then each cell's min and max.
     float v[3][3][3];
     for (std::int64_t z = 0; z <= cells[2]; ++z) {
@@ -319,36 +311,6 @@ class ArraySink final : public MeshSink {
           // As scikit-image's vmax - vmin, relative to the level and 0 at least on each side.
           best = std::max(best, std::max(0.0, top - level_) - std::min(0.0, bottom - level_));
         }
-      }
-    }
-    return static_cast<float>(best);
-  }
-
-  // valueAt for a vertex inside the volume on a lattice edge, from the float voxels: the 2 x 3 x 3
-  // points of its 4 cells, each row of 2 along the edge reduced once.
-  float edgeValue(const float* all, const std::array<double, 3>& c, const std::array<std::int64_t, 3>& lo,
-                  const std::array<std::int64_t, 3>& cells) const noexcept {
-    const auto& d = source_.info().dims;
-    const std::array<std::int64_t, 3> stride{1, d[0], d[0] * d[1]};
-    std::size_t e = 0;  // the edge's axis: the one with one cell and a fractional coordinate
-    while (!(cells[e] == 1 && c[e] != std::floor(c[e]))) ++e;
-    const std::size_t b = (e + 1) % 3, f = (e + 2) % 3;
-    const float* base = all + lo[0] * stride[0] + lo[1] * stride[1] + lo[2] * stride[2];
-    float mn[3][3], mx[3][3];
-    for (std::int64_t u = 0; u <= cells[b]; ++u) {
-      for (std::int64_t w = 0; w <= cells[f]; ++w) {
-        const float* p = base + u * stride[b] + w * stride[f];
-        const float v0 = p[0], v1 = p[stride[e]];
-        mn[u][w] = std::min(v0, v1);
-        mx[u][w] = std::max(v0, v1);
-      }
-    }
-    double best = 0;
-    for (std::int64_t u = 0; u < cells[b]; ++u) {
-      for (std::int64_t w = 0; w < cells[f]; ++w) {
-        const float bottom = std::min(std::min(mn[u][w], mn[u + 1][w]), std::min(mn[u][w + 1], mn[u + 1][w + 1]));
-        const float top = std::max(std::max(mx[u][w], mx[u + 1][w]), std::max(mx[u][w + 1], mx[u + 1][w + 1]));
-        best = std::max(best, std::max(0.0, top - level_) - std::min(0.0, bottom - level_));
       }
     }
     return static_cast<float>(best);
