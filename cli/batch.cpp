@@ -50,6 +50,7 @@ std::vector<Item> readList(const std::string& list) {
   if (!in) throw Error(fmt::format("{}: cannot open: {}", list, std::strerror(errno)));
   std::vector<Item> items;
   std::map<std::string, int> seen;
+  std::set<std::string> given;
   std::string line;
   std::size_t lineNumber = 0;
   while (std::getline(in, line)) {
@@ -61,8 +62,11 @@ std::vector<Item> readList(const std::string& list) {
     item.index = items.size();
     item.input = line.substr(first, last - first + 1);
     item.name = batchName(item.input);
-    // Two inputs of one name: the later ones get -2, -3, ... in list order (the same on every rank).
-    if (const int n = ++seen[item.name]; n > 1) item.name += fmt::format("-{}", n);
+    // Two inputs of one name: the later ones get -2, -3, ... in list order (the same on every rank),
+    // skipping names already given (a.nii, a.nrrd and a-2.nii give a, a-2 and a-2-2).
+    const std::string base = item.name;
+    for (int n = ++seen[base]; given.count(item.name) != 0; n = ++seen[base]) item.name = fmt::format("{}-{}", base, n);
+    given.insert(item.name);
     items.push_back(std::move(item));
   }
   if (in.bad()) throw Error(fmt::format("{}: cannot read: {}", list, std::strerror(errno)));
@@ -237,23 +241,42 @@ int runBatch(const BatchArgs& args, RankGroup* ranks) {
     throw Error(fmt::format("{}: cannot create the output folder: {}", args.out, ec ? ec.message() : "not a folder"));
   }
 
-  // This rank's inputs, `jobs` at a time.
+  // This rank's inputs, `jobs` at a time. An input that cannot start is a failed input; anything
+  // else that fails here, under mpirun, ends every rank (the others wait for this one's results).
   Runner runner(args);
   std::vector<Outcome> outcomes;
   std::size_t next = static_cast<std::size_t>(rank);
   int running = 0;
-  while (next < items.size() || running > 0) {
-    if (next < items.size() && running < std::max(1, args.jobs) && gInterruptSignal.load() == 0) {
-      runner.start(items[next]);
-      next += static_cast<std::size_t>(size);
-      ++running;
-      continue;
+  try {
+    while (next < items.size() || running > 0) {
+      if (next < items.size() && running < std::max(1, args.jobs) && gInterruptSignal.load() == 0) {
+        const Item& item = items[next];
+        next += static_cast<std::size_t>(size);
+        try {
+          runner.start(item);
+          ++running;
+        } catch (const Error& e) {
+          Outcome o;
+          o.index = item.index;
+          o.exitCode = 1;
+          o.error = e.what();
+          outcomes.push_back(std::move(o));
+        }
+        continue;
+      }
+      if (running == 0) break;  // interrupted: start nothing more
+      outcomes.push_back(runner.wait(items));
+      --running;
     }
-    if (running == 0) break;  // interrupted: start nothing more
-    outcomes.push_back(runner.wait(items));
-    --running;
+    throwIfInterrupted();
+  } catch (const std::exception& e) {
+    if (ranks != nullptr && gInterruptSignal.load() == 0) {
+      std::fprintf(stderr, "isoslab: error: batch: %s (rank %d; every rank stops)\n", e.what(), rank);
+      ranks->abort(1);
+    }
+    if (ranks != nullptr) ranks->abort(128 + gInterruptSignal.load());
+    throw;
   }
-  throwIfInterrupted();
 
   // Rank 0 gathers every rank's outcomes, in rank order.
   if (rank > 0) {

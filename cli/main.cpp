@@ -2,6 +2,7 @@
 // on stderr, "isoslab: error: ...", and exit status 1; usage errors (CLI11's, and UsageError)
 // exit with 2. Warnings ("isoslab: warning: ...") print even with --quiet, as compilers' do.
 #include <fmt/format.h>
+#include <sched.h>
 #include <signal.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -421,16 +422,21 @@ bool sameFile(const std::string& a, const std::string& b) {
 // --threads' default: the core count, at most 8; with ranks, divided among the ranks on this
 // machine (Open MPI's OMPI_COMM_WORLD_LOCAL_SIZE), so that N ranks on one machine use its cores once.
 int defaultThreads(bool ranked) {
-  unsigned cores = std::clamp(std::thread::hardware_concurrency(), 1u, 8u);
-  if (ranked) {
-    if (const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE")) {
-      const long n = std::strtol(local, nullptr, 10);
-      if (n > 0)
-        cores = std::max(1u, std::clamp(std::thread::hardware_concurrency(), 1u, 1024u) / static_cast<unsigned>(n));
-      cores = std::min(cores, 8u);
-    }
+  // The cores this process may run on (mpirun binds ranks to cores or sockets).
+  const unsigned machine = std::clamp(std::thread::hardware_concurrency(), 1u, 1024u);
+  unsigned cores = machine;
+  cpu_set_t set;
+  if (::sched_getaffinity(0, sizeof set, &set) == 0) {
+    cores = std::clamp(static_cast<unsigned>(CPU_COUNT(&set)), 1u, machine);
   }
-  return static_cast<int>(cores);
+  if (ranked && cores == machine) {
+    // Unbound ranks share the machine.
+    const char* local = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE");
+    if (local == nullptr) local = std::getenv("MPI_LOCALNRANKS");
+    const long n = local != nullptr ? std::strtol(local, nullptr, 10) : 0;
+    if (n > 0) cores = std::max(1u, cores / static_cast<unsigned>(n));
+  }
+  return static_cast<int>(std::min(cores, 8u));
 }
 
 // The ranks of an extraction under mpirun (cli/mpi_group.h), or nullptr.
@@ -547,11 +553,14 @@ int runExtract(const ExtractArgs& args) {
     found.setSeed(rules.seed);
     firstPassSeconds = runPipeline(*source, *extractor, found, header, pipelineOptions).totalSeconds;
     throwIfInterrupted();
-    keptComponents = selectComponents(found.components(), rules);
-    keepPart = keptParts(found, keptComponents);
-    // The report's pieces now, so that the second pass holds a bit per part and no list.
-    componentReport = componentsJson(found.components(), 10, &keptComponents);
-    filterReport = componentFilterJson(rules, found.components(), keptComponents, found.parts());
+    // Under mpirun only rank 0 saw the mesh (and chooses); the other ranks' sinks see nothing.
+    if (primary) {
+      keptComponents = selectComponents(found.components(), rules);
+      keepPart = keptParts(found, keptComponents);
+      // The report's pieces now, so that the second pass holds a bit per part and no list.
+      componentReport = componentsJson(found.components(), 10, &keptComponents);
+      filterReport = componentFilterJson(rules, found.components(), keptComponents, found.parts());
+    }
     components.reset();
     auto reopened = openSource(args.inputs, sourceOptions(args.raw));
     if (roi) reopened = std::make_unique<CropSource>(std::move(reopened), roi->box);
@@ -613,6 +622,7 @@ int runExtract(const ExtractArgs& args) {
   const MeshStats& s = stats.stats();
   const std::size_t readerWarnings = warnings.size();
   for (std::string& w : source->warnings()) warnings.push_back(std::move(w));
+  for (const std::string& w : run.rankWarnings) warnings.push_back(w);  // the other ranks' readers
   if (auto w = emptySurfaceWarning(iso, isoName, run.valueRange, s.triangles)) warnings.push_back(*w);
   if (primary) {
     for (std::size_t n = readerWarnings; n < warnings.size(); ++n) printWarning(warnings[n]);
@@ -1376,6 +1386,11 @@ int main(int argc, char** argv) {
     if (reportsFailure()) printError(e.what());
     return 2;
   } catch (const Interrupted& e) {
+    // Under mpirun the other ranks may be waiting for this one: stop them all.
+    if (gRanks != nullptr && gRanks->size() > 1 && !gRanks->failureShared()) {
+      if (gRanks->rank() == 0) std::fprintf(stderr, "\nisoslab: interrupted by SIG%s\n", sigabbrev_np(e.signal()));
+      gRanks->abort(128 + e.signal());
+    }
     // Unwinding has joined the threads and removed every temporary file.
     std::fprintf(stderr, "%sisoslab: interrupted by SIG%s\n", ex.quiet ? "" : "\n", sigabbrev_np(e.signal()));
     return 128 + e.signal();

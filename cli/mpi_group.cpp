@@ -1,5 +1,6 @@
 #include "cli/mpi_group.h"
 
+#include <cstdio>
 #include <cstdlib>
 
 #if defined(ISOSLAB_HAVE_MPI)
@@ -55,6 +56,12 @@ class MpiGroup final : public RankGroup {
     return message;
   }
 
+  [[noreturn]] void abort(int code) override {
+    std::fflush(stderr);
+    MPI_Abort(MPI_COMM_WORLD, code);
+    std::_Exit(code);
+  }
+
   int agree(bool ok) override {
     int mine = ok ? INT_MAX : rank_;
     int lowest = INT_MAX;
@@ -74,7 +81,10 @@ bool haveMpi() noexcept {
 }
 
 std::unique_ptr<RankGroup> joinRanks() {
-  if (std::getenv("OMPI_COMM_WORLD_SIZE") == nullptr && std::getenv("PMI_SIZE") == nullptr) return nullptr;
+  if (std::getenv("OMPI_COMM_WORLD_SIZE") == nullptr && std::getenv("PMI_SIZE") == nullptr &&
+      std::getenv("PMIX_RANK") == nullptr) {
+    return nullptr;
+  }
   return std::make_unique<MpiGroup>();
 }
 #else

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -60,8 +61,9 @@ class ArraySource final : public SliceSource {
       throw py::value_error("volume must hold real numbers (bool, integer or floating point)");
     }
     if (!dt.attr("isnative").cast<bool>()) throw py::value_error("volume must be in the machine's byte order");
-    lends_ = kind_ == 'f' && itemsize_ == 4 && strides_[2] == 4 && strides_[1] == 4 * shape_[2] &&
-             strides_[0] == 4 * shape_[2] * shape_[1];
+    // Lent in place when the array is one C-ordered, aligned block of native floats.
+    lends_ = kind_ == 'f' && itemsize_ == 4 && reinterpret_cast<std::uintptr_t>(data_) % alignof(float) == 0 &&
+             strides_[2] == 4 && strides_[1] == 4 * shape_[2] && strides_[0] == 4 * shape_[2] * shape_[1];
   }
 
   const VolumeInfo& info() const noexcept override { return info_; }
@@ -209,6 +211,8 @@ class GrowBuffer {
     return out;
   }
 
+  std::size_t size() const noexcept { return size_; }
+
   // A NumPy array of shape (size / columns, columns) (or (size,) for columns 0) that owns the data.
   py::array release(py::ssize_t columns) {
     if (data_ == nullptr) extend(0);
@@ -345,6 +349,9 @@ py::tuple marchingCubes(const py::array& volume, double level, const std::array<
     PipelineOptions pipeline;
     pipeline.threads = std::max(1, threads);
     runPipeline(source, *extractor, sink, extractionHeader(options, source.info(), frame, *extractor), pipeline);
+  }
+  if (sink.values.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) {
+    throw Error("the mesh has more vertices than int32 faces can index (2^31 - 1)");
   }
   return py::make_tuple(sink.verts.release(3), sink.faces.release(3), sink.normals.release(3), sink.values.release(0));
 }

@@ -566,6 +566,8 @@ std::string messageOf(const std::exception_ptr& e) {
     return "out of memory";
   } catch (const std::exception& x) {
     return x.what();
+  } catch (...) {
+    return "an unknown error";
   }
 }
 
@@ -610,6 +612,14 @@ PipelineResult runRank(RankGroup& group, SliceSource& source, Extractor& extract
     last.put(static_cast<float>(r ? (*r)[1] : 0.0));
     last.put(result.readSeconds);
     last.put(result.extractSeconds);
+    std::vector<std::string> warnings;
+    try {
+      warnings = source.warnings();
+    } catch (...) {
+      // a reader that cannot finish its count has nothing to add
+    }
+    last.put(static_cast<std::uint64_t>(warnings.size()));
+    for (const std::string& w : warnings) last.putString(w);
   }
   group.send(0, last.bytes());
   const std::vector<std::byte> outcome = group.receive(0);
@@ -667,12 +677,20 @@ PipelineResult runRankZero(RankGroup& group, SliceSource& source, Extractor& ext
             if (hasRange) run->values().add(bounds.data(), 2);
             run->result().readSeconds += r.get<double>();
             run->result().extractSeconds += r.get<double>();
+            const auto warnings = r.get<std::uint64_t>();
+            for (std::uint64_t k = 0; k < warnings; ++k) run->result().rankWarnings.push_back(r.getString());
           });
           more = false;
           break;
         case Message::kFailed:
           if (!error) {
-            error = std::make_exception_ptr(Error(r.getString()));
+            std::string text = fmt::format("rank {} failed", q);
+            try {
+              text = r.getString();
+            } catch (const Error&) {
+              // a truncated message: the rank's number is all there is
+            }
+            error = std::make_exception_ptr(Error(text));
             failedRank = q;
           }
           more = false;
@@ -720,8 +738,15 @@ PipelineResult runPipeline(SliceSource& source, Extractor& extractor, MeshSink& 
       group.setFailureShared();
       throw RankFailed(failed);
     }
-    if (group.rank() > 0) return runRank(group, source, extractor, options);
-    return runRankZero(group, source, extractor, sink, header, options);
+    try {
+      if (group.rank() > 0) return runRank(group, source, extractor, options);
+      return runRankZero(group, source, extractor, sink, header, options);
+    } catch (...) {
+      // A failure the protocol carried has been shared; anything else (the transport, memory
+      // for a message) leaves ranks waiting for this one: end them all.
+      if (!group.failureShared()) group.abort(1);
+      throw;
+    }
   }
   const auto start = Clock::now();
   PipelineRun run(source, extractor, sink, options);

@@ -7,6 +7,8 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "core/mesh_sink.h"
 #include "extract/extractor.h"
@@ -76,6 +78,9 @@ struct PipelineResult {
   /// The smallest and largest value over every slice read (NaN is skipped); empty when no slice
   /// held a value that is not NaN. Tracked as the slices stream past, so the volume is never held.
   std::optional<std::array<double, 2>> valueRange;
+  /// With ranks, on rank 0: the other ranks' readers' warnings (SliceSource::warnings), in rank
+  /// order (a compressed file's trailing bytes are found by the last rank, which reads its end).
+  std::vector<std::string> rankWarnings;
 };
 
 /// Runs the whole volume. The sink gets begin(header), a chunk per slab in order, and finish(), all

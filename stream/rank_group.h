@@ -1,7 +1,7 @@
 // Processes that share one extraction (issue 20): each rank extracts its own range of slabs, and
 // rank 0 stitches every range into the one mesh, as the threads' stitcher joins their runs. The
 // transport is an interface, so that the pipeline does not depend on MPI: cli/mpi_group.cpp
-// implements it over MPI, and the tests over threads (tests/stream/rank_group_test.cpp).
+// implements it over MPI, and the tests over threads (ThreadRanks in tests/stream/pipeline_test.cpp).
 //
 // The protocol of one runPipeline() call with a group of N > 1 ranks (stream/pipeline.cpp):
 //   1. every rank: agree(true) (a rank that failed earlier takes part with agree(false) from its
@@ -36,6 +36,9 @@ class RankGroup {
   /// Every rank calls it at the same points; returns the lowest rank that passed ok = false, or -1
   /// when all passed true.
   virtual int agree(bool ok) = 0;
+  /// Ends every rank at once with `code` (MPI_Abort): for what the protocol cannot carry (an
+  /// interrupt, a broken transport). Does not return.
+  [[noreturn]] virtual void abort(int code) = 0;
 
   /// Whether every rank knows of a failure (an agree() found one, or rank 0 sent a run's
   /// outcome): no rank calls agree() again, and rank 0 holds the error to report.

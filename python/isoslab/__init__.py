@@ -167,8 +167,10 @@ def _array_input(volume, spacing):
     raw_type = _RAW_TYPES.get((volume.dtype.kind, volume.dtype.itemsize))
     args = []
     temporary = None
+    # A memmap of a file, unless copy-on-write (mode "c": its changes are not in the file).
     file_backed = (isinstance(volume, np.memmap) and getattr(volume, "filename", None) and raw_type
-                   and volume.flags.c_contiguous and volume.dtype.byteorder in ("=", "<", "|"))
+                   and getattr(volume, "mode", "c") != "c" and volume.flags.c_contiguous
+                   and volume.dtype.byteorder in ("=", "<", "|"))
     if file_backed:
         # The root memmap's data starts at its `offset` in the file; a view starts further on.
         root = volume
@@ -180,9 +182,13 @@ def _array_input(volume, spacing):
         raw_type = raw_type or "f32"
         dtype = np.dtype(_RAW_DTYPES[raw_type])
         fd, temporary = tempfile.mkstemp(prefix="isoslab-", suffix=".raw")
-        with os.fdopen(fd, "wb") as f:
-            for k in range(nz):
-                f.write(np.ascontiguousarray(volume[k], dtype=dtype).tobytes())
+        try:
+            with os.fdopen(fd, "wb") as f:
+                for k in range(nz):
+                    f.write(np.ascontiguousarray(volume[k], dtype=dtype).tobytes())
+        except BaseException:
+            os.unlink(temporary)  # a full disk or an interrupt leaves no temporary file
+            raise
         args = [temporary]
     args += ["--raw-dims", f"{nx},{ny},{nz}", "--raw-type", raw_type, "--raw-endian", "little"]
     if spacing is not None:

@@ -74,6 +74,20 @@ TEST(Batch, ManyInputsOneMeshAndReportEachAndASummary) {
   EXPECT_EQ(testing::fileCount(dir + "/out"), 7);
 }
 
+// A name that a later repeat would take is skipped: sphere_n_20, then a missing file whose own name
+// is sphere_n_20-2, then the sphere again: sphere_n_20-3, never a second sphere_n_20-2.
+TEST(Batch, RepeatedNamesNeverCollide) {
+  const std::string dir = testing::tempDir();
+  std::ofstream(dir + "/list.txt") << "phantom:sphere?n=20\n" << dir << "/sphere_n_20-2.nii\nphantom:sphere?n=20\n";
+  const auto r = runCli(fmt::format("batch {0}/list.txt --out {0}/out -q -- --iso 900", dir));
+  EXPECT_EQ(r.exitCode, 1);
+  const auto rows = nlohmann::json::parse(slurp(dir + "/out/batch.json"))["results"];
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[0]["output"], dir + "/out/sphere_n_20.glb");
+  EXPECT_EQ(rows[1]["status"], "failed");
+  EXPECT_EQ(rows[2]["output"], dir + "/out/sphere_n_20-3.glb");
+}
+
 TEST(Batch, OutputAndReportAreTheBatchs) {
   const std::string dir = testing::tempDir();
   std::ofstream(dir + "/list.txt") << "phantom:sphere?n=20\n";

@@ -81,6 +81,13 @@ TEST(Mpi, EveryNumberOfRanksWritesTheBytesOfOneProcess) {
   EXPECT_TRUE(slurp(dir + "/f3.glb") == slurp(dir + "/f.glb"));
   const std::string report = slurp(dir + "/f3.json");
   EXPECT_NE(report.find("\"ranks\": 3"), std::string::npos) << report.substr(0, 400);
+  // --seed: only rank 0 sees the first pass's components, and chooses.
+  const auto seeded = runCli(fmt::format("extract {} --seed 20,20,20 -o {}/s.ply", input, dir));
+  ASSERT_EQ(seeded.exitCode, 0) << seeded.err;
+  const auto s2 = runRanks(2, fmt::format("extract {} --seed 20,20,20 -o {}/s2.ply", input, dir));
+  ASSERT_EQ(s2.exitCode, 0) << s2.err;
+  EXPECT_EQ(s2.err, "");
+  EXPECT_TRUE(slurp(dir + "/s2.ply") == slurp(dir + "/s.ply"));
 }
 
 // The Philips series (140 slices, 1 mm) on two ranks: rank 1 reads only its own 70 files.

@@ -254,6 +254,7 @@ class ThreadRanks {
       box.pop_front();
       return m;
     }
+    [[noreturn]] void abort(int) override { std::abort(); }
     int agree(bool ok) override {
       std::unique_lock lock(all_.mutex_);
       const std::int64_t round = all_.round_;
