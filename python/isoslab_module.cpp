@@ -128,27 +128,23 @@ class ArraySource final : public SliceSource {
       case 'b':
         return static_cast<float>(load<std::uint8_t>(p) != 0);
       case 'i':
-        switch (itemsize_) {
-          case 1:
-            return static_cast<float>(load<std::int8_t>(p));
-          case 2:
-            return static_cast<float>(load<std::int16_t>(p));
-          case 4:
-            return static_cast<float>(load<std::int32_t>(p));
-          default:
-            return static_cast<float>(load<std::int64_t>(p));
-        }
+        return integer<std::int8_t, std::int16_t, std::int32_t, std::int64_t>(p);
       default:
-        switch (itemsize_) {
-          case 1:
-            return static_cast<float>(load<std::uint8_t>(p));
-          case 2:
-            return static_cast<float>(load<std::uint16_t>(p));
-          case 4:
-            return static_cast<float>(load<std::uint32_t>(p));
-          default:
-            return static_cast<float>(load<std::uint64_t>(p));
-        }
+        return integer<std::uint8_t, std::uint16_t, std::uint32_t, std::uint64_t>(p);
+    }
+  }
+  // An integer of itemsize_ bytes, of the type given for that size.
+  template <typename T1, typename T2, typename T4, typename T8>
+  float integer(const char* p) const noexcept {
+    switch (itemsize_) {
+      case 1:
+        return static_cast<float>(load<T1>(p));
+      case 2:
+        return static_cast<float>(load<T2>(p));
+      case 4:
+        return static_cast<float>(load<T4>(p));
+      default:
+        return static_cast<float>(load<T8>(p));
     }
   }
   template <typename T>
