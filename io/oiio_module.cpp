@@ -14,6 +14,9 @@ namespace fs = std::filesystem;
 namespace isoslab {
 namespace {
 
+// An object of this file, whose address dladdr maps to the file that holds the code.
+const char anchor = 0;
+
 struct Module {
   void* handle = nullptr;
   std::string errors;
@@ -24,9 +27,22 @@ const Module& module() {
     Module m;
     std::vector<std::string> candidates;
     if (const char* env = std::getenv("ISOSLAB_OIIO_MODULE")) candidates.emplace_back(env);
+    // Installed: relative to the file that holds this code (the program, libisoslab.so or the
+    // Python module), then to the program.
     std::error_code ec;
+    std::vector<fs::path> places;
+    Dl_info self{};
+    if (::dladdr(&anchor, &self) != 0 && self.dli_fname != nullptr &&
+        fs::path(self.dli_fname).is_absolute()) {
+      places.push_back(fs::path(self.dli_fname).parent_path());
+    }
     const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    if (!ec) candidates.push_back((exe.parent_path() / ".." / "lib" / "isoslab" / "libisoslab_oiio.so").string());
+    if (!ec) places.push_back(exe.parent_path());
+    for (const fs::path& place : places) {
+      for (const char* relative : {ISOSLAB_OIIO_MODULE_RELATIVE_PATHS}) {
+        candidates.push_back((place / relative).lexically_normal().string());
+      }
+    }
     candidates.emplace_back(ISOSLAB_OIIO_MODULE_BUILD_PATH);
     for (const std::string& path : candidates) {
       if (!fs::exists(path, ec)) continue;

@@ -5,9 +5,9 @@
 
 namespace isoslab {
 
-/// The address of `symbol` in the module: $ISOSLAB_OIIO_MODULE, then ../lib/isoslab/ beside the
-/// executable (an installed tree), then the build tree. Throws isoslab::Error saying that `what`
-/// needs the module when it cannot be loaded.
+/// The address of `symbol` in the module: $ISOSLAB_OIIO_MODULE, then LIBDIR/isoslab/ of an
+/// installed tree (found from the file that holds this code and from the program), then the build
+/// tree. Throws isoslab::Error saying that `what` needs the module when it cannot be loaded.
 void* oiioSymbol(const char* symbol, const char* what);
 
 }  // namespace isoslab

@@ -2,9 +2,8 @@
 // flags by vertex id, and the ids' ranges. advance() checks that chunks continue the vertex ids.
 #pragma once
 
-#include <fmt/format.h>
-
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/error.h"
@@ -20,9 +19,9 @@ class ChunkFront {
   /// previous chunk's ended.
   void advance(const MeshChunk& chunk) {
     if (chunk.firstVertex != currentEnd_) {
-      throw Error(
-          fmt::format("slab {}: the chunk's vertices start at id {}, not at {} where the previous chunk's ended",
-                      chunk.slab, chunk.firstVertex, currentEnd_));
+      throw Error("slab " + std::to_string(chunk.slab) + ": the chunk's vertices start at id " +
+                  std::to_string(chunk.firstVertex) + ", not at " + std::to_string(currentEnd_) +
+                  " where the previous chunk's ended");
     }
     window_.push(chunk);
     std::swap(previousBoundary_, currentBoundary_);

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds Release and installs isoslab under PREFIX (default /usr/local):
-# the program, the libraries and headers with their CMake files, and the Python package under
-# PREFIX/lib/python3.X/dist-packages, which Debian's python3 reads for /usr/local and /usr.
+# the program and its man page, libisoslab.so with its headers, CMake and pkg-config files, the
+# OpenImageIO module, and the Python package where Debian's python3 reads it
+# (PREFIX/lib/python3.X/dist-packages; /usr/lib/python3/dist-packages for /usr).
+# For a Debian package instead: scripts/package_test.sh, or cpack -G DEB in a build for /usr.
 # Usage: bash scripts/install.sh [PREFIX]
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds with warnings as errors, and runs the whole test suite twice:
-# a Release build, then an AddressSanitizer + UndefinedBehaviorSanitizer build; then runs every fuzz
-# target for 25 seconds (scripts/fuzz.sh). --fast runs the Release suite only.
+# a Release build (then its install and Debian package, scripts/package_test.sh), then an
+# AddressSanitizer + UndefinedBehaviorSanitizer build; then runs every fuzz target for 25 seconds
+# (scripts/fuzz.sh). --fast runs the Release suite and the package test only.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -32,7 +33,11 @@ cmake -S . -B build-kernels -G Ninja -DISOSLAB_WERROR=ON -DISOSLAB_KERNELS_ONLY=
 cmake --build build-kernels -j "$jobs"
 (cd build-kernels && ctest --output-on-failure -j "$jobs")
 
-run_suite build -DCMAKE_BUILD_TYPE=Release
+# Configured for /usr, the prefix of the Debian package that scripts/package_test.sh makes.
+run_suite build -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=/usr
+# The installed library as its users meet it: find_package and pkg-config consumers, the installed
+# Python package, the .deb with lintian and dpkg -i.
+bash scripts/package_test.sh build
 if [ "${1:-}" != "--fast" ]; then
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
     run_suite build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DISOSLAB_SANITIZE=ON -DISOSLAB_BUILD_BENCH=OFF

@@ -1,0 +1,142 @@
+#!/usr/bin/env bash
+# The installed library and the Debian package, as their users meet them (issue 22). Needs root
+# for its last part (dpkg -i). Run by scripts/test.sh after the Release suite.
+#
+#   bash scripts/package_test.sh [BUILD_DIR]     (default build; configured with -DCMAKE_INSTALL_PREFIX=/usr)
+#
+# 1. cmake --install into a temporary prefix. samples/, configured as a project of its own, finds
+#    the library with find_package(isoslab) alone, three times: no C++ standard set (the target
+#    asks for C++20), CMAKE_CXX_STANDARD 20, and CMAKE_CXX_STANDARD 17 (raised to 20). The first
+#    build also compiles every installed header on its own. extract_sphere runs, and its counts
+#    are checked against the installed program's.
+# 2. A consumer built with pkg-config --cflags --libs isoslab runs.
+# 3. The installed Python package, found by PYTHONPATH alone, imports and runs the installed
+#    program and the OpenImageIO module (a TIFF stack).
+# 4. cpack makes isoslab_<version>_amd64.deb; lintian must report no error. The package is
+#    installed with dpkg -i and used with the build folder moved away, then removed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+src=$PWD
+build=$(cd "${1:-build}" && pwd)
+version=$("$build/cli/isoslab" --version | awk '{print $NF}')
+work=$(mktemp -d /tmp/isoslab-package.XXXXXX)
+prefix=$work/prefix
+hidden=""
+installed=0
+cleanup() {
+  if [ -n "$hidden" ] && [ -d "$hidden" ]; then mv "$hidden" "$build"; fi
+  if [ "$installed" -eq 1 ]; then dpkg -P isoslab >/dev/null 2>&1 || true; fi
+  rm -rf "$work"
+}
+trap cleanup EXIT
+fail() {
+  echo "package_test: $*" >&2
+  exit 1
+}
+
+# The reference: the installed program's own count for the sample's sphere (radius 20, iso 800).
+check_sphere() {  # check_sphere PROGRAM_OUTPUT PLY ISOSLAB
+  local line=$1 ply=$2 program=$3
+  [[ $line =~ ^([0-9]+)\ triangles,.*Euler\ characteristic\ 2$ ]] || fail "extract_sphere printed '$line'"
+  local triangles=${BASH_REMATCH[1]}
+  local measured
+  measured=$("$program" metrics "$ply" | /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["triangles"])')
+  [ "$triangles" = "$measured" ] || fail "extract_sphere counted $triangles triangles, isoslab metrics $measured"
+  "$program" extract 'phantom:sphere?n=64&r=20' --iso 800 -o "$work/ref.ply" --report "$work/ref.json" -q
+  local expected
+  expected=$(/usr/bin/python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["triangles"])' "$work/ref.json")
+  [ "$triangles" = "$expected" ] || fail "extract_sphere made $triangles triangles, isoslab extract $expected"
+}
+
+echo "package_test: cmake --install into $prefix"
+cmake --install "$build" --prefix "$prefix" >/dev/null
+libdir=$(dirname "$(find "$prefix" -name 'libisoslab.so' | head -1)")
+program=$prefix/bin/isoslab
+
+n=0
+for standard in "" 20 17; do
+  n=$((n + 1))
+  args=(-DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release)
+  [ -n "$standard" ] && args+=(-DCMAKE_CXX_STANDARD="$standard")
+  [ "$n" -eq 1 ] && args+=(-DISOSLAB_SAMPLES_CHECK_HEADERS=ON)
+  cmake -S "$src/samples" -B "$work/consumer$n" -G Ninja "${args[@]}" >"$work/configure.log" 2>&1 ||
+    { cat "$work/configure.log" >&2; fail "samples/ did not configure against the installed package (C++ standard '${standard:-unset}')"; }
+  cmake --build "$work/consumer$n" -j "$(nproc)" >"$work/build.log" 2>&1 ||
+    { tail -40 "$work/build.log" >&2; fail "samples/ did not build against the installed package (C++ standard '${standard:-unset}')"; }
+  out=$("$work/consumer$n/extract_sphere" "$work/sphere$n.ply")
+  check_sphere "$out" "$work/sphere$n.ply" "$program"
+  echo "package_test: find_package consumer (C++ standard ${standard:-not set}): $out"
+done
+
+export PKG_CONFIG_PATH=$libdir/pkgconfig
+# shellcheck disable=SC2046 # the flags are words
+g++ -std=c++20 -O1 "$src/samples/extract_sphere.cpp" -o "$work/pc_sphere" $(pkg-config --cflags --libs isoslab) \
+  -Wl,-rpath,"$(pkg-config --variable=libdir isoslab)" || fail "the pkg-config consumer did not build"
+out=$("$work/pc_sphere" "$work/pc.ply")
+check_sphere "$out" "$work/pc.ply" "$program"
+echo "package_test: pkg-config consumer ($(pkg-config --modversion isoslab)): $out"
+unset PKG_CONFIG_PATH
+
+# A TIFF stack (read through the OpenImageIO module) for the installed program and Python package.
+mkdir "$work/stack"
+/usr/bin/python3 - "$work/stack" <<'EOF'
+import sys
+import numpy as np
+from PIL import Image
+z, y, x = np.mgrid[0:12, 0:20, 0:24]
+ball = (1000 * ((x - 11.5) ** 2 + (y - 9.5) ** 2 + (z - 5.5) ** 2 < 25)).astype(np.uint16)
+for k, s in enumerate(ball):
+    Image.fromarray(s).save(f"{sys.argv[1]}/slice{k:02d}.tif")
+EOF
+check_installed() {  # check_installed PROGRAM PYTHONPATH: the program, its OIIO module, the Python package
+  local prog=$1 pythonpath=$2
+  (cd "$work" && "$prog" extract "$work/stack" --iso 500 -o "$work/stack.glb" -q) ||
+    fail "$prog could not read a TIFF stack (the OpenImageIO module)"
+  env -u ISOSLAB_PROGRAM -u ISOSLAB_OIIO_MODULE PYTHONPATH="$pythonpath" /usr/bin/python3 - "$work" "$version" <<'EOF' ||
+import os, sys
+import isoslab
+work, version = sys.argv[1], sys.argv[2]
+assert isoslab.__version__ == version, isoslab.__version__
+report = isoslab.extract(os.path.join(work, "stack"), os.path.join(work, "py.ply"), iso=500)
+slices = list(isoslab.iter_slices(os.path.join(work, "stack")))
+assert len(slices) == 12 and slices[0][0].shape == (20, 24), (len(slices), slices[0][0].shape)
+assert report["triangles"] > 0
+print(f"package_test: Python package {isoslab.__version__} from {os.path.dirname(isoslab.__file__)}: "
+      f"{report['triangles']} triangles from the TIFF stack")
+EOF
+    fail "the installed Python package failed"
+}
+check_installed "$program" "$(dirname "$(find "$prefix" -name __init__.py -path '*isoslab*' | head -1)")/.."
+
+# The Debian package.
+(cd "$build" && cpack -G DEB >"$work/cpack.log" 2>&1) || { cat "$work/cpack.log" >&2; fail "cpack -G DEB failed"; }
+deb=$build/isoslab_${version}_amd64.deb
+[ -f "$deb" ] || fail "cpack made no $deb"
+echo "package_test: $(basename "$deb"): $(dpkg-deb -f "$deb" Depends | tr -d '\n')"
+lintian --tag-display-limit 0 "$deb" >"$work/lintian.log" 2>&1 || true
+grep -v "running with root privileges" "$work/lintian.log" | sed 's/^/package_test: lintian: /' || true
+if grep -q '^E: ' "$work/lintian.log"; then fail "lintian reports errors on $(basename "$deb")"; fi
+
+if [ "$(id -u)" -ne 0 ]; then
+  echo "package_test: not root; dpkg -i skipped"
+  exit 0
+fi
+if dpkg-query -W -f='${Status}' isoslab 2>/dev/null | grep -q "install ok installed"; then
+  fail "a package isoslab is installed already; remove it first (dpkg -P isoslab)"
+fi
+cp "$deb" "$work/"
+installed=1
+dpkg -i "$work/$(basename "$deb")" >"$work/dpkg.log" 2>&1 || { cat "$work/dpkg.log" >&2; fail "dpkg -i failed"; }
+hidden=$build.hidden-by-package-test
+mv "$build" "$hidden"
+(cd "$work" && env -u ISOSLAB_OIIO_MODULE /usr/bin/isoslab --version >/dev/null &&
+  /usr/bin/isoslab extract 'phantom:sphere?n=32' --iso 900 -o s.glb -q && [ -s s.glb ]) ||
+  fail "the installed /usr/bin/isoslab failed"
+man -w isoslab >/dev/null 2>&1 || [ -f /usr/share/man/man1/isoslab.1.gz ] || fail "no man page installed"
+# (PYTHONPATH so that a package installed under /usr/local does not hide this one)
+check_installed /usr/bin/isoslab /usr/lib/python3/dist-packages
+mv "$hidden" "$build"
+hidden=""
+dpkg -P isoslab >/dev/null
+installed=0
+echo "package_test: the .deb installs with dpkg -i, runs without the build folder, and purges cleanly"
