@@ -13,7 +13,8 @@
 # 3. The installed Python package, found by PYTHONPATH alone, imports and runs the installed
 #    program and the OpenImageIO module (a TIFF stack).
 # 4. cpack makes isoslab_<version>_amd64.deb; lintian must report no error. The package is
-#    installed with dpkg -i and used with the build folder moved away, then removed.
+#    installed with dpkg -i and used with the build folder moved away (the program, the Python
+#    package, and libisoslab.so, each loading the OpenImageIO module), then purged.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 src=$PWD
@@ -135,6 +136,23 @@ mv "$build" "$hidden"
 man -w isoslab >/dev/null 2>&1 || [ -f /usr/share/man/man1/isoslab.1.gz ] || fail "no man page installed"
 # (PYTHONPATH so that a package installed under /usr/local does not hide this one)
 check_installed /usr/bin/isoslab /usr/lib/python3/dist-packages
+# The library reads the TIFF stack through the module it finds beside itself.
+cat >"$work/stack_info.cpp" <<'EOF'
+#include <cstdio>
+
+#include "io/open_source.h"
+
+int main(int, char** argv) {
+  const auto source = isoslab::openSource(argv[1], {});
+  const auto& d = source->info().dims;
+  std::printf("%lld %lld %lld\n", static_cast<long long>(d[0]), static_cast<long long>(d[1]), static_cast<long long>(d[2]));
+}
+EOF
+# shellcheck disable=SC2046 # the flags are words
+g++ -std=c++20 "$work/stack_info.cpp" -o "$work/stack_info" $(pkg-config --cflags --libs isoslab) ||
+  fail "a pkg-config consumer of the installed package did not build"
+[ "$(env -u ISOSLAB_OIIO_MODULE "$work/stack_info" "$work/stack")" = "24 20 12" ] ||
+  fail "libisoslab.so could not read a TIFF stack (the OpenImageIO module)"
 mv "$hidden" "$build"
 hidden=""
 dpkg -P isoslab >/dev/null
