@@ -218,20 +218,33 @@ void SpoolFile::write(const void* data, std::size_t size) {
   size_ += static_cast<std::int64_t>(size);
 }
 
-void SpoolFile::copyTo(AtomicFile& out) {
+void SpoolFile::rewind() {
   if (std::fflush(file_) != 0 || std::fseek(file_, 0, SEEK_SET) != 0) {
     throw Error(std::string(owner_) + ": cannot read the spool file back: " + std::strerror(errno));
   }
+  read_ = 0;
+}
+
+void SpoolFile::read(void* data, std::size_t size) {
+  if (size == 0) return;
+  if (static_cast<std::int64_t>(size) > size_ - read_) {
+    throw Error(std::string(owner_) + ": cannot read the spool file back: it is short");
+  }
+  if (std::fread(data, 1, size, file_) != size) {
+    throw Error(std::string(owner_) + ": cannot read the spool file back: " +
+                (std::ferror(file_) != 0 ? std::strerror(errno) : "it is short"));
+  }
+  read_ += static_cast<std::int64_t>(size);
+}
+
+void SpoolFile::copyTo(AtomicFile& out) {
+  rewind();
   std::vector<char> buf(1 << 20);
-  std::int64_t left = size_;
-  while (left > 0) {
+  while (read_ < size_) {
     const std::size_t want =
-        static_cast<std::size_t>(std::min<std::int64_t>(left, static_cast<std::int64_t>(buf.size())));
-    if (std::fread(buf.data(), 1, want, file_) != want) {
-      throw Error(std::string(owner_) + ": cannot read the spool file back: " + std::strerror(errno));
-    }
+        static_cast<std::size_t>(std::min<std::int64_t>(size_ - read_, static_cast<std::int64_t>(buf.size())));
+    read(buf.data(), want);
     out.write(buf.data(), want);
-    left -= static_cast<std::int64_t>(want);
   }
 }
 

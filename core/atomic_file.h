@@ -94,7 +94,8 @@ class CommitGroup {
 };
 
 /// A scratch file in a chosen folder, unlinked as soon as it is created so that it disappears
-/// whatever happens to the process. Written sequentially, then read back from the start.
+/// whatever happens to the process. Written sequentially, then read back from the start: copied
+/// into an output (the writers' spools), or read in pieces (a rank's parts, stream/pipeline.cpp).
 class SpoolFile {
  public:
   /// `folder` is where it lives (the output's folder, so that it shares its disk); `owner` names the
@@ -106,13 +107,18 @@ class SpoolFile {
 
   void write(const void* data, std::size_t size);
   std::int64_t size() const noexcept { return size_; }
-  /// Copies the whole spool to `out`.
+  /// Ends the writing and goes back to the start: read() then returns what was written, in order.
+  void rewind();
+  /// The next `size` bytes written. Throws isoslab::Error if fewer are left.
+  void read(void* data, std::size_t size);
+  /// Copies the whole spool to `out` (after a rewind).
   void copyTo(AtomicFile& out);
 
  private:
   std::string owner_;
   std::FILE* file_ = nullptr;
-  std::int64_t size_ = 0;
+  std::int64_t size_ = 0;  // bytes written
+  std::int64_t read_ = 0;  // bytes read back since rewind()
 };
 
 }  // namespace isoslab

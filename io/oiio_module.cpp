@@ -32,8 +32,7 @@ const Module& module() {
     std::error_code ec;
     std::vector<fs::path> places;
     Dl_info self{};
-    if (::dladdr(&anchor, &self) != 0 && self.dli_fname != nullptr &&
-        fs::path(self.dli_fname).is_absolute()) {
+    if (::dladdr(&anchor, &self) != 0 && self.dli_fname != nullptr && fs::path(self.dli_fname).is_absolute()) {
       places.push_back(fs::path(self.dli_fname).parent_path());
     }
     const fs::path exe = fs::read_symlink("/proc/self/exe", ec);

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -19,6 +20,7 @@
 #include <thread>
 #include <utility>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "extract/slab_stitcher.h"
 #include "io/interrupt.h"
@@ -523,44 +525,34 @@ void readPart(MessageReader& r, SlabPart& part) {
   }
 }
 
-// A rank's runs between extracting and sending: length-prefixed messages in a temporary file
-// (removed when closed), so that a rank holds one run at a time, however many it extracts.
+// A rank's runs between extracting and sending: length-prefixed messages in a spool file in the
+// temporary folder, so that a rank holds one run at a time, however many it extracts.
 class PartSpool {
  public:
-  PartSpool() : file_(std::tmpfile()) {
-    if (file_ == nullptr) throw Error(fmt::format("cannot create a temporary file: {}", std::strerror(errno)));
-  }
-  PartSpool(const PartSpool&) = delete;
-  PartSpool& operator=(const PartSpool&) = delete;
-  ~PartSpool() { std::fclose(file_); }
+  explicit PartSpool(int rank)
+      : file_(std::filesystem::temp_directory_path().string(), "rank " + std::to_string(rank)) {}
 
   void add(std::span<const std::byte> message) {
     const auto n = static_cast<std::uint64_t>(message.size());
-    if (std::fwrite(&n, sizeof n, 1, file_) != 1 ||
-        std::fwrite(message.data(), 1, message.size(), file_) != message.size()) {
-      throw Error(fmt::format("cannot write a temporary file: {}", std::strerror(errno)));
-    }
+    file_.write(&n, sizeof n);
+    file_.write(message.data(), message.size());
     ++count_;
   }
   /// Calls fn with each message, in the order added.
   void replay(const std::function<void(std::span<const std::byte>)>& fn) {
-    if (std::fflush(file_) != 0 || std::fseek(file_, 0, SEEK_SET) != 0) {
-      throw Error(fmt::format("cannot read a temporary file: {}", std::strerror(errno)));
-    }
+    file_.rewind();
     std::vector<std::byte> message;
     for (std::int64_t k = 0; k < count_; ++k) {
       std::uint64_t n = 0;
-      if (std::fread(&n, sizeof n, 1, file_) != 1) throw Error("cannot read a temporary file: it is short");
+      file_.read(&n, sizeof n);
       message.resize(static_cast<std::size_t>(n));
-      if (std::fread(message.data(), 1, message.size(), file_) != message.size()) {
-        throw Error("cannot read a temporary file: it is short");
-      }
+      file_.read(message.data(), message.size());
       fn(message);
     }
   }
 
  private:
-  std::FILE* file_;
+  SpoolFile file_;
   std::int64_t count_ = 0;
 };
 
@@ -585,7 +577,7 @@ PipelineResult runRank(RankGroup& group, SliceSource& source, Extractor& extract
   PipelineResult result;
   ValueRange values;
   try {
-    spool.emplace();
+    spool.emplace(group.rank());
     const SlabRange range = rankSlabs(source.info().dims[2] - 1, group.rank(), group.size());
     PipelineRun run(source, extractor, none, options, range, [&](SlabPart& part) {
       MessageWriter w(Message::kPart);
