@@ -70,6 +70,17 @@ for standard in "" 20 17; do
 done
 
 export PKG_CONFIG_PATH=$libdir/pkgconfig
+# The README's example program (the C++ block of "Using the library"), built through pkg-config.
+awk '/^## Using the library/ {on = 1} on && /^```cpp/ {code = 1; next} code && /^```/ {exit} code {print}' \
+  "$src/README.md" >"$work/readme_app.cpp"
+[ -s "$work/readme_app.cpp" ] || fail "README.md has no C++ example under 'Using the library'"
+# shellcheck disable=SC2046 # the flags are words
+g++ -std=c++20 "$work/readme_app.cpp" -o "$work/readme_app" $(pkg-config --cflags --libs isoslab) \
+  -Wl,-rpath,"$(pkg-config --variable=libdir isoslab)" || fail "the README's example did not build"
+"$work/readme_app" 'phantom:sphere?n=32' 900 "$work/readme.ply" || fail "the README's example failed"
+"$program" extract 'phantom:sphere?n=32' --iso 900 -o "$work/readme_ref.ply" -q
+cmp -s "$work/readme.ply" "$work/readme_ref.ply" || fail "the README's example wrote another mesh than isoslab extract"
+echo "package_test: the README's example program writes the mesh isoslab extract writes"
 # shellcheck disable=SC2046 # the flags are words
 g++ -std=c++20 -O1 "$src/samples/extract_sphere.cpp" -o "$work/pc_sphere" $(pkg-config --cflags --libs isoslab) \
   -Wl,-rpath,"$(pkg-config --variable=libdir isoslab)" || fail "the pkg-config consumer did not build"
