@@ -15,9 +15,13 @@ foreach(entry ${names})
   if(NOT rc EQUAL 0)
     message(FATAL_ERROR "ManPage: ${PROGRAM} ${name} --help failed")
   endif()
-  # roff: a backslash is \e; a line that starts with . or ' would be a request.
+  # roff: a backslash is \e; a line that starts with . or ' would be a request. help2man's include
+  # file: a line that starts with [ would open a section, one that starts with / a placement rule.
   string(REPLACE "\\" "\\e" help "${help}")
-  string(REGEX REPLACE "(^|\n)([.'])" "\\1\\\\&\\2" help "${help}")
+  string(REGEX REPLACE "(^|\n)([.'[/])" "\\1\\\\&\\2" help "${help}")
+  if(NOT help MATCHES "\n$")
+    string(APPEND help "\n")
+  endif()
   string(APPEND include ".SS ${name}\n.nf\n${help}.fi\n")
 endforeach()
 string(APPEND include "[SEE ALSO]\nThe README and docs/ of the source tree; the Python package \\fBisoslab\\fR.\n")

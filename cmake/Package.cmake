@@ -5,9 +5,19 @@
 
 set(ISOSLAB_MAINTAINER "isoslab developers <isoslab@isoslab.invalid>" CACHE STRING
   "The Maintainer of the Debian package")
-# The release's date (cmake/debian/changelog's), in seconds: the man page's date, so that the
-# same version gives the same bytes.
-set(ISOSLAB_RELEASE_EPOCH 1796256000)
+# The newest entry of cmake/debian/changelog must be this version. Its date is the man page's
+# date, so that the same version gives the same bytes.
+file(STRINGS ${PROJECT_SOURCE_DIR}/cmake/debian/changelog changelog_top LIMIT_COUNT 1)
+if(NOT changelog_top MATCHES "^isoslab \\(${PROJECT_VERSION}\\) ")
+  message(FATAL_ERROR "cmake/debian/changelog: its newest entry is '${changelog_top}', not version ${PROJECT_VERSION}")
+endif()
+file(STRINGS ${PROJECT_SOURCE_DIR}/cmake/debian/changelog changelog_date REGEX "^ -- " LIMIT_COUNT 1)
+string(REGEX REPLACE "^ -- .*>  " "" changelog_date "${changelog_date}")
+execute_process(COMMAND date -u -d "${changelog_date}" +%s OUTPUT_VARIABLE ISOSLAB_RELEASE_EPOCH
+                OUTPUT_STRIP_TRAILING_WHITESPACE RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "cmake/debian/changelog: cannot read the date '${changelog_date}'")
+endif()
 
 # The man page: help2man from --help and --version, with every command's own --help appended
 # (cmake/ManPage.cmake). Without help2man, no man page is installed.
@@ -39,6 +49,13 @@ set(CPACK_PACKAGE_NAME isoslab)
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
 set(CPACK_PACKAGE_CONTACT "${ISOSLAB_MAINTAINER}")
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
+# Installed with DESTDIR, so that the rules that run when installing (the Python package's folder,
+# the .pc file's prefix) see the prefix /usr.
+set(CPACK_SET_DESTDIR ON)
+if(NOT CMAKE_INSTALL_PREFIX MATCHES "^/usr/?$")
+  message(STATUS "isoslab: configured for ${CMAKE_INSTALL_PREFIX}; cpack -G DEB wants -DCMAKE_INSTALL_PREFIX=/usr "
+                 "(Debian's multiarch library folder)")
+endif()
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "streaming iso-surface extraction from volumetric scans")
 # Debian wraps nothing: lines under 80 characters.
 set(CPACK_PACKAGE_DESCRIPTION
@@ -57,11 +74,13 @@ set(CPACK_DEBIAN_PACKAGE_PRIORITY optional)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 # A shlibs file for libisoslab.so, and the ldconfig trigger a public shared library needs (as
 # dh_makeshlibs writes it). CPack would instead call ldconfig from postinst and postrm unless the
-# package brings its own, which therefore only say that there is nothing to do.
+# package brings its own, which therefore only say that there is nothing to do. prerm removes the
+# byte code Python wrote beside the package.
 set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS ON)
 set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS_POLICY ">=")
 set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA ${PROJECT_SOURCE_DIR}/cmake/debian/triggers
-  ${PROJECT_SOURCE_DIR}/cmake/debian/postinst ${PROJECT_SOURCE_DIR}/cmake/debian/postrm)
+  ${PROJECT_SOURCE_DIR}/cmake/debian/postinst ${PROJECT_SOURCE_DIR}/cmake/debian/prerm
+  ${PROJECT_SOURCE_DIR}/cmake/debian/postrm)
 set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 # The Python package's own needs (its extension module links no Python library).
 set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "python3, python3-numpy")

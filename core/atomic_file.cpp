@@ -222,6 +222,7 @@ void SpoolFile::rewind() {
   if (std::fflush(file_) != 0 || std::fseek(file_, 0, SEEK_SET) != 0) {
     throw Error(std::string(owner_) + ": cannot read the spool file back: " + std::strerror(errno));
   }
+  std::clearerr(file_);
   read_ = 0;
 }
 

@@ -108,6 +108,7 @@ class SpoolFile {
   void write(const void* data, std::size_t size);
   std::int64_t size() const noexcept { return size_; }
   /// Ends the writing and goes back to the start: read() then returns what was written, in order.
+  /// Nothing may be written after a rewind.
   void rewind();
   /// The next `size` bytes written. Throws isoslab::Error if fewer are left.
   void read(void* data, std::size_t size);

@@ -42,7 +42,16 @@ const Module& module() {
         candidates.push_back((place / relative).lexically_normal().string());
       }
     }
-    candidates.emplace_back(ISOSLAB_OIIO_MODULE_BUILD_PATH);
+    // The build tree's module, for the build tree's own programs, tests and Python module only: an
+    // installed copy must not load a module of another build.
+    const fs::path build(ISOSLAB_BUILD_DIR);
+    for (const fs::path& place : places) {
+      const fs::path inside = place.lexically_normal().lexically_relative(build);
+      if (!inside.empty() && *inside.begin() != "..") {
+        candidates.emplace_back(ISOSLAB_OIIO_MODULE_BUILD_PATH);
+        break;
+      }
+    }
     for (const std::string& path : candidates) {
       if (!fs::exists(path, ec)) continue;
       m.handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);

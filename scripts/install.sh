@@ -12,4 +12,6 @@ bash scripts/setup.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX="$prefix" >/dev/null
 cmake --build build -j "$(nproc)"
 cmake --install build >/dev/null
+# The dynamic linker's cache, which it reads for folders such as /usr/local/lib/x86_64-linux-gnu.
+if [ "$(id -u)" -eq 0 ]; then ldconfig; fi
 echo "install: isoslab $("$prefix/bin/isoslab" --version | awk '{print $NF}') in $prefix"

@@ -4,6 +4,8 @@
 #
 #   bash scripts/package_test.sh [BUILD_DIR]     (default build; configured with -DCMAKE_INSTALL_PREFIX=/usr)
 #
+# Not as root, it fails unless ISOSLAB_SKIP_DPKG=1 says to leave out the dpkg -i part.
+#
 # 1. cmake --install into a temporary prefix. samples/, configured as a project of its own, finds
 #    the library with find_package(isoslab) alone, three times: no C++ standard set (the target
 #    asks for C++20), CMAKE_CXX_STANDARD 20, and CMAKE_CXX_STANDARD 17 (raised to 20). The first
@@ -20,6 +22,20 @@ cd "$(dirname "$0")/.."
 src=$PWD
 build=$(cd "${1:-build}" && pwd)
 version=$("$build/cli/isoslab" --version | awk '{print $NF}')
+hide=$build.hidden-by-package-test
+if [ -e "$hide" ]; then
+  echo "package_test: $hide exists (left by a killed run?); move it back or remove it first" >&2
+  exit 1
+fi
+if ! grep -qE '^CMAKE_INSTALL_PREFIX:PATH=/usr/?$' "$build/CMakeCache.txt"; then
+  echo "package_test: $build is not configured for /usr (cmake -DCMAKE_INSTALL_PREFIX=/usr), as the .deb needs" >&2
+  exit 1
+fi
+command -v lintian >/dev/null || { echo "package_test: lintian is missing (scripts/setup.sh installs it)" >&2; exit 1; }
+if [ "$(id -u)" -ne 0 ] && [ "${ISOSLAB_SKIP_DPKG:-0}" != 1 ]; then
+  echo "package_test: dpkg -i needs root (ISOSLAB_SKIP_DPKG=1 leaves that part out)" >&2
+  exit 1
+fi
 work=$(mktemp -d /tmp/isoslab-package.XXXXXX)
 prefix=$work/prefix
 hidden=""
@@ -104,7 +120,7 @@ check_installed() {  # check_installed PROGRAM PYTHONPATH: the program, its OIIO
   local prog=$1 pythonpath=$2
   (cd "$work" && "$prog" extract "$work/stack" --iso 500 -o "$work/stack.glb" -q) ||
     fail "$prog could not read a TIFF stack (the OpenImageIO module)"
-  env -u ISOSLAB_PROGRAM -u ISOSLAB_OIIO_MODULE PYTHONPATH="$pythonpath" /usr/bin/python3 - "$work" "$version" <<'EOF' ||
+  env -u ISOSLAB_PROGRAM -u ISOSLAB_OIIO_MODULE PYTHONPATH="$pythonpath" /usr/bin/python3 -B - "$work" "$version" <<'EOF' ||
 import os, sys
 import isoslab
 work, version = sys.argv[1], sys.argv[2]
@@ -125,12 +141,16 @@ check_installed "$program" "$(dirname "$(find "$prefix" -name __init__.py -path 
 deb=$build/isoslab_${version}_amd64.deb
 [ -f "$deb" ] || fail "cpack made no $deb"
 echo "package_test: $(basename "$deb"): $(dpkg-deb -f "$deb" Depends | tr -d '\n')"
-lintian --tag-display-limit 0 "$deb" >"$work/lintian.log" 2>&1 || true
+# lintian exits 1 when it reports an error, and 2 when it could not check the package.
+status=0
+lintian --tag-display-limit 0 "$deb" >"$work/lintian.log" 2>&1 || status=$?
 grep -v "running with root privileges" "$work/lintian.log" | sed 's/^/package_test: lintian: /' || true
-if grep -q '^E: ' "$work/lintian.log"; then fail "lintian reports errors on $(basename "$deb")"; fi
+if [ "$status" -ne 0 ] || grep -q '^E: ' "$work/lintian.log"; then
+  fail "lintian reports errors on $(basename "$deb") (exit status $status)"
+fi
 
 if [ "$(id -u)" -ne 0 ]; then
-  echo "package_test: not root; dpkg -i skipped"
+  echo "package_test: not root; dpkg -i left out (ISOSLAB_SKIP_DPKG=1)"
   exit 0
 fi
 if dpkg-query -W -f='${Status}' isoslab 2>/dev/null | grep -q "install ok installed"; then
@@ -139,12 +159,12 @@ fi
 cp "$deb" "$work/"
 installed=1
 dpkg -i "$work/$(basename "$deb")" >"$work/dpkg.log" 2>&1 || { cat "$work/dpkg.log" >&2; fail "dpkg -i failed"; }
-hidden=$build.hidden-by-package-test
+hidden=$hide
 mv "$build" "$hidden"
 (cd "$work" && env -u ISOSLAB_OIIO_MODULE /usr/bin/isoslab --version >/dev/null &&
   /usr/bin/isoslab extract 'phantom:sphere?n=32' --iso 900 -o s.glb -q && [ -s s.glb ]) ||
   fail "the installed /usr/bin/isoslab failed"
-man -w isoslab >/dev/null 2>&1 || [ -f /usr/share/man/man1/isoslab.1.gz ] || fail "no man page installed"
+dpkg -L isoslab | grep -qx /usr/share/man/man1/isoslab.1.gz || fail "the package has no man page"
 # (PYTHONPATH so that a package installed under /usr/local does not hide this one)
 check_installed /usr/bin/isoslab /usr/lib/python3/dist-packages
 # The library reads the TIFF stack through the module it finds beside itself.
@@ -159,9 +179,13 @@ int main(int, char** argv) {
   std::printf("%lld %lld %lld\n", static_cast<long long>(d[0]), static_cast<long long>(d[1]), static_cast<long long>(d[2]));
 }
 EOF
+# Debian's pkg-config folders only: an isoslab under /usr/local must not stand in for the package.
 # shellcheck disable=SC2046 # the flags are words
-g++ -std=c++20 "$work/stack_info.cpp" -o "$work/stack_info" $(pkg-config --cflags --libs isoslab) ||
-  fail "a pkg-config consumer of the installed package did not build"
+g++ -std=c++20 "$work/stack_info.cpp" -o "$work/stack_info" \
+  $(PKG_CONFIG_PATH="" PKG_CONFIG_LIBDIR=/usr/lib/x86_64-linux-gnu/pkgconfig:/usr/share/pkgconfig pkg-config --cflags --libs isoslab) \
+  -Wl,-rpath,/usr/lib/x86_64-linux-gnu || fail "a pkg-config consumer of the installed package did not build"
+ldd "$work/stack_info" | grep -q "libisoslab.so.0.1 => /usr/lib/x86_64-linux-gnu/libisoslab.so.0.1" ||
+  fail "the consumer does not use the package's libisoslab.so: $(ldd "$work/stack_info" | grep isoslab)"
 [ "$(env -u ISOSLAB_OIIO_MODULE "$work/stack_info" "$work/stack")" = "24 20 12" ] ||
   fail "libisoslab.so could not read a TIFF stack (the OpenImageIO module)"
 mv "$hidden" "$build"

@@ -545,6 +545,7 @@ class PartSpool {
     for (std::int64_t k = 0; k < count_; ++k) {
       std::uint64_t n = 0;
       file_.read(&n, sizeof n);
+      if (n > static_cast<std::uint64_t>(file_.size())) throw Error("a rank's spool file is damaged");
       message.resize(static_cast<std::size_t>(n));
       file_.read(message.data(), message.size());
       fn(message);
