@@ -281,8 +281,13 @@ class ArraySink final : public MeshSink {
   GrowBuffer<std::int32_t> faces;
 
  private:
-  // The larger and the smaller of two, as std::max and std::min give them, but by value: the
-  // compiler makes them maxss / minss instead of branches.
+  // Four floats and two doubles, in the compiler's vector types (SSE registers on x86-64).
+  using Floats4 = float __attribute__((vector_size(16)));
+  using Doubles2 = double __attribute__((vector_size(16)));
+
+  // The larger and the smaller of two, as std::max and std::min give them, but by value (and
+  // lane by lane for vectors): the compiler makes them maxss / minss (maxps ...) instead of
+  // branches.
   template <typename T>
   static T larger(T a, T b) noexcept {
     return a < b ? b : a;
@@ -305,8 +310,8 @@ class ArraySink final : public MeshSink {
   // valueAt's common case, from the lent floats: a vertex inside a lattice edge (one coordinate
   // between two lattice points, the others on one) that is not on the volume's faces. Its four
   // cells are the 2 x 2 around the edge, read as nine voxel pairs along it (18 voxels). Nothing
-  // for any other vertex. The same minima and maxima as anyValueAt, only found in another order,
-  // and without a branch on the values (they would be mispredicted half the time).
+  // for any other vertex. The same extremes as anyValueAt (found in another order), four lanes
+  // at a time and without a branch on the values (they would be mispredicted half the time).
   std::optional<float> edgeValue(const Vec3f& p) const noexcept {
     const auto& d = source_.info().dims;  // x, y, z
     // Truncation is the floor: the vertices are inside the lattice (not negative).
@@ -323,22 +328,30 @@ class ArraySink final : public MeshSink {
     const std::int64_t u = inX ? sy : 1;             // and the two across it
     const std::int64_t w = inZ ? sy : sz;
     const float* q = lent_ + x + y * sy + z * sz - u - w;
-    // The smaller and larger of each pair along the edge, at offsets -1, 0, 1 across (u, w).
-    float lo[9], hi[9];
-    for (int b = 0; b < 3; ++b) {
-      for (int a = 0; a < 3; ++a) {
-        const float* r = q + a * u + b * w;
-        lo[3 * b + a] = smaller(r[0], r[s]);
-        hi[3 * b + a] = larger(r[0], r[s]);
-      }
+    // Per row b across w: lanes a = 0, 1, 2 across u (and 2 again), the smaller and larger of
+    // each pair along the edge.
+    std::array<Floats4, 3> lo, hi;
+    for (std::size_t b = 0; b < 3; ++b) {
+      const float* r = q + static_cast<std::int64_t>(b) * w;
+      const Floats4 first{r[0], r[u], r[2 * u], r[2 * u]};
+      const Floats4 second{r[s], r[u + s], r[2 * u + s], r[2 * u + s]};
+      lo[b] = smaller(first, second);
+      hi[b] = larger(first, second);
     }
-    double best = 0;
-    for (int k : {0, 1, 3, 4}) {  // the cells, by their first pair
-      const float top = larger(larger(hi[k], hi[k + 1]), larger(hi[k + 3], hi[k + 4]));
-      const float bottom = smaller(smaller(lo[k], lo[k + 1]), smaller(lo[k + 3], lo[k + 4]));
-      best = larger(best, larger(0.0, top - level_) - smaller(0.0, bottom - level_));
+    // The cells: rows b, b + 1 (one vector per b), then lanes a, a + 1 (lanes 0 and 1).
+    std::array<Floats4, 2> bottom{smaller(lo[0], lo[1]), smaller(lo[1], lo[2])};
+    std::array<Floats4, 2> top{larger(hi[0], hi[1]), larger(hi[1], hi[2])};
+    const Doubles2 level{level_, level_}, zero{0, 0};
+    Doubles2 best = zero;
+    for (std::size_t b = 0; b < 2; ++b) {
+      bottom[b] = smaller(bottom[b], __builtin_shufflevector(bottom[b], bottom[b], 1, 2, 3, 3));
+      top[b] = larger(top[b], __builtin_shufflevector(top[b], top[b], 1, 2, 3, 3));
+      // As anyValueAt, in double.
+      const Doubles2 t = __builtin_convertvector(__builtin_shufflevector(top[b], top[b], 0, 1), Doubles2) - level;
+      const Doubles2 m = __builtin_convertvector(__builtin_shufflevector(bottom[b], bottom[b], 0, 1), Doubles2) - level;
+      best = larger(best, larger(zero, t) - smaller(zero, m));
     }
-    return static_cast<float>(best);
+    return static_cast<float>(larger(best[0], best[1]));
   }
 
   // valueAt for any vertex and array.
