@@ -12,7 +12,8 @@ Then extract() from an np.memmap of a 512 x 512 x 1024 int16 file to .glb, again
 program on the same file: the peak RSS of each (extract() runs the program, so its figure is the
 child's, plus what the Python process adds).
 
-Usage: bench/python_peers.py [BUILD_DIR] [--runs R] [--rounds N]
+Usage: bench/python_peers.py [BUILD_DIR] [--runs R] [--rounds N] [--no-memmap]
+(--no-memmap: the table only, without the extract() measure.)
 """
 import json
 import os
@@ -148,7 +149,8 @@ def main():
                 label = {"isoslab": "isoslab.marching_cubes (mc)", "lewiner": "skimage lewiner",
                          "lorensen": "skimage lorensen", "vtk": "vtkFlyingEdges3D (normals)"}[t]
                 print(f"| {label} | {s:.3f} | {s / base:.1f} | {mib:.0f} | {results[t][-1]['triangles']} |")
-        memmap_extract()
+        if "--no-memmap" not in args:
+            memmap_extract()
     finally:
         shutil.rmtree(TMP, ignore_errors=True)
 

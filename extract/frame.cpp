@@ -173,10 +173,4 @@ std::optional<LatticeBox> LatticeFrame::latticeBox(const std::array<double, 6>& 
   return found;
 }
 
-Vec3d LatticeFrame::gradient(const Vec3d& g) const noexcept {
-  const auto& m = inverseT_;
-  return {m[0] * g[0] + m[1] * g[1] + m[2] * g[2], m[3] * g[0] + m[4] * g[1] + m[5] * g[2],
-          m[6] * g[0] + m[7] * g[1] + m[8] * g[2]};
-}
-
 }  // namespace isoslab

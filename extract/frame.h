@@ -35,8 +35,13 @@ class LatticeFrame {
   }
 
   /// Converts a gradient taken with respect to lattice coordinates into one with respect to output
-  /// coordinates (multiplies by the inverse transpose of the linear part).
-  Vec3d gradient(const Vec3d& latticeGradient) const noexcept;
+  /// coordinates (multiplies by the inverse transpose of the linear part). Inline: extraction
+  /// converts every vertex's normal.
+  Vec3d gradient(const Vec3d& g) const noexcept {
+    const auto& m = inverseT_;
+    return {m[0] * g[0] + m[1] * g[1] + m[2] * g[2], m[3] * g[0] + m[4] * g[1] + m[5] * g[2],
+            m[6] * g[0] + m[7] * g[1] + m[8] * g[2]};
+  }
 
   /// True if the frame is left-handed, so that triangle winding must be reversed to keep normals
   /// pointing from high to low values.

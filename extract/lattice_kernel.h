@@ -59,6 +59,7 @@ class LatticeKernel {
   std::array<const RowSpan*, 3> rowSpans(const SlabView& slab, bool standalone);
   void trimmedRow(std::int64_t j, const std::array<const RowSpan*, 3>& spans, double& insideVolume);
   void marchRow(std::int64_t j, std::int64_t begin, std::int64_t end, double& insideVolume);
+  void prefetchRow(std::int64_t j, std::int64_t begin, std::int64_t end) const noexcept;
   void computeCentres(int which, std::vector<float>& dst);
   void loadCorners(const std::array<const float*, 4>& rows) noexcept;
   void ownCentres() noexcept;

@@ -34,6 +34,12 @@ class ZeroedIds {
   /// Sets `slot` to `id` (not kUnset).
   void set(std::size_t slot, VertexId id) noexcept { ids_[slot] = id + 1; }
   void unset(std::size_t slot) noexcept { ids_[slot] = 0; }
+  /// Asks the processor's cache for slots [first, end) (a hint only: no fault, no effect on ids).
+  void prefetch(std::size_t first, std::size_t end) const noexcept {
+    constexpr std::size_t kLine = 64 / sizeof(VertexId);
+    for (std::size_t k = first; k < end; k += kLine) __builtin_prefetch(ids_.get() + k);
+    if (first < end) __builtin_prefetch(ids_.get() + end - 1);
+  }
 
  private:
   struct Free {
@@ -59,6 +65,10 @@ class WeldingCache {
   VertexId get(int plane, std::int64_t slot) const noexcept { return planeOf(plane).get(index(slot)); }
   /// Sets `slot` of `plane` to `id` (not kNone); touch() records it for clear().
   void set(int plane, std::int64_t slot, VertexId id) noexcept { planeOf(plane).set(index(slot), id); }
+  /// Asks the processor's cache for slots [first, end) of `plane`, to be read soon (a hint only).
+  void prefetch(int plane, std::int64_t first, std::int64_t end) const noexcept {
+    planeOf(plane).prefetch(index(first), index(end));
+  }
   /// Records that `slot` of `plane` was set, for clear().
   void touch(int plane, std::int64_t slot) { touched_[static_cast<std::size_t>(plane)].push_back(slot); }
   const std::vector<std::int64_t>& touched(int plane) const noexcept {

@@ -17,9 +17,12 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <mutex>
 #include <new>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/error.h"
@@ -113,6 +116,9 @@ class ArraySource final : public SliceSource {
     return std::array<double, 2>{lo, hi};
   }
 
+  // The array's floats when it is lent (C-ordered float32), else null.
+  const float* lentData() const noexcept { return lends_ ? reinterpret_cast<const float*>(data_) : nullptr; }
+
   // The value at index (k, j, i) = (a0, a1, a2).
   float at(std::int64_t k, std::int64_t j, std::int64_t i) const noexcept {
     if (lends_) return reinterpret_cast<const float*>(data_)[(k * shape_[1] + j) * shape_[2] + i];
@@ -175,26 +181,76 @@ std::array<double, 2> volumeRange(const py::array& volume) {
   return *r;
 }
 
+// The mappings of result arrays that NumPy has freed, one per kind of array (verts, faces, ...),
+// for the next result of that kind, as malloc keeps freed blocks for the next allocations: their
+// pages are mapped already, so filling them again costs no page faults, whose zeroing by the
+// kernel is about a tenth of marching_cubes' time. At most kPoolBytes are kept (a mapping that
+// would exceed it is unmapped): that much may stay mapped after the last result is gone.
+class MappingPool {
+ public:
+  static constexpr std::size_t kKinds = 4;
+  static constexpr std::size_t kPoolBytes = std::size_t{256} << 20;
+
+  static MappingPool& instance() {
+    static MappingPool* pool = new MappingPool;  // never destroyed: arrays may outlive statics
+    return *pool;
+  }
+
+  // The kept mapping of `kind` and its size, or {nullptr, 0}.
+  std::pair<void*, std::size_t> take(std::size_t kind) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    auto m = std::exchange(kept_[kind], {nullptr, 0});
+    held_ -= m.second;
+    return m;
+  }
+
+  // Keeps a mapping of `kind` (instead of a smaller one), or unmaps it.
+  void give(std::size_t kind, void* data, std::size_t bytes) {
+    std::pair<void*, std::size_t> drop{data, bytes};
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      auto& kept = kept_[kind];
+      if (bytes > kept.second && held_ - kept.second + bytes <= kPoolBytes) {
+        held_ += bytes - kept.second;
+        std::swap(kept, drop);
+      }
+    }
+    if (drop.first != nullptr) ::munmap(drop.first, drop.second);
+  }
+
+ private:
+  std::mutex mutex_;
+  std::array<std::pair<void*, std::size_t>, kKinds> kept_{};
+  std::size_t held_ = 0;
+};
+
 // A growing array of T in pages of its own (mmap), grown by mremap, which moves pages instead of
 // copying them: the mesh is never held twice, and no time goes to copies. Handed to NumPy
-// without a copy; the array's capsule unmaps it.
+// without a copy; the array's capsule gives the pages back to the MappingPool under `kind`, from
+// which the next buffer of that kind starts.
 template <typename T>
 class GrowBuffer {
  public:
-  GrowBuffer() = default;
+  explicit GrowBuffer(std::size_t kind) : kind_(kind) {}
   GrowBuffer(const GrowBuffer&) = delete;
   GrowBuffer& operator=(const GrowBuffer&) = delete;
   ~GrowBuffer() {
-    if (data_ != nullptr) ::munmap(data_, bytes_);
+    if (data_ != nullptr) MappingPool::instance().give(kind_, data_, bytes_);
   }
 
   T* extend(std::size_t n) {
     if ((size_ + n) * sizeof(T) > bytes_) {
+      if (data_ == nullptr) {
+        const auto [p, bytes] = MappingPool::instance().take(kind_);
+        data_ = static_cast<T*>(p);
+        bytes_ = bytes;
+      }
+    }
+    if ((size_ + n) * sizeof(T) > bytes_) {
       // Huge pages where the system gives them on request (madvise): a page fault per 2 MiB
       // instead of per 4 KiB, which on a virtual machine is most of the time of filling them.
-      const std::size_t page = std::size_t{1} << 21;
       const std::size_t want = std::max((size_ + n) * sizeof(T), bytes_ + bytes_ / 2);
-      const std::size_t bytes = (want + page - 1) / page * page;
+      const std::size_t bytes = (want + kPage - 1) / kPage * kPage;
       void* p = data_ == nullptr ? ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0)
                                  : ::mremap(data_, bytes_, bytes, MREMAP_MAYMOVE);
       if (p == MAP_FAILED) throw std::bad_alloc();
@@ -212,14 +268,18 @@ class GrowBuffer {
   // A NumPy array of shape (size / columns, columns) (or (size,) for columns 0) that owns the data.
   py::array release(py::ssize_t columns) {
     if (data_ == nullptr) extend(0);
+    // Without the pages beyond the data (a larger result's, from the pool, or the last growth's).
+    const std::size_t used = std::max<std::size_t>(1, (size_ * sizeof(T) + kPage - 1) / kPage) * kPage;
+    if (used < bytes_ && ::mremap(data_, bytes_, used, 0) != MAP_FAILED) bytes_ = used;  // in place
     struct Mapping {
+      std::size_t kind;
       void* data;
       std::size_t bytes;
     };
-    auto* mapping = new Mapping{data_, bytes_};
+    auto* mapping = new Mapping{kind_, data_, bytes_};
     py::capsule unmap(mapping, [](void* q) {
       auto* m = static_cast<Mapping*>(q);
-      ::munmap(m->data, m->bytes);
+      MappingPool::instance().give(m->kind, m->data, m->bytes);
       delete m;
     });
     T* owned = data_;
@@ -232,6 +292,9 @@ class GrowBuffer {
   }
 
  private:
+  static constexpr std::size_t kPage = std::size_t{1} << 21;  // mappings are whole huge pages
+
+  std::size_t kind_;
   T* data_ = nullptr;
   std::size_t size_ = 0;
   std::size_t bytes_ = 0;
@@ -243,7 +306,7 @@ class GrowBuffer {
 class ArraySink final : public MeshSink {
  public:
   ArraySink(const ArraySource& source, const std::array<double, 3>& spacing, double level, bool ascent)
-      : source_(source), spacing_(spacing), level_(level), ascent_(ascent) {}
+      : source_(source), lent_(source.lentData()), spacing_(spacing), level_(level), ascent_(ascent) {}
 
   void begin(const MeshHeader&) override {}
   void consume(const MeshChunk& c) override {
@@ -260,8 +323,8 @@ class ArraySink final : public MeshSink {
       nn[3 * k] = q.z;
       nn[3 * k + 1] = q.y;
       nn[3 * k + 2] = q.x;
-      val[k] = valueAt(p);
     }
+    for (std::size_t k = 0; k < n; ++k) val[k] = valueAt(c.positions[k]);
     // Reversing the axes mirrors the mesh, which reverses the winding: isoslab's (counter-clockwise
     // from the lower values) becomes scikit-image's "descent" order; "ascent" reverses it back.
     std::int32_t* f = faces.extend(3 * c.triangles.size());
@@ -273,14 +336,85 @@ class ArraySink final : public MeshSink {
   }
   void finish() override {}
 
-  GrowBuffer<float> verts, normals, values;
-  GrowBuffer<std::int32_t> faces;
+  GrowBuffer<float> verts{0}, normals{1}, values{2};
+  GrowBuffer<std::int32_t> faces{3};
 
  private:
+  // Four floats and two doubles, in the compiler's vector types (SSE registers on x86-64).
+  using Floats4 = float __attribute__((vector_size(16)));
+  using Doubles2 = double __attribute__((vector_size(16)));
+
+  // The larger and the smaller of two, as std::max and std::min give them, but by value (and
+  // lane by lane for vectors): the compiler makes them maxss / minss (maxps ...) instead of
+  // branches.
+  template <typename T>
+  static T larger(T a, T b) noexcept {
+    return a < b ? b : a;
+  }
+  template <typename T>
+  static T smaller(T a, T b) noexcept {
+    return b < a ? b : a;
+  }
+
   // scikit-image's value of a vertex: the largest span (max - min, the level between) of the
   // values of a cell around it. A vertex lies on a lattice edge or diagonal; its cells are those
   // whose closed box holds it (at most 8, for a vertex on a lattice point).
   float valueAt(const Vec3f& p) const noexcept {
+    if (lent_ != nullptr) {
+      if (const auto value = edgeValue(p)) return *value;
+    }
+    return anyValueAt(p);
+  }
+
+  // valueAt's common case, from the lent floats: a vertex inside a lattice edge (one coordinate
+  // between two lattice points, the others on one) that is not on the volume's faces. Its four
+  // cells are the 2 x 2 around the edge, read as nine voxel pairs along it (18 voxels). Nothing
+  // for any other vertex. The same extremes as anyValueAt (found in another order), four lanes
+  // at a time and without a branch on the values (they would be mispredicted half the time).
+  std::optional<float> edgeValue(const Vec3f& p) const noexcept {
+    const auto& d = source_.info().dims;  // x, y, z
+    // Truncation is the floor: the vertices are inside the lattice (not negative).
+    const auto x = static_cast<std::int64_t>(p.x), y = static_cast<std::int64_t>(p.y),
+               z = static_cast<std::int64_t>(p.z);
+    const bool inX = static_cast<float>(x) != p.x, inY = static_cast<float>(y) != p.y,
+               inZ = static_cast<float>(z) != p.z;  // the coordinate between two lattice points
+    if (inX + inY + inZ != 1) return std::nullopt;  // on a lattice point or a diagonal
+    // On the edge's axis, 0 <= floor <= d - 2; on the others (a cell each side), 1 <= c <= d - 2.
+    const auto outside = [](std::int64_t c, bool in, std::int64_t n) { return c < !in || c > n - 2; };
+    if (outside(x, inX, d[0]) || outside(y, inY, d[1]) || outside(z, inZ, d[2])) return std::nullopt;
+    const std::int64_t sy = d[0], sz = d[0] * d[1];
+    const std::int64_t s = inX ? 1 : inY ? sy : sz;  // the stride along the edge
+    const std::int64_t u = inX ? sy : 1;             // and the two across it
+    const std::int64_t w = inZ ? sy : sz;
+    const float* q = lent_ + x + y * sy + z * sz - u - w;
+    // Per row b across w: lanes a = 0, 1, 2 across u (and 2 again), the smaller and larger of
+    // each pair along the edge.
+    std::array<Floats4, 3> lo, hi;
+    for (std::size_t b = 0; b < 3; ++b) {
+      const float* r = q + static_cast<std::int64_t>(b) * w;
+      const Floats4 first{r[0], r[u], r[2 * u], r[2 * u]};
+      const Floats4 second{r[s], r[u + s], r[2 * u + s], r[2 * u + s]};
+      lo[b] = smaller(first, second);
+      hi[b] = larger(first, second);
+    }
+    // The cells: rows b, b + 1 (one vector per b), then lanes a, a + 1 (lanes 0 and 1).
+    std::array<Floats4, 2> bottom{smaller(lo[0], lo[1]), smaller(lo[1], lo[2])};
+    std::array<Floats4, 2> top{larger(hi[0], hi[1]), larger(hi[1], hi[2])};
+    const Doubles2 level{level_, level_}, zero{0, 0};
+    Doubles2 best = zero;
+    for (std::size_t b = 0; b < 2; ++b) {
+      bottom[b] = smaller(bottom[b], __builtin_shufflevector(bottom[b], bottom[b], 1, 2, 3, 3));
+      top[b] = larger(top[b], __builtin_shufflevector(top[b], top[b], 1, 2, 3, 3));
+      // As anyValueAt, in double.
+      const Doubles2 t = __builtin_convertvector(__builtin_shufflevector(top[b], top[b], 0, 1), Doubles2) - level;
+      const Doubles2 m = __builtin_convertvector(__builtin_shufflevector(bottom[b], bottom[b], 0, 1), Doubles2) - level;
+      best = larger(best, larger(zero, t) - smaller(zero, m));
+    }
+    return static_cast<float>(larger(best[0], best[1]));
+  }
+
+  // valueAt for any vertex and array.
+  float anyValueAt(const Vec3f& p) const noexcept {
     const auto& d = source_.info().dims;  // x, y, z
     const std::array<double, 3> c{p.x, p.y, p.z};
     std::array<std::int64_t, 3> lo{}, cells{};  // the first cell and the cell count (1 or 2) per axis
@@ -317,6 +451,7 @@ class ArraySink final : public MeshSink {
   }
 
   const ArraySource& source_;
+  const float* lent_;  // the source's floats when it lends them
   std::array<double, 3> spacing_;
   double level_;
   bool ascent_;
@@ -324,9 +459,11 @@ class ArraySink final : public MeshSink {
 
 // Extracts the iso-surface of `volume`; returns verts (V, 3) float32 in array index order and
 // scaled by spacing, faces (F, 3) int32, normals (V, 3) float32 (unit, from high to low values,
-// in index space, as scikit-image's) and values (V,) float32.
+// in index space, as scikit-image's), values (V,) float32 and, with `range`, the volume's value
+// range as volume_range gives it (else NaN, NaN): for a lent array, the one the pipeline tracks
+// as it reads the slices (the same floats, in the same order), so the volume is read once.
 py::tuple marchingCubes(const py::array& volume, double level, const std::array<double, 3>& spacing,
-                        const std::string& method, int threads, bool ascent) {
+                        const std::string& method, int threads, bool ascent, bool range) {
   const auto m = parseMethod(method);
   if (!m) throw py::value_error("unknown method '" + method + "'");
   ArraySource source(volume);
@@ -336,20 +473,26 @@ py::tuple marchingCubes(const py::array& volume, double level, const std::array<
   options.normals = true;
   options.cellVolumes = false;
   ArraySink sink(source, spacing, level, ascent);
+  std::optional<std::array<double, 2>> valueRange;
   {
     py::gil_scoped_release release;
+    if (range && !source.lendsSlices()) valueRange = source.range();
     // In the voxel frame, as scikit-image extracts: the normals are the field's gradient in index
     // space, and the vertices are scaled by the spacing as they are stored.
     const LatticeFrame frame = LatticeFrame::voxel();
     auto extractor = makeExtractor(options, source.info(), frame);
     PipelineOptions pipeline;
     pipeline.threads = std::max(1, threads);
-    runPipeline(source, *extractor, sink, extractionHeader(options, source.info(), frame, *extractor), pipeline);
+    const PipelineResult result =
+        runPipeline(source, *extractor, sink, extractionHeader(options, source.info(), frame, *extractor), pipeline);
+    if (range && source.lendsSlices()) valueRange = result.valueRange;
   }
+  if (!valueRange) valueRange = {std::nan(""), std::nan("")};
   if (sink.values.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) {
     throw Error("the mesh has more vertices than int32 faces can index (2^31 - 1)");
   }
-  return py::make_tuple(sink.verts.release(3), sink.faces.release(3), sink.normals.release(3), sink.values.release(0));
+  return py::make_tuple(sink.verts.release(3), sink.faces.release(3), sink.normals.release(3), sink.values.release(0),
+                        py::make_tuple((*valueRange)[0], (*valueRange)[1]));
 }
 
 py::dict infoDict(const VolumeInfo& info) {
@@ -473,7 +616,7 @@ PYBIND11_MODULE(_isoslab, m) {
     }
   });
   m.def("marching_cubes", &isoslab::marchingCubes, py::arg("volume"), py::arg("level"), py::arg("spacing"),
-        py::arg("method"), py::arg("threads"), py::arg("ascent"));
+        py::arg("method"), py::arg("threads"), py::arg("ascent"), py::arg("range"));
   m.def("volume_range", &isoslab::volumeRange, py::arg("volume"));
   m.def("read_volume_info", [](const std::vector<std::string>& inputs) {
     auto source = isoslab::openSource(inputs, isoslab::SourceOptions{});
