@@ -17,12 +17,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
-#include <mutex>
 #include <new>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "core/error.h"
@@ -181,76 +179,26 @@ std::array<double, 2> volumeRange(const py::array& volume) {
   return *r;
 }
 
-// The mappings of result arrays that NumPy has freed, one per kind of array (verts, faces, ...),
-// for the next result of that kind, as malloc keeps freed blocks for the next allocations: their
-// pages are mapped already, so filling them again costs no page faults, whose zeroing by the
-// kernel is about a tenth of marching_cubes' time. At most kPoolBytes are kept (a mapping that
-// would exceed it is unmapped): that much may stay mapped after the last result is gone.
-class MappingPool {
- public:
-  static constexpr std::size_t kKinds = 4;
-  static constexpr std::size_t kPoolBytes = std::size_t{256} << 20;
-
-  static MappingPool& instance() {
-    static MappingPool* pool = new MappingPool;  // never destroyed: arrays may outlive statics
-    return *pool;
-  }
-
-  // The kept mapping of `kind` and its size, or {nullptr, 0}.
-  std::pair<void*, std::size_t> take(std::size_t kind) {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    auto m = std::exchange(kept_[kind], {nullptr, 0});
-    held_ -= m.second;
-    return m;
-  }
-
-  // Keeps a mapping of `kind` (instead of a smaller one), or unmaps it.
-  void give(std::size_t kind, void* data, std::size_t bytes) {
-    std::pair<void*, std::size_t> drop{data, bytes};
-    {
-      const std::lock_guard<std::mutex> lock(mutex_);
-      auto& kept = kept_[kind];
-      if (bytes > kept.second && held_ - kept.second + bytes <= kPoolBytes) {
-        held_ += bytes - kept.second;
-        std::swap(kept, drop);
-      }
-    }
-    if (drop.first != nullptr) ::munmap(drop.first, drop.second);
-  }
-
- private:
-  std::mutex mutex_;
-  std::array<std::pair<void*, std::size_t>, kKinds> kept_{};
-  std::size_t held_ = 0;
-};
-
 // A growing array of T in pages of its own (mmap), grown by mremap, which moves pages instead of
 // copying them: the mesh is never held twice, and no time goes to copies. Handed to NumPy
-// without a copy; the array's capsule gives the pages back to the MappingPool under `kind`, from
-// which the next buffer of that kind starts.
+// without a copy; the array's capsule unmaps it.
 template <typename T>
 class GrowBuffer {
  public:
-  explicit GrowBuffer(std::size_t kind) : kind_(kind) {}
+  GrowBuffer() = default;
   GrowBuffer(const GrowBuffer&) = delete;
   GrowBuffer& operator=(const GrowBuffer&) = delete;
   ~GrowBuffer() {
-    if (data_ != nullptr) MappingPool::instance().give(kind_, data_, bytes_);
+    if (data_ != nullptr) ::munmap(data_, bytes_);
   }
 
   T* extend(std::size_t n) {
     if ((size_ + n) * sizeof(T) > bytes_) {
-      if (data_ == nullptr) {
-        const auto [p, bytes] = MappingPool::instance().take(kind_);
-        data_ = static_cast<T*>(p);
-        bytes_ = bytes;
-      }
-    }
-    if ((size_ + n) * sizeof(T) > bytes_) {
       // Huge pages where the system gives them on request (madvise): a page fault per 2 MiB
       // instead of per 4 KiB, which on a virtual machine is most of the time of filling them.
+      const std::size_t page = std::size_t{1} << 21;
       const std::size_t want = std::max((size_ + n) * sizeof(T), bytes_ + bytes_ / 2);
-      const std::size_t bytes = (want + kPage - 1) / kPage * kPage;
+      const std::size_t bytes = (want + page - 1) / page * page;
       void* p = data_ == nullptr ? ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0)
                                  : ::mremap(data_, bytes_, bytes, MREMAP_MAYMOVE);
       if (p == MAP_FAILED) throw std::bad_alloc();
@@ -268,18 +216,14 @@ class GrowBuffer {
   // A NumPy array of shape (size / columns, columns) (or (size,) for columns 0) that owns the data.
   py::array release(py::ssize_t columns) {
     if (data_ == nullptr) extend(0);
-    // Without the pages beyond the data (a larger result's, from the pool, or the last growth's).
-    const std::size_t used = std::max<std::size_t>(1, (size_ * sizeof(T) + kPage - 1) / kPage) * kPage;
-    if (used < bytes_ && ::mremap(data_, bytes_, used, 0) != MAP_FAILED) bytes_ = used;  // in place
     struct Mapping {
-      std::size_t kind;
       void* data;
       std::size_t bytes;
     };
-    auto* mapping = new Mapping{kind_, data_, bytes_};
+    auto* mapping = new Mapping{data_, bytes_};
     py::capsule unmap(mapping, [](void* q) {
       auto* m = static_cast<Mapping*>(q);
-      MappingPool::instance().give(m->kind, m->data, m->bytes);
+      ::munmap(m->data, m->bytes);
       delete m;
     });
     T* owned = data_;
@@ -292,9 +236,6 @@ class GrowBuffer {
   }
 
  private:
-  static constexpr std::size_t kPage = std::size_t{1} << 21;  // mappings are whole huge pages
-
-  std::size_t kind_;
   T* data_ = nullptr;
   std::size_t size_ = 0;
   std::size_t bytes_ = 0;
@@ -336,8 +277,8 @@ class ArraySink final : public MeshSink {
   }
   void finish() override {}
 
-  GrowBuffer<float> verts{0}, normals{1}, values{2};
-  GrowBuffer<std::int32_t> faces{3};
+  GrowBuffer<float> verts, normals, values;
+  GrowBuffer<std::int32_t> faces;
 
  private:
   // Four floats and two doubles, in the compiler's vector types (SSE registers on x86-64).
