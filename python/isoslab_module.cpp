@@ -400,11 +400,9 @@ class ArraySink final : public MeshSink {
 
 // Extracts the iso-surface of `volume`; returns verts (V, 3) float32 in array index order and
 // scaled by spacing, faces (F, 3) int32, normals (V, 3) float32 (unit, from high to low values,
-// in index space, as scikit-image's), values (V,) float32 and, with `range`, the volume's value
-// range as volume_range gives it (else NaN, NaN): for a lent array, the one the pipeline tracks
-// as it reads the slices (the same floats, in the same order), so the volume is read once.
+// in index space, as scikit-image's) and values (V,) float32.
 py::tuple marchingCubes(const py::array& volume, double level, const std::array<double, 3>& spacing,
-                        const std::string& method, int threads, bool ascent, bool range) {
+                        const std::string& method, int threads, bool ascent) {
   const auto m = parseMethod(method);
   if (!m) throw py::value_error("unknown method '" + method + "'");
   ArraySource source(volume);
@@ -414,26 +412,20 @@ py::tuple marchingCubes(const py::array& volume, double level, const std::array<
   options.normals = true;
   options.cellVolumes = false;
   ArraySink sink(source, spacing, level, ascent);
-  std::optional<std::array<double, 2>> valueRange;
   {
     py::gil_scoped_release release;
-    if (range && !source.lendsSlices()) valueRange = source.range();
     // In the voxel frame, as scikit-image extracts: the normals are the field's gradient in index
     // space, and the vertices are scaled by the spacing as they are stored.
     const LatticeFrame frame = LatticeFrame::voxel();
     auto extractor = makeExtractor(options, source.info(), frame);
     PipelineOptions pipeline;
     pipeline.threads = std::max(1, threads);
-    const PipelineResult result =
-        runPipeline(source, *extractor, sink, extractionHeader(options, source.info(), frame, *extractor), pipeline);
-    if (range && source.lendsSlices()) valueRange = result.valueRange;
+    runPipeline(source, *extractor, sink, extractionHeader(options, source.info(), frame, *extractor), pipeline);
   }
-  if (!valueRange) valueRange = {std::nan(""), std::nan("")};
   if (sink.values.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) {
     throw Error("the mesh has more vertices than int32 faces can index (2^31 - 1)");
   }
-  return py::make_tuple(sink.verts.release(3), sink.faces.release(3), sink.normals.release(3), sink.values.release(0),
-                        py::make_tuple((*valueRange)[0], (*valueRange)[1]));
+  return py::make_tuple(sink.verts.release(3), sink.faces.release(3), sink.normals.release(3), sink.values.release(0));
 }
 
 py::dict infoDict(const VolumeInfo& info) {
@@ -557,7 +549,7 @@ PYBIND11_MODULE(_isoslab, m) {
     }
   });
   m.def("marching_cubes", &isoslab::marchingCubes, py::arg("volume"), py::arg("level"), py::arg("spacing"),
-        py::arg("method"), py::arg("threads"), py::arg("ascent"), py::arg("range"));
+        py::arg("method"), py::arg("threads"), py::arg("ascent"));
   m.def("volume_range", &isoslab::volumeRange, py::arg("volume"));
   m.def("read_volume_info", [](const std::vector<std::string>& inputs) {
     auto source = isoslab::openSource(inputs, isoslab::SourceOptions{});

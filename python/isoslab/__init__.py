@@ -68,9 +68,8 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), method="mc", 
         raise ValueError("mask is not supported: crop the volume instead (isoslab extract --roi for files).")
     if threads is not None and int(threads) < 1:
         raise ValueError(f"threads must be at least 1 (got {threads}).")
-    given = level is not None
-    if not given:
-        lo, hi = _isoslab.volume_range(volume)
+    lo, hi = _isoslab.volume_range(volume)
+    if level is None:
         if math.isnan(lo):
             raise ValueError("The volume holds no values but NaN.")
         level = 0.5 * (lo + hi)
@@ -78,13 +77,10 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), method="mc", 
         level = float(level)
         if math.isnan(level):
             raise ValueError("Surface level must be a number, not NaN.")
-    # A given level is checked against the range that the extraction finds on the way (for a
-    # float32 array that it reads in place; otherwise before it), which spares a pass over the
-    # volume: an extraction at a level outside the range finds nothing and costs one pass too.
-    verts, faces, normals, values, (lo, hi) = _isoslab.marching_cubes(
-        volume, level, spacing, method, int(threads or 1), gradient_direction == "ascent", given)
-    if given and (math.isnan(lo) or level < lo or level > hi):
-        raise ValueError(f"Surface level must be within volume data range ({lo} .. {hi}; got {level}).")
+        if math.isnan(lo) or level < lo or level > hi:
+            raise ValueError(f"Surface level must be within volume data range ({lo} .. {hi}; got {level}).")
+    verts, faces, normals, values = _isoslab.marching_cubes(volume, level, spacing, method,
+                                                             int(threads or 1), gradient_direction == "ascent")
     if len(verts) == 0:
         raise RuntimeError("No surface found at the given iso value.")
     if not allow_degenerate:
