@@ -310,8 +310,9 @@ class ArraySink final : public MeshSink {
   // valueAt's common case, from the lent floats: a vertex inside a lattice edge (one coordinate
   // between two lattice points, the others on one) that is not on the volume's faces. Its four
   // cells are the 2 x 2 around the edge, read as nine voxel pairs along it (18 voxels). Nothing
-  // for any other vertex. The same extremes as anyValueAt (found in another order), four lanes
-  // at a time and without a branch on the values (they would be mispredicted half the time).
+  // for any other vertex, or when one of the voxels is NaN. The same extremes as anyValueAt
+  // (found in another order), four lanes at a time and without a branch on the values (they
+  // would be mispredicted half the time).
   std::optional<float> edgeValue(const Vec3f& p) const noexcept {
     const auto& d = source_.info().dims;  // x, y, z
     // Truncation is the floor: the vertices are inside the lattice (not negative).
@@ -331,13 +332,20 @@ class ArraySink final : public MeshSink {
     // Per row b across w: lanes a = 0, 1, 2 across u (and 2 again), the smaller and larger of
     // each pair along the edge.
     std::array<Floats4, 3> lo, hi;
+    Floats4 sum{0, 0, 0, 0};
     for (std::size_t b = 0; b < 3; ++b) {
       const float* r = q + static_cast<std::int64_t>(b) * w;
       const Floats4 first{r[0], r[u], r[2 * u], r[2 * u]};
       const Floats4 second{r[s], r[u + s], r[2 * u + s], r[2 * u + s]};
       lo[b] = smaller(first, second);
       hi[b] = larger(first, second);
+      sum += first + second;
     }
+    // With a NaN among the voxels, smaller() and larger() would keep or drop it by its place in
+    // the pair, where anyValueAt skips it: that case goes to anyValueAt. (A NaN sum can also come
+    // from infinities, which anyValueAt then handles as well.)
+    const float total = sum[0] + sum[1] + sum[2] + sum[3];
+    if (std::isnan(total)) return std::nullopt;
     // The cells: rows b, b + 1 (one vector per b), then lanes a, a + 1 (lanes 0 and 1).
     std::array<Floats4, 2> bottom{smaller(lo[0], lo[1]), smaller(lo[1], lo[2])};
     std::array<Floats4, 2> top{larger(hi[0], hi[1]), larger(hi[1], hi[2])};

@@ -190,6 +190,20 @@ def test_any_dtype_and_strides_give_the_float32_result(tmp_path):
             np.testing.assert_array_equal(got, want)
 
 
+def test_nan_voxels_give_the_same_result_in_place_and_converted():
+    # NaN voxels (outside a scanner's field of view, say) count as outside; the values of the
+    # vertices beside them come from the in-place float32 path and from the converting path
+    # alike (they once differed: the in-place path's min and max kept or dropped a NaN by its
+    # place in a pair).
+    volume = smooth_noise((18, 20, 22), 7)
+    volume[np.random.default_rng(3).random(volume.shape) < 0.15] = np.nan
+    reference = isoslab.marching_cubes(volume, 0.0)
+    assert len(reference[1]) > 1000
+    for variant in (np.asfortranarray(volume), volume.astype(np.float64)):
+        for got, want in zip(isoslab.marching_cubes(variant, 0.0), reference):
+            np.testing.assert_array_equal(got, want)
+
+
 def test_spacing_scales_the_vertices_only():
     volume = sphere_field()
     plain = isoslab.marching_cubes(volume, -6.0)
