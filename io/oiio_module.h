@@ -7,8 +7,8 @@ namespace isoslab {
 
 /// The address of `symbol` in the module: $ISOSLAB_OIIO_MODULE, then LIBDIR/isoslab/ of an
 /// installed tree (found from the file that holds this code and from the program), then the build
-/// tree (only for code that runs from the build tree). Throws isoslab::Error saying that `what` needs the module when
-/// it cannot be loaded.
+/// tree (only for code that runs from the build tree). Throws isoslab::Error saying that `what`
+/// needs the module when it cannot be loaded.
 void* oiioSymbol(const char* symbol, const char* what);
 
 }  // namespace isoslab
