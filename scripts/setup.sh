@@ -18,6 +18,8 @@ packages=(
   pybind11-dev python3-dev python3-numpy python3-pytest python3-scipy
   # The Debian package and its checks (issue 22): cpack's dpkg-shlibdeps needs file; the man page.
   dpkg-dev file help2man lintian
+  # A compiler cache for every build of scripts/test.sh (CMakeLists.txt uses it when found).
+  ccache
   chromium
 )
 # Node.js runs the real glTF clients in the tests; use the machine's own when it has one.
