@@ -21,6 +21,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "io/interrupt.h"
+#include "metrics/report.h"
 
 extern char** environ;
 
@@ -324,7 +325,7 @@ int runBatch(const BatchArgs& args, RankGroup* ranks) {
   summary["results"] = rows;
   {
     AtomicFile f(args.out + "/batch.json");
-    const std::string text = summary.dump(2) + "\n";
+    const std::string text = reportText(summary, args.out + "/batch.json") + "\n";
     f.write(text.data(), text.size());
     f.commit();
   }

@@ -718,7 +718,7 @@ int runExtract(const ExtractArgs& args) {
     output["ratio_to_binary_ply"] = static_cast<double>(writer->bytes()) / static_cast<double>(plyBytes);
     for (const auto& [key, value] : writer->details()) output[key] = value;
     r["output"] = output;
-    writeText(args.report, r.dump(2) + "\n");
+    writeText(args.report, reportText(r, args.report) + "\n");
   }
   throwIfInterrupted();
   outputs.commit();
@@ -921,7 +921,7 @@ int runMetrics(const std::string& input, const std::string& sphereText, const st
   if (!meta.volumeFaces) r["interior_boundary_edges"] = nullptr;
   r["components"] = componentsJson(components.components());
   if (sphere) r["sphere"] = sphereJson(sphereReport(*sphere, s, *errors));
-  const std::string text = r.dump(2) + "\n";
+  const std::string text = reportText(r, reportPath.empty() ? input : reportPath) + "\n";
   if (reportPath.empty()) {
     std::fputs(text.c_str(), stdout);
   } else {

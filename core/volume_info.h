@@ -44,6 +44,10 @@ struct VolumeInfo {
   /// Which reader made this source ("raw", "phantom", "dicom", ...) and what it read.
   std::string reader;
   std::string source;
+  /// The input's own names for where spacing (per axis) and origin came from, for messages that
+  /// refuse a geometry: "pixdim", "NRRD space directions", "PixelSpacing", "--spacing", ...
+  std::array<std::string, 3> spacingFields{"spacing", "spacing", "spacing"};
+  std::string originField = "origin";
   /// The imaging modality where the input names it (DICOM's Modality: "CT", "MR", ...), else empty.
   std::string modality;
 

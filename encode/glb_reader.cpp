@@ -60,7 +60,12 @@ class GlbReader {
     try {
       readExtras(meta);
       for (const auto& m : gltf_.value("meshes", nlohmann::json::array())) {
-        for (const auto& p : m.at("primitives")) readPrimitive(p);
+        primitiveIndex_ = 0;
+        for (const auto& p : m.at("primitives")) {
+          readPrimitive(p);
+          ++primitiveIndex_;
+        }
+        ++meshIndex_;
       }
     } catch (const nlohmann::json::exception& e) {
       throw Error(
@@ -159,12 +164,10 @@ class GlbReader {
           {static_cast<float>(pos[k]), static_cast<float>(pos[k + 1]), static_cast<float>(pos[k + 2])});
     }
     if (attributes.contains("NORMAL")) {
+      // readPrimitive() has held every attribute's count to POSITION's.
       const std::vector<double> n = accessor(attributes.at("NORMAL").get<std::uint64_t>(), 3);
-      if (n.size() == pos.size()) {
-        for (std::size_t k = 0; k + 2 < n.size(); k += 3) {
-          part.normals.push_back(
-              {static_cast<float>(n[k]), static_cast<float>(n[k + 1]), static_cast<float>(n[k + 2])});
-        }
+      for (std::size_t k = 0; k + 2 < n.size(); k += 3) {
+        part.normals.push_back({static_cast<float>(n[k]), static_cast<float>(n[k + 1]), static_cast<float>(n[k + 2])});
       }
     }
     if (attributes.contains(kSeamAttribute)) {
@@ -182,6 +185,10 @@ class GlbReader {
     }
     if (!p.contains("indices")) throw Error(fmt::format("{}: a primitive has no indices", path_));
     const std::vector<double> idx = accessor(p.at("indices").get<std::uint64_t>(), 1);
+    if (idx.size() % 3 != 0) {
+      throw Error(fmt::format("{}: a primitive of triangles has {} indices, which is not a multiple of 3", path_,
+                              idx.size()));
+    }
     for (std::size_t t = 0; t + 2 < idx.size(); t += 3) {
       Triangle tri{};
       for (std::size_t c = 0; c < 3; ++c) {
@@ -195,8 +202,33 @@ class GlbReader {
     return part;
   }
 
+  // glTF 2.0 (3.7.2.1): every attribute accessor of a primitive has the same count, whether its
+  // data is plain or in a KHR_draco_mesh_compression buffer (whose accessors still carry the
+  // count). The Khronos validator reports MESH_PRIMITIVE_UNEQUAL_ACCESSOR_COUNT; a reader that
+  // went on would pair positions with another vertex's normals or drop some.
+  void checkAttributeCounts(const nlohmann::json& p) const {
+    const auto& attributes = p.at("attributes");
+    if (!attributes.is_object() || !attributes.contains("POSITION")) {
+      throw Error(fmt::format("{}: mesh {} primitive {} has no POSITION attribute", path_, meshIndex_, primitiveIndex_));
+    }
+    const auto countOf = [&](const nlohmann::json& index) {
+      return gltf_.at("accessors").at(index.get<std::uint64_t>()).at("count").get<std::uint64_t>();
+    };
+    const std::uint64_t positions = countOf(attributes.at("POSITION"));
+    for (const auto& [name, index] : attributes.items()) {
+      const std::uint64_t count = countOf(index);
+      if (count != positions) {
+        throw Error(fmt::format(
+            "{}: mesh {} primitive {}: attribute {} has {} elements but POSITION has {} (glTF requires every "
+            "attribute of a primitive to have the same count)",
+            path_, meshIndex_, primitiveIndex_, name, count, positions));
+      }
+    }
+  }
+
   void readPrimitive(const nlohmann::json& p) {
     if (p.value("mode", 4) != 4) throw Error(fmt::format("{}: a primitive is not made of triangles", path_));
+    checkAttributeCounts(p);
     IndexedMesh part;
     const auto extensions = p.value("extensions", nlohmann::json::object());
     if (extensions.contains("KHR_draco_mesh_compression")) {
@@ -292,6 +324,9 @@ class GlbReader {
   std::uint64_t binStart_ = 0;
   std::uint64_t binLength_ = 0;
   IndexedMesh mesh_;
+  // Where the reading is, for messages.
+  std::uint64_t meshIndex_ = 0;
+  std::uint64_t primitiveIndex_ = 0;
   // The previous primitive's keys for the seam with this one, and how many primitives came before.
   std::unordered_map<std::uint32_t, VertexId> keys_;
   std::uint64_t primitives_ = 0;

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -96,11 +97,30 @@ Property parseProperty(std::istringstream& s, const std::string& line, const std
   return p;
 }
 
+// An element's count: a whole number written in decimal digits alone (no sign, point or exponent),
+// at most 2^64 - 1; checkCounts() then holds it to the data's size. The istream extraction this
+// replaces read "lots" as 0 (an empty mesh) and "-5" as 2^64 - 5.
+std::uint64_t elementCount(const std::string& word, const std::string& line, int lineNumber, const std::string& path) {
+  const auto where = fmt::format("{}: PLY header line {} '{}'", path, lineNumber,
+                                 line.size() <= 80 ? line : line.substr(0, 77) + "...");
+  if (word.empty()) throw Error(where + ": the element has no count");
+  if (!std::all_of(word.begin(), word.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+    throw Error(fmt::format("{}: the element count '{}' is not a whole number", where, word));
+  }
+  std::uint64_t count = 0;
+  const auto [stop, error] = std::from_chars(word.data(), word.data() + word.size(), count);
+  if (error != std::errc() || stop != word.data() + word.size()) {
+    throw Error(fmt::format("{}: the element count {} is beyond 2^64 - 1", where, word));
+  }
+  return count;
+}
+
 Header parseHeader(Input& in, const std::string& path, MeshMetadata& meta) {
   if (in.line() != "ply") throw Error(fmt::format("{}: not a PLY file", path));
   std::string format;
   Header header;
-  for (std::string l = in.line(); l != "end_header"; l = in.line()) {
+  int lineNumber = 2;
+  for (std::string l = in.line(); l != "end_header"; l = in.line(), ++lineNumber) {
     std::istringstream s(l);
     std::string word;
     s >> word;
@@ -111,7 +131,14 @@ Header parseHeader(Input& in, const std::string& path, MeshMetadata& meta) {
       if (text != std::string::npos) parseMetadataLine(l.substr(text), meta);
     } else if (word == "element") {
       Element e;
-      s >> e.name >> e.count;
+      std::string count, extra;
+      s >> e.name >> count;
+      if (e.name.empty()) throw Error(fmt::format("{}: PLY header line {} '{}' names no element", path, lineNumber, l));
+      e.count = elementCount(count, l, lineNumber, path);
+      if (s >> extra) {
+        throw Error(fmt::format("{}: PLY header line {} '{}': '{}' follows the element count", path, lineNumber, l,
+                                extra));
+      }
       header.elements.push_back(e);
     } else if (word == "property") {
       if (header.elements.empty()) throw Error(fmt::format("{}: a PLY property precedes every element", path));

@@ -1064,6 +1064,8 @@ class DicomSource final : public SliceSource {
       }
     }
     info.spacing = {series.pixelSpacing[1], series.pixelSpacing[0], kspacing};
+    info.spacingFields = {"PixelSpacing", "PixelSpacing", positioned ? "ImagePositionPatient" : "slice spacing"};
+    info.originField = "ImagePositionPatient";
     info.direction = {row[0], col[0], kdir[0], row[1], col[1], kdir[1], row[2], col[2], kdir[2]};
     const bool sign = series.pixelRepresentation == 1;
     info.type = series.bitsAllocated == 8    ? (sign ? VoxelType::kI8 : VoxelType::kU8)

@@ -245,9 +245,11 @@ class ImageStackSource final : public SliceSource {
     std::string spacingNote;
     if (options.spacing) {
       info_.spacing = *options.spacing;
+      info_.spacingFields = {"--spacing", "--spacing", "--spacing"};
       spacingNote = "from `spacing`";
     } else if (resolution) {
       info_.spacing = {(*resolution)[0], (*resolution)[1], 1.0};
+      info_.spacingFields = {"the resolution tags", "the resolution tags", "spacing"};
       spacingNote = fmt::format("x, y {:g} {:g} mm from the resolution tags, z 1 (give `spacing` for z)",
                                 (*resolution)[0], (*resolution)[1]);
     } else {

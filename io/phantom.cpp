@@ -153,6 +153,7 @@ std::unique_ptr<PhantomSource> PhantomSource::open(const std::string& spec) {
   validateDims(info.dims, spec);
   if (const auto* s = get("spacing")) {
     info.spacing = parseTriple(spec, "spacing", *s, true);
+    info.spacingFields = {"key 'spacing'", "key 'spacing'", "key 'spacing'"};
     for (double v : info.spacing) {
       if (!(v > 0)) throw Error(fmt::format("{}: key 'spacing' must be positive, got '{}'", spec, *s));
     }

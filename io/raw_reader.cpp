@@ -48,6 +48,7 @@ std::unique_ptr<SliceSource> RawReader::open(const std::string& input, const Raw
   VolumeInfo info;
   info.dims = dims;
   info.spacing = options.spacing;
+  info.spacingFields = {"--spacing", "--spacing", "--spacing"};
   info.type = options.type;
   info.reader = layout.perSlice ? "raw slices" : "raw";
   info.source = input;

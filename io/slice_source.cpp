@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -67,6 +68,106 @@ void validateGeometry(const VolumeInfo& info, const std::string& what) {
                      c[2][0] * (c[0][1] * c[1][2] - c[0][2] * c[1][1]);
   if (std::abs(det) < kTolerance) {
     throw Error(fmt::format("{}: direction columns are coplanar (determinant {:.3g}): the volume is flat", what, det));
+  }
+  validateFloat32Geometry(info, what);
+}
+
+void validateFloat32Geometry(const VolumeInfo& info, const std::string& what) {
+  // Meshes hold float32 coordinates: the lattice's box must fit float32's range, and neighbouring
+  // lattice points must stay apart at that box's magnitude. Both are checked in double on the
+  // physical frame (ras and lps have the same magnitudes; voxel coordinates are small).
+  const auto& d = info.direction;
+  std::array<double, 3> extent{};  // how far each axis reaches from the origin
+  for (std::size_t a = 0; a < 3; ++a) {
+    const double len = std::hypot(d[a], d[3 + a], d[6 + a]);
+    extent[a] = info.spacing[a] * len * static_cast<double>(std::max<std::int64_t>(info.dims[a] - 1, 0));
+  }
+  const bool hasSliceOrigins = !info.sliceOrigins.empty();
+  double originReach = 0;  // the largest |coordinate| of the origin, or of any slice's origin
+  for (const double o : info.origin) originReach = std::max(originReach, std::abs(o));
+  for (const auto& o : info.sliceOrigins) {
+    for (const double v : o) originReach = std::max(originReach, std::abs(v));
+  }
+  // The largest |coordinate| of any lattice point: at a corner of the box (of a slice's rectangle
+  // with per-slice origins), mapped as LatticeFrame::physical() maps it.
+  std::array<double, 3> reachOf{};  // per output coordinate
+  const std::size_t slices = hasSliceOrigins ? info.sliceOrigins.size() : 2;
+  for (std::size_t k = 0; k < slices; ++k) {
+    for (int c = 0; c < 4; ++c) {
+      for (std::size_t r = 0; r < 3; ++r) {
+        double v = hasSliceOrigins ? info.sliceOrigins[k][r] : info.origin[r];
+        if (!hasSliceOrigins && k == 1) v += d[3 * r + 2] * info.spacing[2] * static_cast<double>(info.dims[2] - 1);
+        if (c & 1) v += d[3 * r] * info.spacing[0] * static_cast<double>(info.dims[0] - 1);
+        if (c & 2) v += d[3 * r + 1] * info.spacing[1] * static_cast<double>(info.dims[1] - 1);
+        reachOf[r] = std::max(reachOf[r], std::isfinite(v) ? std::abs(v) : HUGE_VAL);
+      }
+    }
+  }
+  const double reach = std::max({reachOf[0], reachOf[1], reachOf[2]});
+  constexpr double kFloatMax = std::numeric_limits<float>::max();
+  if (!(reach <= kFloatMax)) {
+    // The term that reaches farthest is the cause: the origin, or one axis's spacing.
+    std::size_t axis = 0;
+    for (std::size_t a = 1; a < 3; ++a) {
+      if (!(extent[a] <= extent[axis])) axis = a;
+    }
+    if (originReach >= extent[axis]) {
+      throw Error(fmt::format("{}: {} {:.6g},{:.6g},{:.6g} puts the volume beyond float32's range (the largest "
+                              "float32 is {:.3g}): the mesh's coordinates would be infinite",
+                              what, info.originField, info.origin[0], info.origin[1], info.origin[2], kFloatMax));
+    }
+    const std::string reached = std::isfinite(extent[axis]) ? fmt::format("{:.3g}", extent[axis]) : "beyond 1.8e+308";
+    throw Error(fmt::format("{}: {} {:.6g} along axis {} puts the volume beyond float32's range: its {} points reach "
+                            "{} (the largest float32 is {:.3g}), so the mesh's coordinates would be infinite",
+                            what, info.spacingFields[axis], info.spacing[axis], axis, info.dims[axis], reached,
+                            kFloatMax));
+  }
+  // Neighbouring lattice points must stay apart in float32: along each axis, the step must span
+  // at least kSteps of float32's steps at the box's largest value of some coordinate that the step
+  // changes (so that a vertex between two lattice points still has 16 places to be).
+  constexpr double kSteps = 16;
+  std::array<double, 3> resolution{};
+  for (std::size_t r = 0; r < 3; ++r) {
+    const auto top = static_cast<float>(std::max(reachOf[r], static_cast<double>(std::numeric_limits<float>::min())));
+    resolution[r] =
+        static_cast<double>(std::nextafter(top, std::numeric_limits<float>::infinity())) - static_cast<double>(top);
+  }
+  for (std::size_t a = 0; a < 3; ++a) {
+    // The step along axis a as a vector; with per-slice origins, the shortest between slices.
+    std::array<double, 3> step{};
+    for (std::size_t r = 0; r < 3; ++r) step[r] = d[3 * r + a] * info.spacing[a];
+    if (a == 2 && hasSliceOrigins) {
+      double shortest = HUGE_VAL;
+      for (std::size_t k = 1; k < info.sliceOrigins.size(); ++k) {
+        const auto& p = info.sliceOrigins[k - 1];
+        const auto& q = info.sliceOrigins[k];
+        const std::array<double, 3> v{q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+        if (const double len = std::hypot(v[0], v[1], v[2]); len < shortest) {
+          shortest = len;
+          step = v;
+        }
+      }
+    }
+    double spans = 0;  // how many float32 steps the lattice step spans, in its best coordinate
+    std::size_t best = 0;
+    for (std::size_t r = 0; r < 3; ++r) {
+      if (const double n = std::abs(step[r]) / resolution[r]; n > spans) {
+        spans = n;
+        best = r;
+      }
+    }
+    if (!(spans >= kSteps)) {
+      const std::string far =
+          originReach >= 0.5 * reachOf[best]
+              ? fmt::format(" ({} {:.6g},{:.6g},{:.6g} is far from 0)", info.originField, info.origin[0],
+                            info.origin[1], info.origin[2])
+              : "";
+      throw Error(fmt::format("{}: {} gives a step of {:.6g} along axis {}, below float32's resolution at the "
+                              "volume's coordinates (which reach {:.3g}, where float32 steps by {:.3g}; a lattice "
+                              "step must span at least {:g} of them){}",
+                              what, info.spacingFields[a], std::hypot(step[0], step[1], step[2]), a, reachOf[best],
+                              resolution[best], kSteps, far));
+    }
   }
 }
 

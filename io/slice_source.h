@@ -61,6 +61,13 @@ class SliceSource {
 /// neither collinear nor nearly coplanar (a flat or NaN mesh would follow). Throws
 /// isoslab::Error "WHAT: FIELD ..." naming the field otherwise. openSource() applies it to every
 /// source it opens.
+/// Then validateFloat32Geometry().
 void validateGeometry(const VolumeInfo& info, const std::string& what);
+
+/// Checks that the volume's box, in output coordinates, is finite in float32 (the meshes'
+/// coordinates), and that each lattice step spans at least 16 float32 steps at that box's largest
+/// coordinate. Throws isoslab::Error naming the field (VolumeInfo::spacingFields, originField)
+/// that puts the box out of range or the step below float32's resolution.
+void validateFloat32Geometry(const VolumeInfo& info, const std::string& what);
 
 }  // namespace isoslab

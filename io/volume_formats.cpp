@@ -152,6 +152,8 @@ void setGeometry(VolumeInfo& info, const std::array<Vec3d, 3>& axes, const Vec3d
       info.direction[static_cast<std::size_t>(3 * r + a)] = v[static_cast<std::size_t>(r)] / len;
   }
   info.origin = origin;
+  info.spacingFields = {axesField, axesField, axesField};
+  info.originField = originField;
 }
 
 void pickComponent(VolumeFileLayout& layout, double components, int channel, const std::string& path) {
@@ -790,7 +792,7 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
     origin = sformOrigin;
     info.frame = "lps";
   } else if (useQform) {
-    axesField = "NIfTI qform";
+    axesField = "NIfTI pixdim (with the qform)";
     originField = "NIfTI qoffset";
     axes = qformAxes;
     origin = qoffset;

@@ -1,7 +1,12 @@
 #include "metrics/report.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <cmath>
 #include <numeric>
+
+#include "core/error.h"
 
 namespace isoslab {
 namespace {
@@ -112,6 +117,40 @@ nlohmann::ordered_json sphereJson(const SphereReport& r) {
     j["volume_cells_error"] = nullptr;
   }
   return j;
+}
+
+namespace {
+
+// The first non-finite number in `j`, as its JSON pointer ("/bounds/3"), or empty.
+std::string firstNonFinite(const nlohmann::ordered_json& j, const std::string& at, double& value) {
+  if (j.is_number_float()) {
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) {
+      value = v;
+      return at.empty() ? "/" : at;
+    }
+    return "";
+  }
+  if (j.is_object()) {
+    for (const auto& [key, item] : j.items()) {
+      if (std::string found = firstNonFinite(item, at + "/" + key, value); !found.empty()) return found;
+    }
+  } else if (j.is_array()) {
+    for (std::size_t k = 0; k < j.size(); ++k) {
+      if (std::string found = firstNonFinite(j[k], fmt::format("{}/{}", at, k), value); !found.empty()) return found;
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
+std::string reportText(const nlohmann::ordered_json& report, const std::string& what, int indent) {
+  double value = 0;
+  if (const std::string field = firstNonFinite(report, "", value); !field.empty()) {
+    throw Error(fmt::format("{}: the report's {} is {}, not a finite number", what, field, value));
+  }
+  return report.dump(indent);
 }
 
 }  // namespace isoslab

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -32,5 +33,11 @@ nlohmann::ordered_json componentFilterJson(const ComponentRules& rules, const st
 
 /// The paper's measures: {"centre", "radius", "vertex": {...}, "centroid": {...}, "area_error", ...}.
 nlohmann::ordered_json sphereJson(const SphereReport& r);
+
+/// The report as text (indented by `indent`, -1 for one line), once every number in it is checked
+/// to be finite: JSON has no infinity or NaN (nlohmann would write null, which reads as "not
+/// measured"). Throws isoslab::Error "WHAT: the report's FIELD is VALUE, not a finite number"
+/// otherwise, so that the run fails rather than commit a report that hides the problem.
+std::string reportText(const nlohmann::ordered_json& report, const std::string& what, int indent = 2);
 
 }  // namespace isoslab

@@ -539,7 +539,7 @@ std::string meshMetrics(const py::array_t<float, py::array::c_style | py::array:
     r["components"] = componentsJson(components.components());
     if (s) r["sphere"] = sphereJson(sphereReport(*s, stats.stats(), *errors));
   }
-  return r.dump();
+  return reportText(r, "the mesh", -1);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <dcmtk/dcmdata/dcuid.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <sys/stat.h>
 #include <zlib.h>
 
@@ -65,6 +66,31 @@ std::string plainGlb(const std::string& accessors, const std::string& views, con
           : accessors,
       attributes);
   return glb(json, bin);
+}
+
+// A copy of the .glb at `path` whose glTF JSON `edit` has changed (the BIN chunk kept).
+std::string glbEdited(const std::string& path, const std::function<void(nlohmann::json&)>& edit) {
+  const std::string g = slurp(path);
+  std::uint32_t jsonLength = 0, binLength = 0;
+  std::memcpy(&jsonLength, g.data() + 12, 4);
+  nlohmann::json json = nlohmann::json::parse(g.substr(20, jsonLength));
+  edit(json);
+  std::memcpy(&binLength, g.data() + 20 + jsonLength, 4);
+  return glb(json.dump(), g.substr(20 + jsonLength + 8, binLength));
+}
+
+// isoslab's own Draco .glb of a sphere with normals, its NORMAL accessor's count changed by `by`.
+std::string dracoGlbWithNormalCount(const std::string& dir, int by) {
+  const CliResult r = runCli("extract 'phantom:sphere?n=12' --normals -q -o " + dir + "/src.glb");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  write(dir + "/m.glb", glbEdited(dir + "/src.glb", [by](nlohmann::json& j) {
+          auto& primitive = j["meshes"][0]["primitives"][0];
+          EXPECT_TRUE(primitive.contains("extensions"));  // a Draco primitive
+          auto& count = j["accessors"][primitive["attributes"]["NORMAL"].get<std::size_t>()]["count"];
+          count = count.get<std::int64_t>() + by;
+        }));
+  fs::remove(dir + "/src.glb");
+  return dir + "/m.glb";
 }
 
 std::string plyHeader(const std::string& format, const std::string& body) {
@@ -231,6 +257,8 @@ struct Case {
   // The arguments, with {in} for the input and {dir} for the folder.
   const char* args;
   int exitCode = 1;
+  // Words the message must hold besides the file's name, where the case needs them.
+  const char* says = nullptr;
 };
 
 const std::string kMha = "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\n";
@@ -1224,6 +1252,137 @@ const Case kCases[] = {
        return std::string("--roi-space");
      },
      "extract {dir}/v.nrrd --iso 1 --roi 0,0,0,3,3,3 --roi-space world -o {dir}/out.ply", 2},
+    // --- Issue 33, classes 1, 3 and 4 -------------------------------------------------------------
+    // Class 1: finite geometry whose mesh would not be finite in float32 (float_limits_test.cpp
+    // has the property test).
+    {"RawSpacingBeyondFloat32",
+     [](const std::string& d) {
+       write(d + "/v.raw", voxels(64));
+       return d + "/v.raw";
+     },
+     "extract {in} --raw-dims 4,4,4 --raw-type u8 --spacing 1e308,1,1 --iso 1 -o {dir}/out.ply --report {dir}/r.json",
+     1, "--spacing 1e+308 along axis 0 puts the volume beyond float32's range"},
+    {"NrrdSpaceDirectionsBeyondFloat32",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\nspace: left-posterior-superior\n"
+                                    "space directions: (0,2e38,0) (1,0,0) (0,0,1)\nspace origin: (0,0,0)\n\n" +
+                                voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.glb", 1, "NRRD space directions 2e+38 along axis 0 puts the volume beyond"},
+    {"NrrdSpaceOriginBeyondFloat32",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\nspace: left-posterior-superior\n"
+                                    "space directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (0,0,-1e39)\n\n" +
+                                voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.stl", 1, "NRRD space origin 0,0,-1e+39 puts the volume beyond"},
+    {"NiftiPixdimBeyondFloat32",
+     [](const std::string& d) {
+       write(d + "/v.nii", niftiOne([](std::string& h) { putAt<float>(h, 84, 3e38F); }));  // pixdim[2]
+       return d + "/v.nii";
+     },
+     "extract {in} --iso 1 -o {dir}/out.obj", 1, "NIfTI pixdim 3e+38 along axis 1 puts the volume beyond"},
+    {"PhantomSpacingBeyondFloat32", [](const std::string&) { return std::string("phantom:sphere?n=8&spacing=1,1,1e300"); },
+     "extract '{in}' -o {dir}/out.drc --report {dir}/r.json", 1, "key 'spacing' 1e+300 along axis 2"},
+    // The origin so far out that float32 steps by 64 there: a lattice step of 1 cannot be kept.
+    {"NrrdStepBelowFloat32Resolution",
+     [](const std::string& d) {
+       write(d + "/v.nrrd", kNrrd + "dimension: 3\nsizes: 4 4 4\nspace: left-posterior-superior\n"
+                                    "space directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (1e9,0,0)\n\n" +
+                                voxels(64));
+       return d + "/v.nrrd";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply", 1,
+     "NRRD space directions gives a step of 1 along axis 0, below float32's resolution"},
+    // Class 3: a primitive's attributes of unequal counts (glTF 2.0 3.7.2.1), plain and Draco, in
+    // every command that reads a mesh.
+    {"GlbNormalAccessorShorterThanPositions",
+     [](const std::string& d) {
+       write(d + "/m.glb", plainGlb(R"([{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"},)"
+                                    R"({"bufferView":1,"componentType":5125,"count":3,"type":"SCALAR"},)"
+                                    R"({"bufferView":0,"componentType":5126,"count":2,"type":"VEC3"}])",
+                                    "", R"(,"NORMAL":2)"));
+       return d + "/m.glb";
+     },
+     "decode {in} -o {dir}/out.ply", 1, "attribute NORMAL has 2 elements but POSITION has 3"},
+    {"GlbNormalAccessorLongerThanPositionsMetrics",
+     [](const std::string& d) {
+       write(d + "/m.glb", plainGlb(R"([{"bufferView":0,"componentType":5126,"count":2,"type":"VEC3"},)"
+                                    R"({"bufferView":1,"componentType":5125,"count":3,"type":"SCALAR"},)"
+                                    R"({"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}])",
+                                    "", R"(,"NORMAL":2)"));
+       return d + "/m.glb";
+     },
+     "metrics {in} --report {dir}/r.json", 1, "attribute NORMAL has 3 elements but POSITION has 2"},
+    {"GlbNormalAccessorShorterRender",
+     [](const std::string& d) {
+       write(d + "/m.glb", plainGlb(R"([{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"},)"
+                                    R"({"bufferView":1,"componentType":5125,"count":3,"type":"SCALAR"},)"
+                                    R"({"bufferView":0,"componentType":5126,"count":1,"type":"VEC3"}])",
+                                    "", R"(,"NORMAL":2)"));
+       return d + "/m.glb";
+     },
+     "render {in} -o {dir}/v.png", 1, "attribute NORMAL has 1 elements but POSITION has 3"},
+    {"GlbDracoNormalCountShorter", [](const std::string& d) { return dracoGlbWithNormalCount(d, -1); },
+     "decode {in} -o {dir}/out.obj", 1, "attribute NORMAL has"},
+    {"GlbDracoNormalCountLongerMetrics", [](const std::string& d) { return dracoGlbWithNormalCount(d, 5); },
+     "metrics {in}", 1, "attribute NORMAL has"},
+    {"GlbDracoNormalCountShorterRender", [](const std::string& d) { return dracoGlbWithNormalCount(d, -7); },
+     "render {in} -o {dir}/v.png", 1, "attribute NORMAL has"},
+    {"GlbIndicesNotAMultipleOfThree",
+     [](const std::string& d) {
+       write(d + "/m.glb", plainGlb(R"([{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"},)"
+                                    R"({"bufferView":1,"componentType":5125,"count":2,"type":"SCALAR"}])",
+                                    ""));
+       return d + "/m.glb";
+     },
+     "decode {in} -o {dir}/out.ply", 1, "has 2 indices, which is not a multiple of 3"},
+    // Class 4: PLY element counts that are not whole numbers.
+    {"PlyVertexCountNotANumber",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii", "element vertex lots\nproperty float x\nproperty float y\n"
+                                              "property float z\nelement face 0\nproperty list uchar int vertex_indices\n"));
+       return d + "/m.ply";
+     },
+     "decode {in} -o {dir}/out.obj", 1,
+     "PLY header line 3 'element vertex lots': the element count 'lots' is not a whole number"},
+    {"PlyFaceCountNegative",
+     [](const std::string& d) {
+       write(d + "/m.ply",
+             plyHeader("binary_little_endian", "element vertex 3\nproperty float x\nproperty float y\n"
+                                               "property float z\nelement face -1\nproperty list uchar int vertex_indices\n") +
+                 std::string(36, '\0'));
+       return d + "/m.ply";
+     },
+     "metrics {in}", 1, "PLY header line 7 'element face -1': the element count '-1' is not a whole number"},
+    {"PlyCountWithFraction",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii", "element vertex 3.5\nproperty float x\nproperty float y\n"
+                                              "property float z\n") +
+                               "0 0 0\n1 0 0\n0 1 0\n");
+       return d + "/m.ply";
+     },
+     "render {in} -o {dir}/v.png", 1, "the element count '3.5' is not a whole number"},
+    {"PlyCountMissing",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii", "element vertex\nproperty float x\n"));
+       return d + "/m.ply";
+     },
+     "decode {in} -o {dir}/out.stl", 1, "'element vertex': the element has no count"},
+    {"PlyCountBeyond64Bits",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii", "element vertex 99999999999999999999999\nproperty float x\n"));
+       return d + "/m.ply";
+     },
+     "decode {in} -o {dir}/out.stl", 1, "the element count 99999999999999999999999 is beyond 2^64 - 1"},
+    {"PlyCountFollowedByMore",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii", "element vertex 3 4\nproperty float x\n"));
+       return d + "/m.ply";
+     },
+     "decode {in} -o {dir}/out.stl", 1, "'4' follows the element count"},
     // --- Usage errors ------------------------------------------------------------------------------
     {"UsageUnknownOption",
      [](const std::string& d) {
@@ -1252,6 +1411,9 @@ TEST_P(BadInput, FailsCleanlyWithOneLineNamingTheFile) {
   ASSERT_FALSE(r.err.empty());
   EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err;
   EXPECT_NE(r.err.find(named), std::string::npos) << "does not name " << named << ": " << r.err;
+  if (c.says != nullptr) {
+    EXPECT_NE(r.err.find(c.says), std::string::npos) << "does not say '" << c.says << "'";
+  }
   std::set<std::string> after;
   for (const auto& e : fs::directory_iterator(dir)) after.insert(e.path().filename().string());
   EXPECT_EQ(after, before) << "an output or temporary file was left in " << dir;
