@@ -26,6 +26,23 @@ __all__ = ["marching_cubes", "extract", "read_volume_info", "iter_slices", "metr
 _METHODS = ("mc", "mt5", "mt6", "bcc12", "mt24", "mc33")
 
 
+def _check_float32_reach(spacing, shape):
+    """Vertices are float32: along each axis, the farthest vertex (spacing times the last index)
+    must be finite there, and a step must span at least 16 of float32's steps at that distance,
+    as the program's readers require (issue 33)."""
+    f32 = np.finfo(np.float32)
+    for axis, (s, n) in enumerate(zip(spacing, shape)):
+        reach = s * max(int(n) - 1, 0)
+        if reach > float(f32.max):
+            raise ValueError(f"`spacing` {s:g} along axis {axis} puts the vertices beyond float32's range: "
+                             f"its {n} points reach {reach:.3g} (the largest float32 is {float(f32.max):.3g}).")
+        resolution = float(np.spacing(np.float32(max(reach, float(f32.tiny)))))
+        if s < 16 * resolution:
+            raise ValueError(f"`spacing` {s:g} along axis {axis} is below float32's resolution at the vertices' "
+                             f"coordinates (which reach {reach:.3g}, where float32 steps by {resolution:.3g}; a "
+                             f"step must span at least 16 of them).")
+
+
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), method="mc", gradient_direction="descent",
                    step_size=1, allow_degenerate=True, mask=None, threads=None):
     """The iso-surface of a 3D array at `level`, as skimage.measure.marching_cubes returns it.
@@ -62,6 +79,7 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), method="mc", 
         raise ValueError(f"`spacing` must consist of three floats (got {spacing!r}).") from None
     if len(spacing) != 3 or not all(math.isfinite(s) and s > 0 for s in spacing):
         raise ValueError(f"`spacing` must consist of three positive, finite floats (got {spacing!r}).")
+    _check_float32_reach(spacing, np.shape(volume))
     if int(step_size) != 1:
         raise ValueError(f"step_size {step_size} is not supported: isoslab visits every cell (use step_size=1).")
     if mask is not None:
