@@ -154,11 +154,13 @@ struct Stopped {
   std::string err;
 };
 
-// Sends `signal` as timeout(1) does (to the process, then to its group) and waits for the exit,
-// at most 20 s (then SIGKILL).
-Stopped stop(const Child& run, int signal) {
+// Sends `signal` as timeout(1) does (to the process, then to its group; `gap` between the two, as
+// from a wrapper that passes on a signal its group received too) and waits for the exit, at most
+// 20 s (then SIGKILL).
+Stopped stop(const Child& run, int signal, std::chrono::microseconds gap = {}) {
   const auto sent = Clock::now();
   ::kill(run.pid, signal);
+  if (gap.count() > 0) std::this_thread::sleep_for(gap);
   ::kill(-run.pid, signal);
   Stopped s;
   int status = 0;
@@ -293,14 +295,16 @@ TEST(Interrupt, ExtractStopsCleanlyAtAnyMoment) {
     for (const char* format : formats) {
       for (const char* threads : {"1", "2"}) {
         const double delay = std::uniform_real_distribution<double>(0.0, 0.8)(random);
-        SCOPED_TRACE(fmt::format(".{} --threads {}, {:.3f} s after the run began", format, threads, delay));
+        const std::chrono::microseconds gap(std::uniform_int_distribution<int>(0, 3000)(random));
+        SCOPED_TRACE(fmt::format(".{} --threads {}, {:.3f} s after the run began, delivered twice {} us apart", format,
+                                 threads, delay, gap.count()));
         const std::string dir = tempDir();
         const Child run = start({"extract", "phantom:head?n=320", "--threads", threads, "-o", dir + "/m." + format});
         // From the moment the program runs (a tenth of a second of CPU: its handlers are in place).
         ASSERT_TRUE(waitFor(run, [&] { return cpuSeconds(run.pid) >= 0.1; }));
         std::this_thread::sleep_for(std::chrono::duration<double>(delay));
         ASSERT_FALSE(exited(run.pid)) << "the run ended before the signal";
-        const Stopped s = stop(run, SIGINT);
+        const Stopped s = stop(run, SIGINT, gap);
         expectStopped(s, SIGINT, dir, {});
       }
     }
