@@ -16,11 +16,12 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <thread>
 
 #include "cli/arguments.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "io/interrupt.h"
+#include "core/interrupt.h"
 #include "metrics/report.h"
 
 extern char** environ;
@@ -115,21 +116,36 @@ class Runner {
     posix_spawn_file_actions_addopen(&files, 1, "/dev/null", O_WRONLY, 0);
     const std::string err = errPath(item);
     posix_spawn_file_actions_addopen(&files, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    // Each child in a process group of its own: a terminal's Ctrl-C then reaches the batch alone,
+    // which passes it on once (stopSignal). Reaching a child twice, it would end it at once.
+    posix_spawnattr_t attributes;
+    posix_spawnattr_init(&attributes);
+    posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup(&attributes, 0);
     pid_t pid = 0;
-    const int rc = posix_spawn(&pid, self_.c_str(), &files, nullptr, cargv.data(), cenv.data());
+    const int rc = posix_spawn(&pid, self_.c_str(), &files, &attributes, cargv.data(), cenv.data());
+    posix_spawnattr_destroy(&attributes);
     posix_spawn_file_actions_destroy(&files);
     if (rc != 0) throw Error(fmt::format("{}: cannot start isoslab extract: {}", item.input, std::strerror(rc)));
     started_[pid] = {item.index, Clock::now()};
     return pid;
   }
 
-  // Waits for one child; its outcome.
+  // Waits for one child; its outcome. A stop signal is passed on to every running child, which
+  // then removes its temporary files and ends within a second.
   Outcome wait(const std::vector<Item>& items) {
     int status = 0;
     pid_t pid = -1;
-    do {
-      pid = ::waitpid(-1, &status, 0);
-    } while (pid < 0 && errno == EINTR);
+    for (;;) {
+      pid = ::waitpid(-1, &status, WNOHANG);
+      if (pid > 0 || (pid < 0 && errno != EINTR)) break;
+      if (const int signal = gInterruptSignal.load(); signal != 0 && !stopped_) {
+        for (const auto& [child, started] : started_) ::kill(child, signal);
+        stopped_ = true;
+      }
+      // waitpid() would resume after the signal handler (SA_RESTART): poll instead.
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
     if (pid < 0) throw Error(fmt::format("waiting for isoslab extract: {}", std::strerror(errno)));
     const auto [index, began] = started_.at(pid);
     started_.erase(pid);
@@ -171,6 +187,7 @@ class Runner {
   std::string self_;
   std::vector<std::string> env_;
   std::map<pid_t, std::pair<std::size_t, Clock::time_point>> started_;
+  bool stopped_ = false;  // a stop signal was passed on to the children
 };
 
 nlohmann::json toJson(const Outcome& o) {
@@ -237,6 +254,7 @@ int runBatch(const BatchArgs& args, RankGroup* ranks) {
   const int size = ranks != nullptr ? ranks->size() : 1;
   const std::vector<Item> items = readList(args.list);
   std::error_code ec;
+  const bool outExisted = fs::exists(args.out, ec);
   fs::create_directories(args.out, ec);
   if (ec || !fs::is_directory(args.out)) {
     throw Error(fmt::format("{}: cannot create the output folder: {}", args.out, ec ? ec.message() : "not a folder"));
@@ -271,6 +289,10 @@ int runBatch(const BatchArgs& args, RankGroup* ranks) {
     }
     throwIfInterrupted();
   } catch (const std::exception& e) {
+    // Interrupted: the children removed their temporary files; the folder goes too if this run
+    // made it and nothing finished in it. Inputs that finished before the signal keep their
+    // outputs, complete (their mesh and report), and batch.json is not written.
+    if (gInterruptSignal.load() != 0 && !outExisted) fs::remove(args.out, ec);  // only when empty
     if (ranks != nullptr && gInterruptSignal.load() == 0) {
       std::fprintf(stderr, "isoslab: error: batch: %s (rank %d; every rank stops)\n", e.what(), rank);
       ranks->abort(1);

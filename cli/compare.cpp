@@ -6,17 +6,25 @@
 #include "cli/arguments.h"
 
 #include <fmt/format.h>
+#include <signal.h>
+#include <spawn.h>
+#include <stdlib.h>
+#include <sys/wait.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <numbers>
 #include <sstream>
+#include <thread>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "extract/extractor.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
@@ -50,7 +58,35 @@ std::string num(double v) {
   return std::isfinite(v) ? fmt::format("{:.9g}", v) : "nan";
 }
 
-// Runs the chart script (bench/plot_precision.py) with Debian's python3, which has matplotlib.
+extern "C" char** environ;
+
+// Runs `argv` (argv[0] found on PATH) and returns its exit status, or -1 when it cannot start or
+// ends by a signal. Unlike std::system(), which ignores SIGINT while it waits, a stop signal ends
+// the child (SIGTERM) and throws Interrupted once it has gone.
+int runProgram(std::vector<std::string> argv) {
+  std::vector<char*> cargv;
+  for (std::string& a : argv) cargv.push_back(a.data());
+  cargv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawnp(&pid, cargv[0], nullptr, nullptr, cargv.data(), environ) != 0) return -1;
+  int status = 0;
+  bool stopped = false;
+  for (;;) {
+    const pid_t done = ::waitpid(pid, &status, WNOHANG);
+    if (done == pid || (done < 0 && errno != EINTR)) break;
+    if (gInterruptSignal.load() != 0 && !stopped) {
+      ::kill(pid, SIGTERM);
+      stopped = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  throwIfInterrupted();
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Runs the chart script (bench/plot_precision.py) with Debian's python3, which has matplotlib. It
+// draws into a temporary folder beside the results, whose charts are moved into `out` when it
+// succeeds: an interruption or a failure leaves none.
 void drawCharts(const std::string& csv, const std::string& out, bool quiet) {
   const std::string script = std::string(ISOSLAB_SOURCE_DIR) + "/bench/plot_precision.py";
   const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
@@ -58,12 +94,24 @@ void drawCharts(const std::string& csv, const std::string& out, bool quiet) {
     std::fprintf(stderr, "isoslab: charts skipped: %s is missing\n", script.c_str());
     return;
   }
-  const std::string cmd = fmt::format("{} '{}' '{}' '{}'", python, script, csv, out);
-  if (std::system(cmd.c_str()) != 0) {
-    std::fprintf(stderr, "isoslab: charts skipped: %s failed (is python3-matplotlib installed?)\n", script.c_str());
-  } else if (!quiet) {
-    std::fprintf(stderr, "isoslab: charts written to %s\n", out.c_str());
+  std::string scratch = out + "/.charts.tmp.XXXXXX";
+  if (::mkdtemp(scratch.data()) == nullptr) {
+    throw Error(fmt::format("{}: cannot create a folder for the charts: {}", out, std::strerror(errno)));
   }
+  struct Scratch {
+    std::string path;
+    ~Scratch() {
+      std::error_code ec;
+      fs::remove_all(path, ec);
+    }
+  } owner{scratch};
+  if (runProgram({python, script, csv, scratch}) != 0) {
+    std::fprintf(stderr, "isoslab: charts skipped: %s failed (is python3-matplotlib installed?)\n", script.c_str());
+    return;
+  }
+  for (const auto& chart : fs::directory_iterator(scratch))
+    fs::rename(chart.path(), fs::path(out) / chart.path().filename());
+  if (!quiet) std::fprintf(stderr, "isoslab: charts written to %s\n", out.c_str());
 }
 
 // --- spheres51 ---------------------------------------------------------------------------------
@@ -154,6 +202,7 @@ int runSpheres(const CompareArgs& args) {
     }
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  throwIfInterrupted();  // the runs polled; nothing is written after a stop
   fs::create_directories(args.out);
   const std::string csvPath = args.out + "/results.csv";
   writeFile(csvPath, csv);
@@ -281,6 +330,7 @@ int runPaper(const CompareArgs& args) {
                         r.triangles, r.seconds, r.constant, read, tr, sr);
     }
   }
+  throwIfInterrupted();
   fs::create_directories(args.out);
   writeFile(args.out + "/paper.csv", csv);
   writeFile(args.out + "/paper.md", md);
@@ -321,6 +371,7 @@ int runCubes(const CompareArgs& args) {
       }
     }
   }
+  throwIfInterrupted();
   fs::create_directories(args.out);
   writeFile(args.out + "/cubes.csv", csv);
   writeFile(args.out + "/cubes.md", md);
@@ -331,10 +382,19 @@ int runCubes(const CompareArgs& args) {
 }  // namespace
 
 int runCompare(const CompareArgs& args) {
-  if (args.suite == "spheres51") return runSpheres(args);
-  if (args.suite == "paper") return runPaper(args);
-  if (args.suite == "cubes") return runCubes(args);
-  if (args.suite == "figures") return runFigures(args, methodsOf(args.methods));
+  std::error_code ec;
+  const bool outExisted = fs::exists(args.out, ec);
+  try {
+    if (args.suite == "spheres51") return runSpheres(args);
+    if (args.suite == "paper") return runPaper(args);
+    if (args.suite == "cubes") return runCubes(args);
+    if (args.suite == "figures") return runFigures(args, methodsOf(args.methods));
+  } catch (const Interrupted&) {
+    // The suites write their files at the end (figures through a CommitGroup); a folder this run
+    // made goes too, when nothing is in it.
+    if (!outExisted) fs::remove(args.out, ec);
+    throw;
+  }
   throw Error(fmt::format("--suite: unknown suite '{}' (use spheres51, paper, cubes or figures)", args.suite));
 }
 

@@ -8,6 +8,7 @@
 #include "cli/compare.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "extract/extractor.h"
 #include "io/crop_source.h"
 #include "io/image_writer.h"
@@ -145,6 +146,8 @@ std::vector<FigureCase> figureCases(const CompareArgs& args, const std::vector<M
 }  // namespace
 
 int runFigures(const CompareArgs& args, const std::vector<Method>& methods) {
+  // The images and figures.md appear together, or none of them (an interruption, an error).
+  CommitGroup outputs;
   fs::create_directories(args.out);
   std::string md =
       "# figures: the paper's image comparison\n\nOne PNG per case, every method side by side "
@@ -161,6 +164,8 @@ int runFigures(const CompareArgs& args, const std::vector<Method>& methods) {
   AtomicFile f(args.out + "/figures.md");
   f.write(md.data(), md.size());
   f.commit();
+  throwIfInterrupted();
+  outputs.commit();
   return 0;
 }
 

@@ -4,12 +4,14 @@
 #include <fmt/format.h>
 #include <sched.h>
 #include <signal.h>
+#include <time.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -30,6 +32,7 @@
 #include "cli/view.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_metadata.h"
 #include "encode/mesh_reader.h"
@@ -40,7 +43,6 @@
 #include "io/crop_source.h"
 #include "io/dicom_series.h"
 #include "io/image_writer.h"
-#include "io/interrupt.h"
 #include "io/open_source.h"
 #include "io/pad_source.h"
 #include "io/phantom.h"
@@ -910,6 +912,7 @@ int runMetrics(const std::string& input, const std::string& sphereText, const st
   }
   TeeSink tee(sinks);
   feedMesh(mesh, MeshHeader{}, tee);
+  throwIfInterrupted();  // nothing is printed or written after a stop
   const MeshStats& s = stats.stats();
   nlohmann::ordered_json r;
   r["input"] = input;
@@ -939,8 +942,13 @@ int runDecode(const std::string& input, const std::string& output) {
   writerOptions.voxelSize =
       1e-3 * std::max({header.volumeBounds[3] - header.volumeBounds[0], header.volumeBounds[4] - header.volumeBounds[1],
                        header.volumeBounds[5] - header.volumeBounds[2], 1e-30});
+  // The output appears only when the run was not interrupted (the writer's commit is left to the
+  // group; an interruption or an error removes its temporary file).
+  CommitGroup outputs;
   auto writer = makeMeshWriter(output, writerOptions);
   feedMesh(mesh, header, *writer);
+  throwIfInterrupted();
+  outputs.commit();
   std::fprintf(stderr, "isoslab: %zu triangles, %zu vertices -> %s\n", mesh.triangles.size(), mesh.positions.size(),
                output.c_str());
   return 0;
@@ -971,13 +979,34 @@ int runPhantom(const std::string& spec, const std::string& output, bool compress
 
 namespace {
 
-// Asks the run to stop at the next slice boundary; a second signal ends the process at once.
+// When the first stop signal came (CLOCK_MONOTONIC nanoseconds, 0 before it). The handler may run
+// on two threads at once (a signal is blocked only on the thread that handles it), so the first
+// is the one that sets this, before gInterruptSignal.
+std::atomic<std::int64_t> gFirstStopNs{0};
+static_assert(std::atomic<std::int64_t>::is_always_lock_free);
+
+// A repeat this soon after the first signal is the same request delivered twice, not the user
+// insisting: timeout(1) sends its signal to the process and then to the process group, a
+// terminal's Ctrl-C reaches every process of the job, and wrappers forward signals they received
+// too. Ending the process on such a repeat left the temporary files behind (issue 33).
+constexpr std::int64_t kRepeatNs = 1'000'000'000;
+
+// Asks the run to stop (the loops poll gInterruptSignal; it stops within a second). A signal that
+// comes kRepeatNs or more after the first ends the process at once, by the signal's default
+// action: a way out of a read that hangs, which leaves the temporary files.
 extern "C" void onStopSignal(int signal) {
-  int expected = 0;
-  if (!isoslab::gInterruptSignal.compare_exchange_strong(expected, signal)) {
+  const int savedErrno = errno;
+  timespec now{};
+  ::clock_gettime(CLOCK_MONOTONIC, &now);
+  const std::int64_t ns = std::max<std::int64_t>(1, std::int64_t{now.tv_sec} * 1'000'000'000 + now.tv_nsec);
+  std::int64_t first = 0;
+  if (gFirstStopNs.compare_exchange_strong(first, ns)) {
+    isoslab::gInterruptSignal.store(signal);
+  } else if (ns - first >= kRepeatNs) {
     ::signal(signal, SIG_DFL);
     ::raise(signal);
   }
+  errno = savedErrno;
 }
 
 }  // namespace
@@ -1388,11 +1417,16 @@ int main(int argc, char** argv) {
   } catch (const Interrupted& e) {
     // Under mpirun the other ranks may be waiting for this one: stop them all.
     if (gRanks != nullptr && gRanks->size() > 1 && !gRanks->failureShared()) {
-      if (gRanks->rank() == 0) std::fprintf(stderr, "\nisoslab: interrupted by SIG%s\n", sigabbrev_np(e.signal()));
+      if (gRanks->rank() == 0) {
+        std::fprintf(stderr, "%sisoslab: interrupted by SIG%s\n", progressLineShown() ? "\n" : "",
+                     sigabbrev_np(e.signal()));
+      }
       gRanks->abort(128 + e.signal());
     }
     // Unwinding has joined the threads and removed every temporary file.
-    std::fprintf(stderr, "%sisoslab: interrupted by SIG%s\n", ex.quiet ? "" : "\n", sigabbrev_np(e.signal()));
+    // One line, after the progress line if one is still on the terminal (unwinding clears it).
+    std::fprintf(stderr, "%sisoslab: interrupted by SIG%s\n", progressLineShown() ? "\n" : "",
+                 sigabbrev_np(e.signal()));
     return 128 + e.signal();
   } catch (const Error& e) {
     if (reportsFailure()) printError(e.what());

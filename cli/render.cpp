@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "cli/arguments.h"
+#include "core/interrupt.h"
 #include "encode/mesh_metadata.h"
 #include "encode/mesh_reader.h"
 #include "io/image_writer.h"
@@ -43,7 +44,9 @@ std::optional<render::Rgb> parseColour(const std::string& text) {
 // Area-weighted vertex normals, for smooth shading of a mesh whose file has none (STL).
 std::vector<Vec3f> vertexNormals(const IndexedMesh& mesh) {
   std::vector<Vec3d> sum(mesh.positions.size(), Vec3d{0, 0, 0});
-  for (const Triangle& t : mesh.triangles) {
+  for (std::size_t face = 0; face < mesh.triangles.size(); ++face) {
+    throwIfInterruptedEvery(face);
+    const Triangle& t = mesh.triangles[face];
     const Vec3f& a = mesh.positions[t[0]];
     const Vec3f& b = mesh.positions[t[1]];
     const Vec3f& c = mesh.positions[t[2]];
@@ -128,6 +131,7 @@ int runRender(const std::string& input, const std::string& output, const ImageAr
       render::Camera::fit(header.volumeBounds, viewOf(args), render::isRas(header.space), width, height), style);
   std::size_t part = 0;
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    throwIfInterruptedEvery(t);
     while (part < mesh.partEnds.size() && t >= mesh.partEnds[part]) ++part;
     const Triangle& tri = mesh.triangles[t];
     const std::array<Vec3f, 3> corners{mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};

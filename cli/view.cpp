@@ -21,6 +21,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "encode/mesh_reader.h"
 
 namespace isoslab::cli {
@@ -202,7 +203,7 @@ int runView(const std::string& glb, const std::string& report, const std::string
   }
   // Decoded once as `decode` reads it, so that a truncated or corrupt .glb is refused here with one
   // line, not by the browser.
-  readMeshData(glb, mesh);
+  readMeshData(glb, mesh);            // polls for a stop as it decodes
   nlohmann::ordered_json reportJson;  // null when there is none; keeps the report's order
   if (!report.empty()) {
     const std::string text = readFile(report);
@@ -252,6 +253,7 @@ int runView(const std::string& glb, const std::string& report, const std::string
     modules.push_back({{"path", m.path}, {"imports", imports}, {"source", base64(m.source)}});
   }
 
+  throwIfInterrupted();  // the page's encoding takes a while for a large mesh
   const std::string name = fs::path(glb).filename().string();
   nlohmann::ordered_json data = {{"name", name},         {"three", kThreeVersion},
                                  {"entries", entries},   {"modules", modules},
@@ -281,6 +283,7 @@ int runView(const std::string& glb, const std::string& report, const std::string
   html.append(escaped);
   html.append(kPage.substr(body + 6));
 
+  throwIfInterrupted();
   AtomicFile file(out);
   file.write(html.data(), html.size());
   file.commit();

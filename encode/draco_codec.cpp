@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 
 namespace isoslab {
 
@@ -118,6 +119,7 @@ IndexedMesh dracoDecode(const char* data, std::size_t size, const std::string& w
   if (seam != nullptr) mesh.seamKeys.resize(m->num_points());
   if (normal != nullptr) mesh.normals.resize(m->num_points());
   for (std::uint32_t p = 0; p < m->num_points(); ++p) {
+    throwIfInterruptedEvery(p);
     float v[3];
     position->ConvertValue<float, 3>(position->mapped_index(draco::PointIndex(p)), v);
     mesh.positions[p] = {v[0], v[1], v[2]};

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "encode/draco_codec.h"
 #include "encode/format_readers.h"
 #include "encode/gltf.h"
@@ -132,6 +133,7 @@ class GlbReader {
     std::vector<double> out;
     out.reserve(count * static_cast<std::uint64_t>(components));
     for (std::uint64_t e = 0; e < count; ++e) {
+      throwIfInterruptedEvery(e);
       const char* at = bytes + offset + e * stride;
       for (int c = 0; c < components; ++c) {
         const char* p = at + static_cast<std::uint64_t>(c) * size;
@@ -190,6 +192,7 @@ class GlbReader {
                               idx.size()));
     }
     for (std::size_t t = 0; t + 2 < idx.size(); t += 3) {
+      throwIfInterruptedEvery(t / 3);
       Triangle tri{};
       for (std::size_t c = 0; c < 3; ++c) {
         if (!(idx[t + c] >= 0 && idx[t + c] < static_cast<double>(part.positions.size()))) {
@@ -227,6 +230,7 @@ class GlbReader {
   }
 
   void readPrimitive(const nlohmann::json& p) {
+    throwIfInterrupted();  // a chunk's decoding and joining take a fraction of a second
     if (p.value("mode", 4) != 4) throw Error(fmt::format("{}: a primitive is not made of triangles", path_));
     checkAttributeCounts(p);
     IndexedMesh part;
@@ -261,6 +265,7 @@ class GlbReader {
     std::unordered_map<std::uint32_t, VertexId> keysHere;
     std::vector<VertexId> ids(part.positions.size());
     for (std::size_t v = 0; v < part.positions.size(); ++v) {
+      throwIfInterruptedEvery(v);
       const std::uint32_t m = mark(v);
       const PositionKey at = positionKey(part.positions[v]);
       bool joined = false;

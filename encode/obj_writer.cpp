@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "core/interrupt.h"
 #include "encode/mesh_metadata.h"
 
 namespace isoslab {
@@ -20,11 +21,22 @@ void ObjWriter::begin(const MeshHeader& header) {
 void ObjWriter::consume(const MeshChunk& chunk) {
   buffer_.clear();
   // Shortest round-trip formatting keeps every float exact.
-  for (const Vec3f& p : chunk.positions) fmt::format_to(std::back_inserter(buffer_), "v {} {} {}\n", p.x, p.y, p.z);
-  if (normals_) {
-    for (const Vec3f& n : chunk.normals) fmt::format_to(std::back_inserter(buffer_), "vn {} {} {}\n", n.x, n.y, n.z);
+  // Formatting is the slowest of the writers' loops; decode hands over the whole mesh as one chunk.
+  for (std::size_t v = 0; v < chunk.positions.size(); ++v) {
+    throwIfInterruptedEvery(v);
+    const Vec3f& p = chunk.positions[v];
+    fmt::format_to(std::back_inserter(buffer_), "v {} {} {}\n", p.x, p.y, p.z);
   }
-  for (const Triangle& t : chunk.triangles) {
+  if (normals_) {
+    for (std::size_t v = 0; v < chunk.normals.size(); ++v) {
+      throwIfInterruptedEvery(v);
+      const Vec3f& n = chunk.normals[v];
+      fmt::format_to(std::back_inserter(buffer_), "vn {} {} {}\n", n.x, n.y, n.z);
+    }
+  }
+  for (std::size_t n = 0; n < chunk.triangles.size(); ++n) {
+    throwIfInterruptedEvery(n);
+    const Triangle& t = chunk.triangles[n];
     if (normals_) {
       fmt::format_to(std::back_inserter(buffer_), "f {0}//{0} {1}//{1} {2}//{2}\n", t[0] + 1ull, t[1] + 1ull,
                      t[2] + 1ull);

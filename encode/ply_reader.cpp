@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "encode/format_readers.h"
 
 namespace isoslab::format {
@@ -262,7 +263,10 @@ IndexedMesh readPly(const std::string& path, std::string data, MeshMetadata& met
   IndexedMesh mesh;
   Body body(in, header.ascii, path);
   for (const Element& e : header.elements) {
-    for (std::uint64_t n = 0; n < e.count; ++n) readItem(e, body, mesh, path);
+    for (std::uint64_t n = 0; n < e.count; ++n) {
+      throwIfInterruptedEvery(n);
+      readItem(e, body, mesh, path);
+    }
   }
   if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) {
     throw Error(fmt::format("{}: the PLY file has {} normals for {} vertices", path, mesh.normals.size(),

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "encode/binary_buffer.h"
 #include "encode/mesh_metadata.h"
 
@@ -60,6 +61,7 @@ void PlyWriter::consume(const MeshChunk& chunk) {
   buffer_.clear();
   const bool normals = meshHeader_.normals;
   for (std::size_t v = 0; v < chunk.positions.size(); ++v) {
+    throwIfInterruptedEvery(v);  // decode hands over the whole mesh as one chunk
     appendBytes(buffer_, chunk.positions[v].x);
     appendBytes(buffer_, chunk.positions[v].y);
     appendBytes(buffer_, chunk.positions[v].z);
@@ -72,7 +74,9 @@ void PlyWriter::consume(const MeshChunk& chunk) {
   file_->write(buffer_.data(), buffer_.size());
   vertices_ += chunk.positions.size();
   buffer_.clear();
-  for (const Triangle& t : chunk.triangles) {
+  for (std::size_t n = 0; n < chunk.triangles.size(); ++n) {
+    throwIfInterruptedEvery(n);
+    const Triangle& t = chunk.triangles[n];
     buffer_.push_back(3);
     appendBytes(buffer_, t[0]);
     appendBytes(buffer_, t[1]);
@@ -86,6 +90,7 @@ void PlyWriter::consume(const MeshChunk& chunk) {
 }
 
 void PlyWriter::finish() {
+  throwIfInterrupted();  // copying the faces' spool takes a while
   faces_->copyTo(*file_);
   faces_.reset();
   const std::string head = header(vertices_, faceCount_, reserved_);

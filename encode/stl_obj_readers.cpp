@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "encode/format_readers.h"
 
 namespace isoslab::format {
@@ -42,6 +43,7 @@ IndexedMesh readStl(const std::string& path, const std::string& data, MeshMetada
   };
   std::unordered_map<Key, VertexId, Hash> ids;
   for (std::uint32_t t = 0; t < count; ++t) {
+    throwIfInterruptedEvery(t);
     const char* rec = data.data() + 84 + std::size_t{t} * 50 + 12;
     Triangle tri{};
     for (int k = 0; k < 3; ++k) {
@@ -71,6 +73,7 @@ IndexedMesh readObj(const std::string& path, const std::string& data, MeshMetada
   std::string line;
   int lineNo = 0;
   while (std::getline(in, line)) {
+    throwIfInterruptedEvery(static_cast<std::size_t>(lineNo));
     ++lineNo;
     std::istringstream s(line);
     std::string word;

@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "encode/binary_buffer.h"
 #include "encode/mesh_metadata.h"
 
@@ -34,7 +35,9 @@ void StlWriter::begin(const MeshHeader& header) {
 void StlWriter::consume(const MeshChunk& chunk) {
   window_.push(chunk);
   buffer_.clear();
-  for (const Triangle& t : chunk.triangles) {
+  for (std::size_t k = 0; k < chunk.triangles.size(); ++k) {
+    throwIfInterruptedEvery(k);  // decode hands over the whole mesh as one chunk
+    const Triangle& t = chunk.triangles[k];
     const Vec3f& a = window_.position(t[0]);
     const Vec3f& b = window_.position(t[1]);
     const Vec3f& c = window_.position(t[2]);

@@ -5,6 +5,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "io/oiio_module.h"
 
 namespace isoslab {
@@ -40,6 +41,7 @@ void writePng(const std::string& path, int width, int height, const std::vector<
     throw Error(fmt::format("{}: libpng cannot encode the image: {}", path, image.message));
   }
   bytes.resize(size);
+  throwIfInterrupted();  // encoding a large image takes a while
   AtomicFile out(path);
   out.write(bytes.data(), bytes.size());
   out.commit();

@@ -1,32 +1,4 @@
-// A request to stop, set by a signal handler and polled at slice boundaries.
+// Moved to core/interrupt.h, where encode/ and metrics/ reach it too.
 #pragma once
 
-#include <atomic>
-#include <string>
-
-#include "core/error.h"
-
-namespace isoslab {
-
-/// The signal number that asked the run to stop, or 0. Lock-free, so a signal handler may store
-/// to it (the only async-signal-safe thing the handler does).
-inline std::atomic<int> gInterruptSignal{0};
-static_assert(std::atomic<int>::is_always_lock_free);
-
-/// Thrown where a loop notices gInterruptSignal; unwinding removes every temporary file through
-/// its owner's destructor. Derives from Error so that layers that translate Error pass it on.
-class Interrupted : public Error {
- public:
-  explicit Interrupted(int signal) : Error("interrupted"), signal_(signal) {}
-  int signal() const noexcept { return signal_; }
-
- private:
-  int signal_;
-};
-
-/// Throws Interrupted when a stop was requested. Call between slices, never inside a kernel.
-inline void throwIfInterrupted() {
-  if (const int s = gInterruptSignal.load(std::memory_order_relaxed); s != 0) throw Interrupted(s);
-}
-
-}  // namespace isoslab
+#include "core/interrupt.h"

@@ -11,8 +11,8 @@
 #include <memory>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "core/limits.h"
-#include "io/interrupt.h"
 
 namespace fs = std::filesystem;
 

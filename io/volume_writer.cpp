@@ -10,7 +10,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "io/interrupt.h"
+#include "core/interrupt.h"
 
 namespace isoslab {
 namespace {
@@ -152,6 +152,7 @@ std::int64_t writeVolume(SliceSource& source, const std::string& path, const Vol
     sink.write(bytes.data(), bytes.size());
   }
   sink.finish();
+  throwIfInterrupted();  // a signal after the last slice: the output must not appear
   file.commit();
   return file.size();
 }

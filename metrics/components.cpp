@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "metrics/triangle_measure.h"
 
 namespace isoslab {
@@ -125,7 +126,10 @@ void ComponentSink::consume(const MeshChunk& chunk) {
     record_.push_back(kNoRecord);
   }
 
-  for (const Triangle& t : chunk.triangles) {
+  // metrics hands over a whole mesh as one chunk.
+  for (std::size_t n = 0; n < chunk.triangles.size(); ++n) {
+    throwIfInterruptedEvery(n);
+    const Triangle& t = chunk.triangles[n];
     for (VertexId v : t) {
       if (v < previousFirst || v >= currentEnd) {
         throw Error(

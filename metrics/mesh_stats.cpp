@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "metrics/triangle_measure.h"
 
 namespace isoslab {
@@ -35,7 +36,10 @@ void MeshStatsSink::consume(const MeshChunk& chunk) {
   }
   if (stats_.cellVolume) *stats_.cellVolume += chunk.cellVolume;
 
-  for (const Triangle& t : chunk.triangles) {
+  // metrics and decode hand over a whole mesh as one chunk.
+  for (std::size_t n = 0; n < chunk.triangles.size(); ++n) {
+    throwIfInterruptedEvery(n);
+    const Triangle& t = chunk.triangles[n];
     for (VertexId v : t) {
       if (v < previousFirst || v >= chunk.endVertex()) {
         throw Error(

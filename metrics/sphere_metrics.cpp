@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/interrupt.h"
+
 namespace isoslab {
 
 void ErrorStats::add(double e) noexcept {
@@ -32,7 +34,9 @@ void SphereErrorSink::consume(const MeshChunk& chunk) {
     const double dx = x - c[0], dy = y - c[1], dz = z - c[2];
     return (std::sqrt(dx * dx + dy * dy + dz * dz) - r) / r;
   };
-  for (const Triangle& t : chunk.triangles) {
+  for (std::size_t n = 0; n < chunk.triangles.size(); ++n) {
+    throwIfInterruptedEvery(n);
+    const Triangle& t = chunk.triangles[n];
     double g[3] = {0, 0, 0};
     for (VertexId v : t) {
       const Vec3f& p = window_.position(v);

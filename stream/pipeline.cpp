@@ -22,8 +22,8 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "extract/slab_stitcher.h"
-#include "io/interrupt.h"
 #include "stream/progress.h"
 #include "stream/rank_group.h"
 #include "stream/slab_ring.h"

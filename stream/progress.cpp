@@ -3,11 +3,22 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cstdio>
 #include <fstream>
 #include <string>
 
 namespace isoslab {
+namespace {
+
+// Progress lines on stderr now (one at a time in practice).
+std::atomic<int> gLinesShown{0};
+
+}  // namespace
+
+bool progressLineShown() noexcept {
+  return gLinesShown.load() > 0;
+}
 
 Progress::Progress(std::string label, std::int64_t total, bool enabled)
     : label_(std::move(label)),
@@ -25,6 +36,7 @@ void Progress::update(std::int64_t done) {
   const auto now = std::chrono::steady_clock::now();
   if (now - start_ < std::chrono::seconds(1) || now - lastDraw_ < std::chrono::milliseconds(100)) return;
   lastDraw_ = now;
+  if (!shown_) gLinesShown.fetch_add(1);
   shown_ = true;
   const double seconds = std::chrono::duration<double>(now - start_).count();
   const double pct = total_ > 0 ? 100.0 * static_cast<double>(done) / static_cast<double>(total_) : 100.0;
@@ -37,6 +49,7 @@ void Progress::finish() {
     std::fputs("\r\x1b[K", stderr);
     std::fflush(stderr);
     shown_ = false;
+    gLinesShown.fetch_sub(1);
   }
 }
 

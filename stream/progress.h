@@ -28,6 +28,10 @@ class Progress {
   std::chrono::steady_clock::time_point lastDraw_;
 };
 
+/// Whether a Progress line is on stderr now (drawn and not yet cleared): a message printed then
+/// starts on a new line. Progress clears its line when it finishes or is destroyed (unwinding).
+bool progressLineShown() noexcept;
+
 /// Peak resident set size of this process so far, in MiB (VmHWM), or 0 where unknown.
 double peakRssMib() noexcept;
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "io/interrupt.h"
+#include "core/interrupt.h"
 
 namespace isoslab {
 
