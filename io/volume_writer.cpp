@@ -110,6 +110,11 @@ std::int64_t writeVolume(SliceSource& source, const std::string& path, const Vol
   if (nrrd && options.compress) window = 15 + 16;
   if (mha && options.compress) window = 15;
   const std::size_t size = voxelSize(options.type);
+  // Compressed MetaImage: MetaIO (VTK's vtkMetaImageReader, ITK) inflates LOCAL data only when the
+  // header gives CompressedDataSize, so a fixed-width field is written, and filled in once the
+  // data is (left at zeros on an output that cannot seek, a FIFO or device).
+  std::int64_t sizeField = -1;
+  std::int64_t dataStart = 0;
   if (nrrd) {
     std::string h = "NRRD0004\n# isoslab\n";
     h += fmt::format("type: {}\ndimension: 3\nsizes: {} {} {}\n", voxelTypeCodes(options.type).nrrd, info.dims[0],
@@ -127,6 +132,11 @@ std::int64_t writeVolume(SliceSource& source, const std::string& path, const Vol
     std::string h = "ObjectType = Image\nNDims = 3\nBinaryData = True\n";
     h += fmt::format("BinaryDataByteOrderMSB = {}\nCompressedData = {}\n", order == ByteOrder::kBig ? "True" : "False",
                      options.compress ? "True" : "False");
+    if (options.compress) {
+      h += "CompressedDataSize = ";
+      sizeField = static_cast<std::int64_t>(h.size());
+      h += std::string(20, '0') + "\n";
+    }
     h += "TransformMatrix =";
     for (int a = 0; a < 3; ++a)
       h +=
@@ -137,6 +147,7 @@ std::int64_t writeVolume(SliceSource& source, const std::string& path, const Vol
     h += fmt::format("DimSize = {} {} {}\nElementType = {}\nElementDataFile = LOCAL\n", info.dims[0], info.dims[1],
                      info.dims[2], voxelTypeCodes(options.type).metaImage);
     file.write(h.data(), h.size());
+    dataStart = static_cast<std::int64_t>(h.size());
   }
   Sink sink(file, window);
   if (nifti) {
@@ -152,6 +163,13 @@ std::int64_t writeVolume(SliceSource& source, const std::string& path, const Vol
     sink.write(bytes.data(), bytes.size());
   }
   sink.finish();
+  if (sizeField >= 0 && !file.direct()) {
+    const std::int64_t end = file.size();
+    const std::string digits = fmt::format("{:020}", end - dataStart);
+    file.seek(sizeField);
+    file.write(digits.data(), digits.size());
+    file.seek(end);
+  }
   throwIfInterrupted();  // a signal after the last slice: the output must not appear
   file.commit();
   return file.size();

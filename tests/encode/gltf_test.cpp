@@ -202,6 +202,18 @@ TEST(MeshMetadata, SkullFromDicomMeasuresAsItsReport) {
   }
 }
 
+// The topology that gltf_check.mjs finds once it has welded the draco3d-decoded primitives by
+// their _ISOSLAB_SEAM keys itself: the extraction's own counts.
+void expectWeldedAsReport(const nlohmann::json& seen, const nlohmann::json& report, const std::string& label) {
+  const auto& w = seen["welded"];
+  EXPECT_EQ(w["primitives"], report["output"].value("chunks", 1)) << label;
+  EXPECT_EQ(w["vertices"], report["vertices"]) << label;
+  EXPECT_EQ(w["triangles"], report["triangles"]) << label;
+  EXPECT_EQ(w["boundaryEdges"], report["boundary_edges"]) << label;
+  EXPECT_EQ(w["nonmanifoldEdges"], report["nonmanifold_edges"]) << label;
+  EXPECT_EQ(w["euler"], report["euler"]) << label;
+}
+
 // The Khronos validator and three.js (tests/encode/js/gltf_check.mjs) on every kind of .glb:
 // Draco chunks with seam keys and normals, plain accessors, and the raw frame. three.js applies
 // the root node, so the loaded box must be the report's bounds in glTF's frame, in metres.
@@ -228,6 +240,7 @@ TEST(GltfClients, ValidateAndLoadInGltfsFrame) {
     EXPECT_EQ(seen["errors"], 0) << c.options << ": " << seen["messages"];
     EXPECT_EQ(seen["warnings"], 0) << c.options << ": " << seen["messages"];
     EXPECT_EQ(seen["triangles"], report["triangles"]) << c.options;
+    expectWeldedAsReport(seen, report, c.options);
     const auto& b = report["bounds"];
     double lo[3], hi[3];
     double scale = 1;
@@ -258,7 +271,9 @@ TEST(GltfClients, ValidateAndLoadInGltfsFrame) {
 }
 
 // The seam attribute itself, where it must appear: a field whose values are a third each 99, 100
-// and 101, at iso 100, in small chunks.
+// and 101, at iso 100, in small chunks (so that many vertices share a position, inside a chunk and
+// across seams), for every method. The client welds the primitives by the keys and must find the
+// extraction's topology: its vertices, triangles, boundary edges and Euler characteristic.
 TEST(GltfClients, ValidateAndLoadTheSeamAttribute) {
   const std::string npm = ISOSLAB_NPM_DIR;
   if (const std::string why = testing::gltfClientsMissing(npm); !why.empty()) GTEST_SKIP() << why;
@@ -271,20 +286,24 @@ TEST(GltfClients, ValidateAndLoadTheSeamAttribute) {
   }
   std::ofstream(dir + "/f.raw", std::ios::binary)
       .write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size()));
-  const auto x =
-      runCli("extract " + dir + "/f.raw --raw-dims 20,20,20 --iso 100 --normals --chunk-triangles 3000 -q -o " + dir +
-             "/s.glb --report " + dir + "/r.json");
-  ASSERT_EQ(x.exitCode, 0) << x.err;
-  const auto report = json(dir + "/r.json");
-  ASSERT_GT(report["output"]["seam_keys"].get<double>(), 0);
-  ASSERT_GT(report["output"]["seam_unwelded"].get<double>(), 0);
-  EXPECT_NE(slurp(dir + "/s.glb").find("\"_ISOSLAB_SEAM\""), std::string::npos);
-  const std::string cmd = "node " + npm + "/gltf_check.mjs " + dir + "/s.glb > " + dir + "/client.json 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(dir + "/client.json");
-  const auto seen = json(dir + "/client.json");
-  EXPECT_EQ(seen["errors"], 0) << seen["messages"];
-  EXPECT_EQ(seen["warnings"], 0) << seen["messages"];
-  EXPECT_EQ(seen["triangles"], report["triangles"]);
+  for (const char* method : {"mc", "mt5", "mt6", "bcc12"}) {
+    const auto x = runCli("extract " + dir + "/f.raw --raw-dims 20,20,20 --iso 100 --normals --chunk-triangles 3000 " +
+                          "--method " + method + " -q -o " + dir + "/s.glb --report " + dir + "/r.json");
+    ASSERT_EQ(x.exitCode, 0) << method << ": " << x.err;
+    const auto report = json(dir + "/r.json");
+    ASSERT_GT(report["output"]["chunks"].get<double>(), 2) << method;
+    ASSERT_GT(report["output"]["seam_keys"].get<double>(), 0) << method;
+    ASSERT_GT(report["output"]["seam_unwelded"].get<double>(), 0) << method;
+    ASSERT_GT(report["boundary_edges"].get<double>(), 0) << method;  // open where the volume ends
+    EXPECT_NE(slurp(dir + "/s.glb").find("\"_ISOSLAB_SEAM\""), std::string::npos) << method;
+    const std::string cmd = "node " + npm + "/gltf_check.mjs " + dir + "/s.glb > " + dir + "/client.json 2>&1";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(dir + "/client.json");
+    const auto seen = json(dir + "/client.json");
+    EXPECT_EQ(seen["errors"], 0) << method << ": " << seen["messages"];
+    EXPECT_EQ(seen["warnings"], 0) << method << ": " << seen["messages"];
+    EXPECT_EQ(seen["triangles"], report["triangles"]) << method;
+    expectWeldedAsReport(seen, report, method);
+  }
 }
 
 }  // namespace

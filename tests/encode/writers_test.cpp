@@ -2,6 +2,8 @@
 
 #include <sys/stat.h>
 
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -61,6 +63,34 @@ TEST(PlyWriter, RoundTripsPositionsNormalsAndFaces) {
   EXPECT_EQ(back.normals, x.mesh.normals);
   EXPECT_EQ(back.triangles, x.mesh.triangles);
   EXPECT_EQ(testing::fileCount(dir), 1);  // no spool or temporary file left
+}
+
+// An outside reader of the normals: VTK 9.1's vtkPLYReader (tests/encode/vtk_ply_normals.py) must
+// read a normal for every vertex, each the phantom surface's own (a sphere in voxels, an ellipsoid
+// once scaled by an uneven spacing) within a degree.
+TEST(PlyWriter, VtkReadsTheNormalsAsTheSurfaces) {
+  if (std::system("/usr/bin/python3 -c 'import vtkmodules.vtkIOPLY' >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "Debian's python3-vtk9 is absent";
+  const std::string dir = testing::tempDir();
+  for (const char* spacing : {"1,1,1", "0.8,1,1.5"}) {
+    const auto x =
+        testing::runCli(std::string("extract 'phantom:sphere?n=48&r=15&c=24,24,24&field=distance&spacing=") + spacing +
+                        "' --iso 850 --normals -q -o " + dir + "/s.ply --report " + dir + "/r.json");
+    ASSERT_EQ(x.exitCode, 0) << x.err;
+    const std::string report = testing::slurp(dir + "/r.json");
+    const std::size_t at = report.find("\"vertices\": ");
+    ASSERT_NE(at, std::string::npos);
+    const long long vertices = std::stoll(report.substr(at + 12));
+    double s[3];
+    ASSERT_EQ(std::sscanf(spacing, "%lf,%lf,%lf", &s[0], &s[1], &s[2]), 3);
+    char args[200];
+    std::snprintf(args, sizeof args, " %lld %g %g %g %s %s %s", vertices, 24 * s[0], 24 * s[1], 24 * s[2],
+                  std::to_string(s[0]).c_str(), std::to_string(s[1]).c_str(), std::to_string(s[2]).c_str());
+    const std::string cmd = "/usr/bin/python3 " ISOSLAB_TESTS_DIR "/encode/vtk_ply_normals.py " + dir + "/s.ply" +
+                            args + " > " + dir + "/vtk.txt 2>&1";
+    EXPECT_EQ(std::system(cmd.c_str()), 0) << spacing << ": " << testing::slurp(dir + "/vtk.txt");
+    std::printf("[vtk ply] spacing %s: %s", spacing, testing::slurp(dir + "/vtk.txt").c_str());
+  }
 }
 
 TEST(PlyWriter, HeaderIsStandardAndPaddedToItsReservedSize) {

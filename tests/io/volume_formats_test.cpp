@@ -6,6 +6,7 @@
 
 #include <OpenImageIO/imageio.h>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -117,6 +118,52 @@ TEST(VolumeFormats, EveryTypeOrderAndCompressionThroughTheWriters) {
       }
     }
   }
+}
+
+// An outside reader of every writer: VTK 9.1's NIfTI, NRRD and MetaImage readers (Debian's
+// python3-vtk9, tests/io/vtk_volume_readers.py) must read the files written here, compressed or
+// not, in either byte order, as the raw voxels written beside them, with their dimensions and
+// spacing.
+TEST(VolumeFormats, VtkReadersReadTheWrittenFiles) {
+  if (std::system("/usr/bin/python3 -c 'import vtkmodules.vtkIOImage' >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "Debian's python3-vtk9 is absent";
+  const std::string dir = testing::tempDir();
+  std::ofstream manifest(dir + "/manifest.txt");
+  const std::pair<VoxelType, const char*> types[] = {{VoxelType::kU8, "u1"},  {VoxelType::kI16, "i2"},
+                                                     {VoxelType::kU16, "u2"}, {VoxelType::kI32, "i4"},
+                                                     {VoxelType::kF32, "f4"}, {VoxelType::kF64, "f8"}};
+  for (const auto& [t, dtype] : types) {
+    const std::string spec = phantomFor(t) + "&spacing=0.5,0.75,1.25";
+    const std::string reference = fmt::format("{}.raw", voxelTypeName(t));
+    {
+      auto p = PhantomSource::open(spec);
+      VolumeWriteOptions w;
+      w.type = t;
+      writeVolume(*p, dir + "/" + reference, w);  // raw, little-endian
+    }
+    for (const char* ext : {".nii", ".nii.gz", ".nrrd", ".mha"}) {
+      for (bool compress : {false, true}) {
+        for (ByteOrder order : {ByteOrder::kLittle, ByteOrder::kBig}) {
+          const std::string ending(ext);
+          if (ending.starts_with(".nii") && (compress || order == ByteOrder::kBig)) continue;  // by name; host order
+          auto p = PhantomSource::open(spec);
+          VolumeWriteOptions w;
+          w.type = t;
+          w.compress = compress;
+          w.byteOrder = order;
+          const std::string name = fmt::format("{}_{}_{}{}", voxelTypeName(t), compress ? "z" : "raw",
+                                               order == ByteOrder::kBig ? "be" : "le", ext);
+          writeVolume(*p, dir + "/" + name, w);
+          manifest << fmt::format("{} {} {} {} {} {} 0.5 0.75 1.25\n", name, dtype, reference, kDims[0], kDims[1],
+                                  kDims[2]);
+        }
+      }
+    }
+  }
+  manifest.close();
+  const std::string cmd =
+      "/usr/bin/python3 " ISOSLAB_TESTS_DIR "/io/vtk_volume_readers.py " + dir + " > " + dir + "/vtk.txt 2>&1";
+  EXPECT_EQ(std::system(cmd.c_str()), 0) << testing::slurp(dir + "/vtk.txt");
 }
 
 TEST(VolumeFormats, DetachedListAndPatternData) {

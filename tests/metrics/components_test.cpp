@@ -2,10 +2,12 @@
 
 #include "metrics/component_filter.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -465,10 +467,22 @@ TEST(ComponentFilter, SeedOutsideEveryComponentIsAnError) {
     filterRun(ballsField(kAllBalls), kBallDims, Method::kMarchingCubes, 0.0, rules);
     FAIL() << "no error";
   } catch (const Error& e) {
-    const std::string message = e.what();
-    EXPECT_EQ(message,
-              "--seed 90,2,2 lies outside every component's bounds (grown by 1): the 4 components lie "
-              "within x 4.00582 .. 84.2917, y 4.81525 .. 30.6995, z 5.91169 .. 31.3922");
+    // The bounds the message gives are those of the balls' whole mesh, from its vertices.
+    const IndexedMesh mesh = run(ballsField(kAllBalls), kBallDims, Method::kMarchingCubes, 0.0).mesh;
+    ASSERT_FALSE(mesh.positions.empty());
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    std::array<double, 6> box{kInf, kInf, kInf, -kInf, -kInf, -kInf};
+    for (const Vec3f& p : mesh.positions) {
+      const std::array<double, 3> q{p.x, p.y, p.z};
+      for (std::size_t a = 0; a < 3; ++a) {
+        box[a] = std::min(box[a], q[a]);
+        box[a + 3] = std::max(box[a + 3], q[a]);
+      }
+    }
+    EXPECT_EQ(std::string(e.what()),
+              fmt::format("--seed 90,2,2 lies outside every component's bounds (grown by 1): the 4 components lie "
+                          "within x {:.6g} .. {:.6g}, y {:.6g} .. {:.6g}, z {:.6g} .. {:.6g}",
+                          box[0], box[3], box[1], box[4], box[2], box[5]));
   }
   try {
     selectComponents({}, rules);

@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -267,6 +268,47 @@ def test_threads_of_python_run_at_once():
         t.join()
     for r in results:
         np.testing.assert_array_equal(r[1], expected[1])
+
+
+def test_calls_from_two_threads_overlap():
+    # Equal results would also come from calls that ran one after the other. Here one thread makes
+    # one long call while another makes short ones, and each notes when its calls start and end:
+    # with the GIL released, short calls start and end all through the long one. Were the GIL held,
+    # the short thread could not run during the long call's extraction, and its notes would leave a
+    # gap that long (threads switch every 5 ms; the long call takes well over 100 ms). Wall-clock
+    # times, so a busy machine slows both threads alike rather than separating them.
+    big = smooth_noise((80, 80, 80), 5)
+    small = smooth_noise((12, 12, 12), 6)
+    start = threading.Barrier(2)
+    long_call = []
+    notes = []
+    done = threading.Event()
+
+    def long_one():
+        start.wait()
+        t0 = time.perf_counter()
+        isoslab.marching_cubes(big, 0.0, threads=1)
+        long_call.extend([t0, time.perf_counter()])
+        done.set()
+
+    def short_ones():
+        start.wait()
+        while not done.is_set():
+            notes.append(time.perf_counter())
+            isoslab.marching_cubes(small, 0.0, threads=1)
+            notes.append(time.perf_counter())
+
+    threads = [threading.Thread(target=long_one), threading.Thread(target=short_ones)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    t0, t1 = long_call
+    assert t1 - t0 > 0.05
+    inside = [t0] + [t for t in notes if t0 < t < t1] + [t1]
+    widest = max(b - a for a, b in zip(inside, inside[1:]))
+    assert len(inside) > 10, f"{len(inside) - 2} short-call starts and ends during a {t1 - t0:.3f} s call"
+    assert widest < 0.5 * (t1 - t0), f"a {widest:.3f} s pause of the short calls during a {t1 - t0:.3f} s call"
 
 
 def test_extract_on_files_returns_the_report_and_writes_the_programs_bytes(tmp_path):

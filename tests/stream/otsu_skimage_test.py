@@ -9,8 +9,9 @@ it), to be read as "value >= iso". Both split the histogram at the same bin; the
 gives the two values and how many voxels the two readings put on different sides.
 
 Usage: otsu_skimage_test.py ISOSLAB_CLI SHARED_DATA_DIR
-Exits 77 (ctest's skip code) when numpy or scikit-image is absent. The real volumes of
-SHARED_DATA_DIR (engine, cthead, ct-philips-head) are used when they are there.
+Exits 77 (ctest's skip code) when numpy or scikit-image is absent, and, after checking everything
+else, when a real volume of SHARED_DATA_DIR (engine, cthead, ct-philips-head) or pydicom (for the
+Philips series) is absent: a run that left a part out says so.
 """
 import glob
 import gzip
@@ -31,6 +32,7 @@ except ImportError:
 cli = sys.argv[1]
 data = sys.argv[2] if len(sys.argv) > 2 else ""
 failures = 0
+left_out = []
 
 
 def check(condition, what):
@@ -120,11 +122,15 @@ with tempfile.TemporaryDirectory() as d:
         with (gzip.open(raw) if raw.endswith(".gz") else open(raw, "rb")) as f:
             volume = np.frombuffer(f.read(), dtype=np.uint8)
         compare("engine (u8)", [raw, "--raw-dims", "256,256,128"], volume)
+    else:
+        left_out.append(f"{engine} is absent")
     cthead = os.path.join(data, "cthead")
     if os.path.isdir(cthead):
         slices = [np.fromfile(os.path.join(cthead, f"CThead.{k}"), dtype=">u2") for k in range(1, 114)]
         compare("CThead (u16 big-endian)", [cthead, "--raw-dims", "256,256", "--raw-type", "u16", "--raw-endian",
                                             "big"], np.concatenate(slices))
+    else:
+        left_out.append(f"{cthead} is absent")
     philips = os.path.join(data, "ct-philips-head")
     if os.path.isdir(philips):
         try:
@@ -150,8 +156,15 @@ with tempfile.TemporaryDirectory() as d:
             check(m and int(m.group(2)) == k, f"Philips CT: split bin {m and m.group(2)} against scikit-image's {k}")
             print(f"{'Philips head CT (DICOM)':28}  256 bins  isoslab {float(m.group(1)):<12.6g} scikit-image "
                   f"{threshold:<12.6g} split bin {m.group(2)} (same: {int(m.group(2)) == k})")
+        else:
+            left_out.append("pydicom (python3-pydicom) is not installed, for the Philips series")
+    else:
+        left_out.append(f"{philips} is absent")
 
 if failures:
     print(f"{failures} check(s) failed")
     sys.exit(1)
+if left_out:
+    print("skipped: the real volumes' part: " + "; ".join(left_out))
+    sys.exit(77)
 print("histograms and Otsu splits agree with numpy and scikit-image")
