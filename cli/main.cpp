@@ -744,10 +744,10 @@ int runExtract(const ExtractArgs& args) {
 }
 
 std::array<double, 2> valueRange(SliceSource& source) {
-  std::vector<float> slice(static_cast<std::size_t>(source.info().sliceVoxels()));
+  std::vector<float> slice;
   double lo = std::numeric_limits<double>::infinity();
   double hi = -lo;
-  while (source.readSlice(slice)) {
+  while (readSliceInto(source, slice)) {
     for (float v : slice) {
       lo = std::min(lo, static_cast<double>(v));
       hi = std::max(hi, static_cast<double>(v));
