@@ -226,6 +226,34 @@ std::string pngHeaderOnly(std::uint32_t w, std::uint32_t h) {
          chunk("IDAT", std::string("\x78\x9c\x03\x00\x00\x00\x00\x01", 8)) + chunk("IEND", "");
 }
 
+// Issue 33, class 2: the series of dicomSeries with `edit` applied to every slice, saved in
+// `syntax`. Returns the first slice (the one the scan meets first).
+std::string dicomSeriesSaved(const std::string& dir, const std::function<void(DcmDataset*)>& edit,
+                             E_TransferSyntax syntax = EXS_LittleEndianExplicit) {
+  dicomSeries(dir, "0\\0\\1", "1\\0\\0\\0\\1\\0");
+  for (int k = 0; k < 3; ++k) {
+    const std::string path = fmt::format("{}/series/{}.dcm", dir, k);
+    DcmFileFormat ff;
+    ff.loadFile(path.c_str());
+    edit(ff.getDataset());
+    ff.saveFile(path.c_str(), syntax);
+  }
+  return dir + "/series/0.dcm";
+}
+
+// Issue 33, class 2: pixels of `bits` bits, `rows` x `columns`, with `bytes` bytes of pixel data.
+std::function<void(DcmDataset*)> dicomPixels(Uint16 rows, Uint16 columns, Uint16 bits, std::size_t bytes) {
+  return [=](DcmDataset* d) {
+    d->putAndInsertUint16(DCM_Rows, rows);
+    d->putAndInsertUint16(DCM_Columns, columns);
+    d->putAndInsertUint16(DCM_BitsAllocated, bits);
+    d->putAndInsertUint16(DCM_BitsStored, bits);
+    d->putAndInsertUint16(DCM_HighBit, static_cast<Uint16>(bits - 1));
+    const std::vector<Uint8> pixels(bytes, 1);
+    d->putAndInsertUint8Array(DCM_PixelData, pixels.data(), static_cast<unsigned long>(bytes));
+  };
+}
+
 // Issue 33, class 7: a gzip NRRD or .nii.gz in `dir` that declares 10000 x 10000 x 10000 floats
 // (400 MB a slice) and holds 16 MiB of zeros (16 KB compressed). Returns its path.
 std::string cutHugeVolume(const std::string& dir, const std::string& ext) {
@@ -1175,6 +1203,48 @@ const Case kCases[] = {
      },
      "extract {dir}/v.nrrd --max-memory 5 --threads 2 --iso 1 -o {dir}/out.glb", 2},
     // (end of helper 2 section)
+    // Issue 33, class 2: uncompressed DICOM pixel data longer or shorter than Rows x Columns x
+    // SamplesPerPixel x BitsAllocated (x NumberOfFrames) need, once padded to an even length.
+    {"DicomRowsFewerThanThePixelDataHolds",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicomU16(DCM_Rows, 2), true); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomBitsAllocated8Holding16BitPixels",
+     [](const std::string& d) {
+       return dicomSeriesEdited(
+           d,
+           [](DcmDataset* s) {
+             s->putAndInsertUint16(DCM_BitsAllocated, 8);
+             s->putAndInsertUint16(DCM_BitsStored, 8);
+             s->putAndInsertUint16(DCM_HighBit, 7);
+           },
+           true);
+     },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomPixelDataLongerInOneSlice",
+     [](const std::string& d) { return dicomSeriesEdited(d, [](DcmDataset* s) {
+         const std::vector<Uint16> pixels(32, 7);
+         s->putAndInsertUint16Array(DCM_PixelData, pixels.data(), 32);
+       }); },
+     "extract {dir}/series --iso 50 -o {dir}/out.glb"},
+    {"DicomDeflatedRowsFewerThanThePixelDataHolds",
+     [](const std::string& d) {
+       return dicomSeriesSaved(d, setDicomU16(DCM_Rows, 3), EXS_DeflatedLittleEndianExplicit);
+     },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomBigEndianOddPixelDataOneByteLong",
+     [](const std::string& d) { return dicomSeriesSaved(d, dicomPixels(3, 3, 8, 11), EXS_BigEndianExplicit); },
+     "info {dir}/series"},
+    {"DicomRowsMoreThanThePixelDataHolds",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicomU16(DCM_Rows, 8), true); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomNumberOfFramesMoreThanThePixelDataHolds",
+     [](const std::string& d) {
+       writeDicomSlice(d + "/frames.dcm", 0, "0\\0\\0", "1\\0\\0\\0\\1\\0", "2");
+       return d + "/frames.dcm";
+     },
+     "extract {in} --iso 50 -o {dir}/out.ply"},
+    {"DicomOneBitPixelDataTooLong",
+     [](const std::string& d) { return dicomSeriesSaved(d, dicomPixels(4, 4, 1, 4)); }, "info {dir}/series"},
     // Issue 33, class 7: a small compressed file that declares 10000 x 10000 slices of floats ends
     // in its first slice (16 MiB of zeros where the slice needs 400 MB). BadInputMemory checks the
     // memory this takes.
@@ -1336,6 +1406,41 @@ TEST(BadInputLimits, StacksJustInsideTheRulesRead) {
   EXPECT_NE(r.err.find("image stack of 3 slices, 2x2"), std::string::npos) << r.err;
   r = runCli("extract '" + dir + "/t*.tif' --iso 30000 -o " + dir + "/out.ply");
   EXPECT_EQ(r.exitCode, 0) << r.err;
+}
+
+// Issue 33, class 2: pixel data of exactly the length the pixel module needs reads, padded to an
+// even length (9 bytes of 3 x 3 8-bit pixels, saved as 10), in any uncompressed syntax; and
+// 1-bit pixels are counted bit-packed (4 x 4 in 2 bytes), so `info` lists them.
+TEST(BadInputLimits, DicomPixelDataOfTheRightLengthReads) {
+  for (const E_TransferSyntax syntax :
+       {EXS_LittleEndianExplicit, EXS_LittleEndianImplicit, EXS_BigEndianExplicit, EXS_DeflatedLittleEndianExplicit}) {
+    const std::string dir = tempDir();
+    dicomSeriesSaved(dir, dicomPixels(3, 3, 8, 9), syntax);
+    const CliResult r = runCli("extract " + dir + "/series --iso 0.5 -o " + dir + "/out.ply");
+    EXPECT_EQ(r.exitCode, 0) << DcmXfer(syntax).getXferName() << ": " << r.err;
+  }
+  const std::string dir = tempDir();
+  dicomSeriesSaved(dir, dicomPixels(4, 4, 1, 2));
+  const CliResult r = runCli("info " + dir + "/series");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("images         3"), std::string::npos) << r.out;
+}
+
+// Issue 33, class 2: the message gives both lengths and the tags that disagree.
+TEST(BadInputMessages, DicomPixelDataLengthNamesBothLengthsAndTheTags) {
+  const std::string dir = tempDir();
+  const std::string first = dicomSeriesEdited(
+      dir,
+      [](DcmDataset* s) {
+        s->putAndInsertUint16(DCM_BitsAllocated, 8);
+        s->putAndInsertUint16(DCM_BitsStored, 8);
+        s->putAndInsertUint16(DCM_HighBit, 7);
+      },
+      true);
+  const CliResult r = runCli("extract " + dir + "/series --iso 50 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.err, "isoslab: error: " + first +
+                       ": the pixel data holds 32 bytes, but Rows 4, Columns 4, SamplesPerPixel 1 and BitsAllocated 8 "
+                       "need 16; the length and those tags disagree; BitsAllocated 16 or Rows 8 would use them all\n");
 }
 
 // Issue 33, class 7: a compressed file that ends in its first slice is found to end before the
