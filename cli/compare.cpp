@@ -154,7 +154,7 @@ int runSpheres(const CompareArgs& args) {
     }
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  fs::create_directories(args.out);
+  makeOutputFolder(args.out);
   const std::string csvPath = args.out + "/results.csv";
   writeFile(csvPath, csv);
 
@@ -281,7 +281,7 @@ int runPaper(const CompareArgs& args) {
                         r.triangles, r.seconds, r.constant, read, tr, sr);
     }
   }
-  fs::create_directories(args.out);
+  makeOutputFolder(args.out);
   writeFile(args.out + "/paper.csv", csv);
   writeFile(args.out + "/paper.md", md);
   if (!args.quiet) std::fprintf(stderr, "isoslab: paper: -> %s/paper.md\n", args.out.c_str());
@@ -321,7 +321,7 @@ int runCubes(const CompareArgs& args) {
       }
     }
   }
-  fs::create_directories(args.out);
+  makeOutputFolder(args.out);
   writeFile(args.out + "/cubes.csv", csv);
   writeFile(args.out + "/cubes.md", md);
   if (!args.quiet) std::fprintf(stderr, "isoslab: cubes: -> %s/cubes.md\n", args.out.c_str());
@@ -331,11 +331,14 @@ int runCubes(const CompareArgs& args) {
 }  // namespace
 
 int runCompare(const CompareArgs& args) {
+  if (args.suite != "spheres51" && args.suite != "paper" && args.suite != "cubes" && args.suite != "figures") {
+    throw Error(fmt::format("--suite: unknown suite '{}' (use spheres51, paper, cubes or figures)", args.suite));
+  }
+  makeOutputFolder(args.out);  // before the runs, which take minutes
   if (args.suite == "spheres51") return runSpheres(args);
   if (args.suite == "paper") return runPaper(args);
   if (args.suite == "cubes") return runCubes(args);
-  if (args.suite == "figures") return runFigures(args, methodsOf(args.methods));
-  throw Error(fmt::format("--suite: unknown suite '{}' (use spheres51, paper, cubes or figures)", args.suite));
+  return runFigures(args, methodsOf(args.methods));
 }
 
 }  // namespace isoslab

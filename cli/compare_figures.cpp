@@ -145,7 +145,7 @@ std::vector<FigureCase> figureCases(const CompareArgs& args, const std::vector<M
 }  // namespace
 
 int runFigures(const CompareArgs& args, const std::vector<Method>& methods) {
-  fs::create_directories(args.out);
+  makeOutputFolder(args.out);
   std::string md =
       "# figures: the paper's image comparison\n\nOne PNG per case, every method side by side "
       "(flat shading, a light at the eye; faces seen from behind in blue-grey).\n\n| case |";

@@ -1245,6 +1245,41 @@ const Case kCases[] = {
      "extract {in} --iso 50 -o {dir}/out.ply"},
     {"DicomOneBitPixelDataTooLong",
      [](const std::string& d) { return dicomSeriesSaved(d, dicomPixels(4, 4, 1, 4)); }, "info {dir}/series"},
+    // Issue 33, class 6: messages in isoslab's words (BadInputMessages checks the words).
+    {"CompareOutIsAFile",
+     [](const std::string& d) {
+       write(d + "/results", "not a folder");
+       return d + "/results";
+     },
+     "compare --suite cubes --out {in}"},
+    {"CompareOutUnderAFile",
+     [](const std::string& d) {
+       write(d + "/results", "not a folder");
+       return d + "/results/cubes";
+     },
+     "compare --suite cubes --out {in}"},
+    {"BatchOutIsAFile",
+     [](const std::string& d) {
+       nrrd4(d);
+       write(d + "/list.txt", d + "/v.nrrd\n");
+       write(d + "/results", "not a folder");
+       return d + "/results";
+     },
+     "batch {dir}/list.txt --out {in} -- --iso 1"},
+    {"PngSliceTruncatedMidImage",
+     [](const std::string& d) {
+       const std::string stack = imageStack(d, ".png", 64, 64);
+       fs::resize_file(stack + "/s1.png", fs::file_size(stack + "/s1.png") / 2);
+       return stack + "/s1.png";
+     },
+     "extract {dir}/stack --iso 50 -q -o {dir}/out.ply"},
+    {"MetaImageBinaryHeaderLine",
+     [](const std::string& d) {
+       write(d + "/v.mha", kMha + std::string("\x01\xff\xfe\x00\x1b[2J\xc3(", 10) + "\nElementDataFile = LOCAL\n" +
+                               voxels(64));
+       return d + "/v.mha";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
     // Issue 33, class 7: a small compressed file that declares 10000 x 10000 slices of floats ends
     // in its first slice (16 MiB of zeros where the slice needs 400 MB). BadInputMemory checks the
     // memory this takes.
@@ -1441,6 +1476,60 @@ TEST(BadInputMessages, DicomPixelDataLengthNamesBothLengthsAndTheTags) {
   EXPECT_EQ(r.err, "isoslab: error: " + first +
                        ": the pixel data holds 32 bytes, but Rows 4, Columns 4, SamplesPerPixel 1 and BitsAllocated 8 "
                        "need 16; the length and those tags disagree; BitsAllocated 16 or Rows 8 would use them all\n");
+}
+
+// Issue 33, class 6: every message is one line of isoslab's own words, and bytes that are not
+// UTF-8 are escaped as \\xNN (and so are C1 controls) while UTF-8 names are kept.
+TEST(BadInputMessages, LibraryTextsAreIsoslabsWordsAndBytesThatAreNotUtf8AreEscaped) {
+  const std::string dir = tempDir();
+  // Bytes of the message other than printable ASCII, once `keep` (UTF-8 text) is taken out.
+  auto rawBytes = [](std::string err, const std::string& keep) {
+    for (std::size_t at = err.find(keep); !keep.empty() && at != std::string::npos; at = err.find(keep))
+      err.erase(at, keep.size());
+    std::string raw;
+    for (std::size_t i = 0; i + 1 < err.size(); ++i) {
+      const auto u = static_cast<unsigned char>(err[i]);
+      if (u < 0x20 || u >= 0x7f) raw += fmt::format("\\x{:02x}", u);
+    }
+    return raw;
+  };
+  // File names: invalid UTF-8, a C1 control (U+009B, a terminal's CSI), and a name in UTF-8.
+  const std::string odd = dir + "/v\xff\xfe\xc2\x9b.nrrd";
+  const std::string accented = dir + "/t\xc3\xaate.nii";
+  write(odd, "NRRD0004\ntype: uint8\n");
+  write(accented, "not NIfTI");
+  CliResult r = runCli("extract '" + odd + "' --iso 1 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_EQ(rawBytes(r.err, ""), "") << r.err;
+  EXPECT_NE(r.err.find(dir + "/v\\xff\\xfe\\xc2\\x9b.nrrd: "), std::string::npos) << r.err;
+  r = runCli("extract '" + accented + "' --iso 1 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find(accented + ": "), std::string::npos) << r.err;
+  EXPECT_EQ(rawBytes(r.err, "t\xc3\xaate"), "") << r.err;
+
+  // A MetaImage header line of binary bytes is not quoted.
+  write(dir + "/v.mha",
+        kMha + std::string("\x01\xff\xfe\x00\x1b[2J\xc3(", 10) + "\nElementDataFile = LOCAL\n" + voxels(64));
+  r = runCli("extract " + dir + "/v.mha --iso 1 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.err, "isoslab: error: " + dir +
+                       "/v.mha: header line 5 holds binary bytes, not a MetaImage 'Key = Value' field\n");
+
+  // A truncated PNG slice: isoslab's words, libpng's detail, not OpenImageIO's closing words.
+  const std::string stack = imageStack(dir, ".png", 64, 64);
+  fs::resize_file(stack + "/s1.png", fs::file_size(stack + "/s1.png") / 2);
+  r = runCli("extract " + stack + " --iso 50 -q -o " + dir + "/out.ply");
+  EXPECT_EQ(r.err.rfind("isoslab: error: " + stack + "/s1.png: the PNG data is truncated or corrupt: ", 0), 0u)
+      << r.err;
+  EXPECT_EQ(r.err.find("library error"), std::string::npos) << r.err;
+
+  // compare --out naming a file fails before any run, without the C++ library's text.
+  write(dir + "/results", "not a folder");
+  r = runCli("compare --suite cubes --out " + dir + "/results/cubes");
+  EXPECT_EQ(r.err, "isoslab: error: " + dir + "/results/cubes: cannot create the output folder: " + dir +
+                       "/results is a file, not a folder\n");
+  r = runCli("compare --suite cubes --out " + dir + "/results");
+  EXPECT_EQ(r.err,
+            "isoslab: error: " + dir + "/results: cannot create the output folder: it is a file, not a folder\n");
 }
 
 // Issue 33, class 7: a compressed file that ends in its first slice is found to end before the
