@@ -255,10 +255,7 @@ int runBatch(const BatchArgs& args, RankGroup* ranks) {
   const std::vector<Item> items = readList(args.list);
   std::error_code ec;
   const bool outExisted = fs::exists(args.out, ec);
-  fs::create_directories(args.out, ec);
-  if (ec || !fs::is_directory(args.out)) {
-    throw Error(fmt::format("{}: cannot create the output folder: {}", args.out, ec ? ec.message() : "not a folder"));
-  }
+  makeOutputFolder(args.out);
 
   // This rank's inputs, `jobs` at a time. An input that cannot start is a failed input; anything
   // else that fails here, under mpirun, ends every rank (the others wait for this one's results).

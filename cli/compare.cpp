@@ -203,7 +203,7 @@ int runSpheres(const CompareArgs& args) {
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   throwIfInterrupted();  // the runs polled; nothing is written after a stop
-  fs::create_directories(args.out);
+  makeOutputFolder(args.out);
   const std::string csvPath = args.out + "/results.csv";
   writeFile(csvPath, csv);
 
@@ -256,9 +256,9 @@ Dataset dataset(std::string name, std::string input, double iso, std::string not
 
 double readSeconds(const Dataset& d) {
   auto source = openSource(d.input, d.options);
-  std::vector<float> slice(static_cast<std::size_t>(source->info().sliceVoxels()));
+  std::vector<float> slice;
   const auto start = std::chrono::steady_clock::now();
-  while (source->readSlice(slice)) {
+  while (readSliceInto(*source, slice)) {
   }
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -330,8 +330,8 @@ int runPaper(const CompareArgs& args) {
                         r.triangles, r.seconds, r.constant, read, tr, sr);
     }
   }
-  throwIfInterrupted();
-  fs::create_directories(args.out);
+  throwIfInterrupted();  // the runs polled; nothing is written after a stop
+  makeOutputFolder(args.out);
   writeFile(args.out + "/paper.csv", csv);
   writeFile(args.out + "/paper.md", md);
   if (!args.quiet) std::fprintf(stderr, "isoslab: paper: -> %s/paper.md\n", args.out.c_str());
@@ -371,8 +371,8 @@ int runCubes(const CompareArgs& args) {
       }
     }
   }
-  throwIfInterrupted();
-  fs::create_directories(args.out);
+  throwIfInterrupted();  // the runs polled; nothing is written after a stop
+  makeOutputFolder(args.out);
   writeFile(args.out + "/cubes.csv", csv);
   writeFile(args.out + "/cubes.md", md);
   if (!args.quiet) std::fprintf(stderr, "isoslab: cubes: -> %s/cubes.md\n", args.out.c_str());
@@ -382,20 +382,23 @@ int runCubes(const CompareArgs& args) {
 }  // namespace
 
 int runCompare(const CompareArgs& args) {
+  if (args.suite != "spheres51" && args.suite != "paper" && args.suite != "cubes" && args.suite != "figures") {
+    throw Error(fmt::format("--suite: unknown suite '{}' (use spheres51, paper, cubes or figures)", args.suite));
+  }
   std::error_code ec;
   const bool outExisted = fs::exists(args.out, ec);
+  makeOutputFolder(args.out);  // before the runs, which take minutes
   try {
     if (args.suite == "spheres51") return runSpheres(args);
     if (args.suite == "paper") return runPaper(args);
     if (args.suite == "cubes") return runCubes(args);
-    if (args.suite == "figures") return runFigures(args, methodsOf(args.methods));
+    return runFigures(args, methodsOf(args.methods));
   } catch (const Interrupted&) {
     // The suites write their files at the end (figures through a CommitGroup); a folder this run
     // made goes too, when nothing is in it.
     if (!outExisted) fs::remove(args.out, ec);
     throw;
   }
-  throw Error(fmt::format("--suite: unknown suite '{}' (use spheres51, paper, cubes or figures)", args.suite));
 }
 
 }  // namespace isoslab

@@ -148,7 +148,7 @@ std::vector<FigureCase> figureCases(const CompareArgs& args, const std::vector<M
 int runFigures(const CompareArgs& args, const std::vector<Method>& methods) {
   // The images and figures.md appear together, or none of them (an interruption, an error).
   CommitGroup outputs;
-  fs::create_directories(args.out);
+  makeOutputFolder(args.out);
   std::string md =
       "# figures: the paper's image comparison\n\nOne PNG per case, every method side by side "
       "(flat shading, a light at the eye; faces seen from behind in blue-grey).\n\n| case |";

@@ -287,8 +287,10 @@ int runView(const std::string& glb, const std::string& report, const std::string
   AtomicFile file(out);
   file.write(html.data(), html.size());
   file.commit();
+  // The page is written: a folder that cannot be named absolutely is named as given.
+  const fs::path absolute = fs::absolute(out, ec);
   std::fprintf(stderr, "isoslab: viewer page -> %s (open it in a browser; it works from file://)\n",
-               fs::absolute(out).lexically_normal().string().c_str());
+               (ec ? fs::path(out) : absolute).lexically_normal().string().c_str());
   return 0;
 }
 

@@ -52,6 +52,21 @@ CommitGroup* gActiveGroup = nullptr;
 
 }  // namespace
 
+void makeOutputFolder(const std::string& path) {
+  std::error_code ec;
+  fs::create_directories(path, ec);
+  const std::error_code created = ec;
+  if (!created && fs::is_directory(path, ec)) return;
+  // The nearest part of the path that exists: a file there is the usual reason.
+  fs::path part = path;
+  while (!part.empty() && !fs::exists(fs::symlink_status(part, ec))) part = part.parent_path();
+  std::string reason = created ? created.message() : std::strerror(ENOTDIR);
+  if (!part.empty() && fs::exists(part, ec) && !fs::is_directory(part, ec)) {
+    reason = part == fs::path(path) ? "it is a file, not a folder" : part.string() + " is a file, not a folder";
+  }
+  throw Error(path + ": cannot create the output folder: " + reason);
+}
+
 std::string folderOf(const std::string& path) {
   const fs::path parent = fs::path(path).parent_path();
   return parent.empty() ? std::string(".") : parent.string();
@@ -77,7 +92,9 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), target_(follo
   const std::string folder = folderOf(target_);
   std::error_code ec;
   if (!fs::is_directory(folder, ec)) {
-    throw Error(std::string(path_) + ": cannot create the output: the folder '" + folder + "' does not exist");
+    throw Error(std::string(path_) + ": cannot create the output: " +
+                (fs::exists(folder, ec) ? "'" + folder + "' is a file, not a folder"
+                                        : "the folder '" + folder + "' does not exist"));
   }
   if (fs::is_directory(path_, ec)) {
     throw Error(std::string(path_) + ": cannot create the output: it is a folder");

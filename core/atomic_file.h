@@ -16,6 +16,11 @@ class CommitGroup;
 /// output's temporary and spool files go.
 std::string folderOf(const std::string& path);
 
+/// Makes `path` a folder, creating it and any missing parents. Throws isoslab::Error
+/// "PATH: cannot create the output folder: REASON" when it cannot, naming the part of the path
+/// that is a file rather than a folder if that is why (never the standard library's own text).
+void makeOutputFolder(const std::string& path);
+
 /// A file written under a temporary name in the destination's folder and renamed to the
 /// destination by commit(). If it is destroyed without commit() (an error, an exception), the
 /// temporary file is removed and the destination is left as it was. Move-only; every failure

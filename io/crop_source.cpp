@@ -72,7 +72,6 @@ CropSource::CropSource(std::unique_ptr<SliceSource> inner, const LatticeBox& box
   // The sphere is in the source's lattice coordinates, and the value range may lie outside the box.
   info_.sphere.reset();
   info_.valueRange.reset();
-  full_.resize(static_cast<std::size_t>(in.sliceVoxels()));
 }
 
 void CropSource::reachBox() {
@@ -89,7 +88,7 @@ bool CropSource::readSlice(std::span<float> slice) {
   reachBox();
   // The slices above the box are never read.
   if (next_ > box_.hi[2]) return false;
-  if (!inner_->readSlice(full_)) return false;
+  if (!readSliceInto(*inner_, full_)) return false;
   ++next_;
   const VolumeInfo& in = inner_->info();
   const auto nx = static_cast<std::size_t>(info_.dims[0]);
@@ -99,6 +98,11 @@ bool CropSource::readSlice(std::span<float> slice) {
               slice.begin() + static_cast<std::ptrdiff_t>(j) * static_cast<std::ptrdiff_t>(nx));
   }
   return true;
+}
+
+bool CropSource::fetchSlice() {
+  reachBox();
+  return next_ <= box_.hi[2] && inner_->fetchSlice();
 }
 
 std::int64_t CropSource::skipSlices(std::int64_t n) {

@@ -35,6 +35,7 @@ class CropSource final : public SliceSource {
   CropSource(std::unique_ptr<SliceSource> inner, const LatticeBox& box);
   const VolumeInfo& info() const noexcept override { return info_; }
   bool readSlice(std::span<float> slice) override;
+  bool fetchSlice() override;
   std::int64_t skipSlices(std::int64_t n) override;
   /// The inner source's warnings. Its slices past the box are never read, so warnings that need
   /// the end of the data (the bytes left over in a compressed stream) are not found.
@@ -49,7 +50,7 @@ class CropSource final : public SliceSource {
   std::unique_ptr<SliceSource> inner_;
   LatticeBox box_;
   VolumeInfo info_;
-  std::vector<float> full_;
+  std::vector<float> full_;  // the inner source's slice, allocated once its first slice is fetched
   std::int64_t next_ = 0;  // the inner source's next slice
 };
 

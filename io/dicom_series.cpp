@@ -483,6 +483,45 @@ std::string pixelModuleProblem(std::uint16_t bitsAllocated, std::uint16_t bitsSt
   return {};
 }
 
+// What is wrong with the length of uncompressed pixel data, or empty. The standard makes it
+// Rows x Columns x SamplesPerPixel x BitsAllocated bits per frame (bit-packed when BitsAllocated
+// is 1), in bytes rounded up, padded to an even length. Longer data would be read as its first
+// part (half a head, or 16-bit values as 8-bit ones), shorter data past its end.
+std::string pixelDataLengthProblem(const DicomSeries& s, std::int64_t frames, bool framesGiven, Uint32 length) {
+  if (length == DCM_UndefinedLength) {
+    return "the pixel data has an undefined length, which only compressed transfer syntaxes use";
+  }
+  const std::string tags = fmt::format("Rows {}, Columns {}, SamplesPerPixel {}{} BitsAllocated {}{}", s.rows,
+                                       s.columns, s.samplesPerPixel, framesGiven ? "," : " and", s.bitsAllocated,
+                                       framesGiven ? fmt::format(" and NumberOfFrames {}", frames) : std::string());
+  std::uint64_t bits = 0;
+  if (__builtin_mul_overflow(std::uint64_t{s.rows} * s.columns, std::uint64_t{s.samplesPerPixel} * s.bitsAllocated,
+                             &bits) ||
+      __builtin_mul_overflow(bits, static_cast<std::uint64_t>(frames), &bits)) {
+    return fmt::format("the pixel data holds {} bytes, but {} need more than 2^64 bits", length, tags);
+  }
+  const std::uint64_t need = (bits + 7) / 8;
+  if (length == need || (need % 2 == 1 && length == need + 1)) return {};
+  // What would use every byte: twice the bits per sample, or another number of frames (in a file
+  // that counts them) or of rows (in one that does not).
+  std::vector<std::string> fits;
+  if (s.bitsAllocated >= 8 && s.bitsAllocated <= 16 && length == 2 * need) {
+    fits.push_back(fmt::format("BitsAllocated {}", 2 * s.bitsAllocated));
+  }
+  const std::uint64_t unitBits = framesGiven ? bits / static_cast<std::uint64_t>(frames) : bits / s.rows;
+  if (unitBits % 8 == 0 && length % (unitBits / 8) == 0) {
+    const std::uint64_t units = length / (unitBits / 8);
+    if (units > 0 && units <= (framesGiven ? static_cast<std::uint64_t>(limits::kMaxFrames) : 0xffff)) {
+      fits.push_back(fmt::format("{} {}", framesGiven ? "NumberOfFrames" : "Rows", units));
+    }
+  }
+  const std::string hint = fits.empty()       ? std::string()
+                           : fits.size() == 1 ? fmt::format("; {} would use them all", fits[0])
+                                              : fmt::format("; {} or {} would use them all", fits[0], fits[1]);
+  return fmt::format("the pixel data holds {} bytes, but {} need {}{}; the length and those tags disagree{}", length,
+                     tags, need, need % 2 == 1 ? fmt::format(" (or {} padded)", need + 1) : std::string(), hint);
+}
+
 }  // namespace
 
 bool looksLikeDicom(const std::string& path) {
@@ -607,6 +646,19 @@ DicomScan scanDicom(const std::vector<std::string>& inputs, const DicomOptions& 
             frames > limits::kMaxFrames
                 ? fmt::format("{}: NumberOfFrames {} exceeds the limit of {} frames", path, frames, limits::kMaxFrames)
                 : fmt::format("{}: NumberOfFrames {} is more than the file's {} bytes hold", path, frames, fileBytes);
+        if (!options.skipBad) throw Error(msg);
+        scan.warnings.push_back(msg + " (skipped)");
+        continue;
+      }
+    }
+    // Uncompressed pixel data (deflate compresses the dataset, not the pixels) must be as long as
+    // the pixel module says; encapsulated fragments are checked as they are decoded.
+    if (DcmElement* pixelData = nullptr;
+        !xfer.isEncapsulated() && ds->findAndGetElement(DCM_PixelData, pixelData).good() && pixelData != nullptr) {
+      if (const std::string problem =
+              pixelDataLengthProblem(s, frames, ds->tagExists(DCM_NumberOfFrames), pixelData->getLengthField());
+          !problem.empty()) {
+        const std::string msg = fmt::format("{}: {}", path, problem);
         if (!options.skipBad) throw Error(msg);
         scan.warnings.push_back(msg + " (skipped)");
         continue;

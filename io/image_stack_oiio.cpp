@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <mutex>
+#include <string_view>
 
 #include "core/error.h"
 #include "core/limits.h"
@@ -104,7 +105,9 @@ auto quietly(std::string* noise, F&& call) {
 }
 
 // One line from OpenImageIO's messages and the libraries' stderr: lines trimmed, the libraries'
-// "libpng error: " prefixes dropped, and a line dropped when another holds it.
+// "libpng error: " and OpenImageIO's "PNG read error: " prefixes dropped, OpenImageIO's closing
+// "PNG library error" (which says nothing the line before it does not) dropped, and a line
+// dropped when another holds it.
 std::string oneLine(const std::string& text, const std::string& fallback) {
   std::vector<std::string> lines;
   std::size_t start = 0;
@@ -112,12 +115,12 @@ std::string oneLine(const std::string& text, const std::string& fallback) {
     std::size_t end = text.find('\n', start);
     if (end == std::string::npos) end = text.size();
     std::string line = text.substr(start, end - start);
-    for (const char* prefix : {"libpng error: ", "libpng warning: "}) {
+    for (const char* prefix : {"libpng error: ", "libpng warning: ", "PNG read error: "}) {
       if (line.rfind(prefix, 0) == 0) line = line.substr(std::strlen(prefix));
     }
     while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
     while (!line.empty() && std::isspace(static_cast<unsigned char>(line.front()))) line.erase(0, 1);
-    if (!line.empty()) lines.push_back(line);
+    if (!line.empty() && line != "PNG library error") lines.push_back(line);
     start = end + 1;
   }
   std::string out;
@@ -137,6 +140,16 @@ std::string oneLine(const std::string& text, const std::string& fallback) {
 
 std::string oiioError(const std::string& objectError, const std::string& noise, const std::string& fallback) {
   return oneLine(objectError + "\n" + OIIO::geterror() + "\n" + noise, fallback);
+}
+
+// "PATH: the PNG data is truncated or corrupt: DETAIL" for a PNG whose pixels fail to read (libpng
+// stops at the first bad or missing byte, so it cannot tell the two apart), or "PATH: cannot read
+// the pixels: DETAIL" for another format.
+std::string pixelsError(const std::string& path, const OIIO::ImageInput& in, const std::string& detail) {
+  if (std::string_view(in.format_name()) == "png") {
+    return fmt::format("{}: the PNG data is truncated or corrupt: {}", path, detail);
+  }
+  return fmt::format("{}: cannot read the pixels: {}", path, detail);
 }
 
 std::string baseTypeName(OIIO::TypeDesc t) {
@@ -297,9 +310,10 @@ class ImageStackSource final : public SliceSource {
     // A truncated TIFF reads "successfully", with the missing strips left as they were, but leaves
     // its errors behind: any message at all means the pixels are not all there.
     if (const std::string e = in_->geterror(); !read || !e.empty()) {
+      const std::string message = pixelsError(page.path, *in_, oiioError(e, noise, "unknown error"));
       in_.reset();
       openPath_.clear();
-      throw Error(fmt::format("{}: cannot read the pixels: {}", page.path, oiioError(e, noise, "unknown error")));
+      throw Error(message);
     }
     const std::size_t n = samples_.size();
     convertToFloat(std::span<const std::byte>(buffer_.data(), buffer_.size()), info_.type, hostByteOrder(), samples_);

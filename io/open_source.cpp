@@ -44,7 +44,9 @@ std::unique_ptr<SliceSource> openUnchecked(const std::vector<std::string>& input
   if (inputs.size() == 1 && isVolumeFormat(input)) {
     return openVolumeFormat(input, options.dicom.channel, notes, options.niftiXform);
   }
-  if (isImageStack(inputs) || (inputs.size() == 1 && isImageFile(input) && !std::filesystem::exists(input))) {
+  std::error_code existsError;  // a name the system cannot look up is not there either
+  if (isImageStack(inputs) ||
+      (inputs.size() == 1 && isImageFile(input) && !std::filesystem::exists(input, existsError))) {
     ImageStackOptions stack;
     stack.channel = options.dicom.channel;
     stack.spacing = options.spacing;

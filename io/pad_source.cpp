@@ -38,7 +38,11 @@ PadSource::PadSource(std::unique_ptr<SliceSource> inner) : inner_(std::move(inne
     info_.sliceOrigins.push_back(shifted(o[n - 1], lastStep));
   }
   info_.sphere.reset();
-  inner_slice_.resize(static_cast<std::size_t>(in.sliceVoxels()));
+}
+
+bool PadSource::fetchSlice() {
+  if (next_ >= info_.dims[2]) return false;
+  return next_ == info_.dims[2] - 1 || inner_->fetchSlice();
 }
 
 bool PadSource::readSlice(std::span<float> slice) {
@@ -47,7 +51,7 @@ bool PadSource::readSlice(std::span<float> slice) {
   std::fill(slice.begin(), slice.end(), nan);
   const bool padSlice = next_ == 0 || next_ == info_.dims[2] - 1;
   if (!padSlice) {
-    if (!inner_->readSlice(inner_slice_)) return false;
+    if (!readSliceInto(*inner_, inner_slice_)) return false;
     const std::int64_t nx = info_.dims[0];
     const std::int64_t innerNx = nx - 2;
     for (std::int64_t j = 0; j + 2 < info_.dims[1]; ++j) {

@@ -17,12 +17,15 @@ class PadSource final : public SliceSource {
   explicit PadSource(std::unique_ptr<SliceSource> inner);
   const VolumeInfo& info() const noexcept override { return info_; }
   bool readSlice(std::span<float> slice) override;
+  /// Fetches the inner source's next slice, also ahead of the first padding slice: the padding is
+  /// handed out only once the inner data has begun.
+  bool fetchSlice() override;
   std::vector<std::string> warnings() override { return inner_->warnings(); }
 
  private:
   std::unique_ptr<SliceSource> inner_;
   VolumeInfo info_;
-  std::vector<float> inner_slice_;
+  std::vector<float> inner_slice_;  // allocated once the inner source's first slice is fetched
   std::int64_t next_ = 0;  // padded slices handed out
 };
 

@@ -17,9 +17,14 @@ std::int64_t SliceSource::skipSlices(std::int64_t n) {
     return skipped;
   }
   std::vector<float> scratch;
-  if (n > 0) scratch.resize(static_cast<std::size_t>(info().sliceVoxels()));
-  while (skipped < n && readSlice(scratch)) ++skipped;
+  while (skipped < n && readSliceInto(*this, scratch)) ++skipped;
   return skipped;
+}
+
+bool readSliceInto(SliceSource& source, std::vector<float>& slice) {
+  if (!source.fetchSlice()) return false;
+  slice.resize(static_cast<std::size_t>(source.info().sliceVoxels()));
+  return source.readSlice(slice);
 }
 
 void validateGeometry(const VolumeInfo& info, const std::string& what) {

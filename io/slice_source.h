@@ -30,6 +30,15 @@ class SliceSource {
   /// info().dims[2] slices have been read. Throws isoslab::Error if the data is short or unreadable.
   virtual bool readSlice(std::span<float> slice) = 0;
 
+  /// Reads the next slice's stored data ahead of readSlice(), so that data that ends early fails
+  /// before the caller allocates the slice's values: callers that size a buffer per slice call it
+  /// first (readSliceInto does). A reader whose data may be shorter than its header says (a
+  /// compressed stream) holds only what it found when it throws. Returns false when it knows that
+  /// every slice has been read; true does not promise a slice (readSlice() may still return
+  /// false). The next readSlice() or skipSlices() uses the fetched slice; fetching twice fetches
+  /// it once. The default fetches nothing. Throws isoslab::Error as readSlice() does.
+  virtual bool fetchSlice() { return true; }
+
   /// Moves past the next `n` slices (n >= 0) without handing them out: the next readSlice() gives
   /// the slice after them. Returns how many were skipped, fewer than `n` only when the source ends
   /// first. The default reads them into a scratch slice and drops them. Readers that can find a
@@ -55,6 +64,11 @@ class SliceSource {
   /// found so far. Empty for most sources.
   virtual std::vector<std::string> warnings() { return {}; }
 };
+
+/// Fetches the next slice of `source`, then sizes `slice` to info().sliceVoxels() values and reads
+/// the slice into it: the buffer is allocated only once the slice's data is there. Returns false,
+/// leaving `slice` untouched, at the end of the data. Throws isoslab::Error as readSlice() does.
+bool readSliceInto(SliceSource& source, std::vector<float>& slice);
 
 /// Checks a volume's geometry, whatever read it: every spacing finite and positive, the origin and
 /// every slice origin finite, the direction's entries finite, no column zero, and the columns

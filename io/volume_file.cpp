@@ -276,14 +276,7 @@ class VolumeFileSource final : public SliceSource {
           firstLongSize, firstLongSize - need, info_.dims[0], info_.dims[1], voxelTypeName(layout.type), headerText(),
           others, extraBytesHint(firstLongSize - header, info_.dims, layout.type, true)));
     }
-    try {
-      bytes_.resize(static_cast<std::size_t>(sliceBytes_));
-      if (layout.components > 1)
-        component_.resize(
-            static_cast<std::size_t>(info_.sliceVoxels() * static_cast<std::int64_t>(voxelSize(layout.type))));
-    } catch (const std::exception&) {  // std::bad_alloc, std::length_error
-      throw Error(fmt::format("{}: out of memory for one slice of {} bytes", layout.files.front(), sliceBytes_));
-    }
+    // The slice's buffers are allocated by fetchSlice, as its data arrives.
   }
 
   const VolumeInfo& info() const noexcept override { return info_; }
@@ -291,8 +284,14 @@ class VolumeFileSource final : public SliceSource {
   std::vector<std::string> warnings() override { return warnings_; }
 
   // Per-slice files are not opened; a plain volume file seeks; a compressed one is inflated (and,
-  // once it has been skipped to its end, checked as readSlice checks it).
+  // once it has been skipped to its end, checked as readSlice checks it). A fetched slice counts
+  // as the first one skipped.
   std::int64_t skipSlices(std::int64_t n) override {
+    if (n > 0 && fetched_) {
+      fetched_ = false;
+      ++next_;
+      return 1 + skipSlices(n - 1);
+    }
     const std::int64_t count = std::clamp<std::int64_t>(n, 0, info_.dims[2] - next_);
     if (count == 0 || layout_.perSlice) {
       next_ += count;
@@ -314,23 +313,51 @@ class VolumeFileSource final : public SliceSource {
     return count;
   }
 
-  bool readSlice(std::span<float> slice) override {
+  // Reads the next slice's bytes. A compressed stream may hold fewer bytes than the header
+  // promises, so the first slice's buffer grows as the stream yields them: data that ends early
+  // fails holding about what it found, not a whole slice. A plain file's length was checked when it
+  // was opened, so its buffer takes the whole slice at once.
+  bool fetchSlice() override {
+    if (fetched_) return true;
     if (next_ >= info_.dims[2]) return false;
     const bool perSlice = layout_.perSlice;
     const std::size_t f = perSlice ? static_cast<std::size_t>(next_) : 0;
     const std::int64_t expected = layout_.skipBytes + sliceBytes_ * (perSlice ? 1 : info_.dims[2]);
     if (!stream_ || perSlice) openStream(layout_.files[f], expected);
-    stream_->read(bytes_.data(), sliceBytes_, expected);
+    std::int64_t got = 0;
+    while (got < sliceBytes_) {
+      if (bytesSize_ < sliceBytes_) {
+        growBytes(stream_->inflating() ? std::min(sliceBytes_, std::max(kFirstReadBytes, 2 * got)) : sliceBytes_, got);
+      }
+      const std::int64_t n = std::min(bytesSize_, sliceBytes_) - got;
+      stream_->read(bytes_.get() + got, n, expected);
+      got += n;
+    }
     // The last slice of a compressed stream: read it to its end, where zlib checks its CRC.
     if (stream_->inflating() && (perSlice || next_ + 1 == info_.dims[2])) finishStream(expected);
-    std::span<const std::byte> data(bytes_);
+    fetched_ = true;
+    return true;
+  }
+
+  bool readSlice(std::span<float> slice) override {
+    if (!fetchSlice()) return false;
+    fetched_ = false;
+    std::span<const std::byte> data(bytes_.get(), static_cast<std::size_t>(sliceBytes_));
     if (layout_.components > 1) {
+      if (component_.empty()) {
+        try {
+          component_.resize(
+              static_cast<std::size_t>(info_.sliceVoxels() * static_cast<std::int64_t>(voxelSize(layout_.type))));
+        } catch (const std::exception&) {  // std::bad_alloc, std::length_error
+          throw Error(fmt::format("{}: out of memory for one slice of {} bytes", layout_.files.front(), sliceBytes_));
+        }
+      }
       const std::size_t size = voxelSize(layout_.type);
       for (std::int64_t v = 0; v < info_.sliceVoxels(); ++v) {
         std::memcpy(component_.data() + static_cast<std::size_t>(v) * size,
-                    bytes_.data() + (static_cast<std::size_t>(v) * static_cast<std::size_t>(layout_.components) +
-                                     static_cast<std::size_t>(layout_.component)) *
-                                        size,
+                    bytes_.get() + (static_cast<std::size_t>(v) * static_cast<std::size_t>(layout_.components) +
+                                    static_cast<std::size_t>(layout_.component)) *
+                                       size,
                     size);
       }
       data = component_;
@@ -344,10 +371,28 @@ class VolumeFileSource final : public SliceSource {
   }
 
  private:
+  // The first step of a compressed first slice's buffer; it doubles from there.
+  static constexpr std::int64_t kFirstReadBytes = std::int64_t{1} << 20;
+
+  // Makes the slice buffer `size` bytes, keeping its first `kept`. The new bytes are not
+  // initialised, so memory is committed only as the stream fills them.
+  void growBytes(std::int64_t size, std::int64_t kept) {
+    try {
+      auto bigger = std::make_unique_for_overwrite<std::byte[]>(static_cast<std::size_t>(size));
+      if (kept > 0) std::memcpy(bigger.get(), bytes_.get(), static_cast<std::size_t>(kept));
+      bytes_ = std::move(bigger);
+      bytesSize_ = size;
+    } catch (const std::exception&) {  // std::bad_alloc, std::length_error
+      throw Error(fmt::format("{}: out of memory for one slice of {} bytes", layout_.files.front(), sliceBytes_));
+    }
+  }
+
   VolumeInfo info_;
   VolumeFileLayout layout_;
   std::int64_t sliceBytes_ = 0;
-  std::vector<std::byte> bytes_;
+  std::unique_ptr<std::byte[]> bytes_;  // the stored slice, bytesSize_ bytes (sliceBytes_ once filled)
+  std::int64_t bytesSize_ = 0;
+  bool fetched_ = false;  // bytes_ holds slice next_, not yet converted
   std::vector<std::byte> component_;
   // " after a 16-byte header", or empty without one.
   std::string headerText() const {

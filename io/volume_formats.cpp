@@ -15,6 +15,7 @@
 #include <numbers>
 #include <optional>
 #include <sstream>
+#include <string_view>
 
 #include "core/error.h"
 #include "core/limits.h"
@@ -314,8 +315,10 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
     fields[key] = value;
     if ((key == "data file" || key == "datafile") && value.rfind("LIST", 0) == 0) list = true;
   }
+  std::error_code sizeError;
   const std::int64_t headerEnd =
-      in.eof() ? static_cast<std::int64_t>(fs::file_size(path)) : static_cast<std::int64_t>(in.tellg());
+      in.eof() ? static_cast<std::int64_t>(fs::file_size(path, sizeError)) : static_cast<std::int64_t>(in.tellg());
+  if (sizeError) throw Error(fmt::format("{}: cannot read its size: {}", path, sizeError.message()));
   auto need = [&](const std::string& key) -> const std::string& {
     const auto it = fields.find(key);
     if (it == fields.end()) throw Error(fmt::format("{}: NRRD field '{}' is missing", path, key));
@@ -425,6 +428,32 @@ std::optional<VoxelType> metType(const std::string& t) {
   return voxelTypeFromMetaImage(t);
 }
 
+// Whether a header line is text: UTF-8 without control characters other than tab. A line that is
+// not is quoted in no message (its bytes could drive a terminal); the message says it is binary.
+bool isTextLine(std::string_view line) {
+  for (std::size_t at = 0; at < line.size();) {
+    const auto u = static_cast<unsigned char>(line[at]);
+    if (u < 0x80) {
+      if ((u < 0x20 && u != '\t') || u == 0x7f) return false;
+      ++at;
+      continue;
+    }
+    // A multi-byte sequence: its length from the lead byte, then continuation bytes, shortest form.
+    const std::size_t length = u >= 0xc2 && u <= 0xdf ? 2 : u >= 0xe0 && u <= 0xef ? 3 : u >= 0xf0 && u <= 0xf4 ? 4 : 0;
+    if (length == 0 || at + length > line.size()) return false;
+    std::uint32_t code = u & (0x7fu >> length);
+    for (std::size_t k = 1; k < length; ++k) {
+      const auto c = static_cast<unsigned char>(line[at + k]);
+      if ((c & 0xc0) != 0x80) return false;
+      code = (code << 6) | (c & 0x3fu);
+    }
+    const std::uint32_t least = length == 2 ? 0x80 : length == 3 ? 0x800 : 0x10000;
+    if (code < least || code > 0x10ffff || (code >= 0xd800 && code <= 0xdfff) || code < 0xa0) return false;
+    at += length;
+  }
+  return true;
+}
+
 bool isTrue(const std::string& v) {
   return lower(v) == "true" || v == "1";
 }
@@ -438,7 +467,9 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
   std::int64_t dataStart = -1;
   bool list = false;
   std::int64_t used = 0;
+  int lineNumber = 0;
   while (headerLine(in, line, path, list, used, listed.size())) {
+    ++lineNumber;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (list) {
       if (!trim(line).empty()) listed.push_back(besides(path, trim(line)));
@@ -447,7 +478,14 @@ std::unique_ptr<SliceSource> openMetaImage(const std::string& path, int channel)
     const auto eq = line.find('=');
     if (eq == std::string::npos) {
       if (trim(line).empty()) continue;
-      throw Error(fmt::format("{}: not a MetaImage header line: '{}'", path, line.substr(0, 60)));
+      if (!isTextLine(line)) {
+        throw Error(fmt::format("{}: header line {} holds binary bytes, not a MetaImage 'Key = Value' field", path,
+                                lineNumber));
+      }
+      // At most 60 bytes, not cutting a UTF-8 character in two.
+      std::size_t cut = std::min<std::size_t>(line.size(), 60);
+      while (cut < line.size() && cut > 0 && (static_cast<unsigned char>(line[cut]) & 0xc0) == 0x80) --cut;
+      throw Error(fmt::format("{}: not a MetaImage header line: '{}'", path, line.substr(0, cut)));
     }
     const std::string key = trim(line.substr(0, eq));
     const std::string value = trim(line.substr(eq + 1));
@@ -812,7 +850,8 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
   layout.compression = Compression::kAutoGzip;
   if (endsWith(path, ".hdr") || endsWith(path, ".hdr.gz")) {
     std::string img = path.substr(0, path.size() - (endsWith(path, ".gz") ? 7 : 4)) + ".img";
-    if (!fs::exists(img) && fs::exists(img + ".gz")) img += ".gz";
+    std::error_code ec;
+    if (!fs::exists(img, ec) && fs::exists(img + ".gz", ec)) img += ".gz";
     layout.files = {img};
   } else {
     layout.files = {path};

@@ -154,9 +154,10 @@ std::int64_t writeVolume(SliceSource& source, const std::string& path, const Vol
     const auto h = niftiHeader(info, options.type);
     sink.write(h.data(), h.size());
   }
-  std::vector<float> slice(static_cast<std::size_t>(info.sliceVoxels()));
-  std::vector<std::byte> bytes(slice.size() * size);
-  while (source.readSlice(slice)) {
+  std::vector<float> slice;
+  std::vector<std::byte> bytes;
+  while (readSliceInto(source, slice)) {
+    bytes.resize(slice.size() * size);
     throwIfInterrupted();
     convertFromFloat(slice, options.type, bytes);
     if (order != hostByteOrder()) swapBytes(bytes, size);

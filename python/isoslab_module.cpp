@@ -463,6 +463,13 @@ class SliceReader {
   py::tuple next() {
     const VolumeInfo& info = source_->info();
     if (k_ >= info.dims[2]) throw py::stop_iteration();
+    // The slice's data first, then the array: data that ends early fails before it is allocated.
+    bool fetched = false;
+    {
+      py::gil_scoped_release release;
+      fetched = source_->fetchSlice();
+    }
+    if (!fetched) throw py::stop_iteration();
     py::array_t<float> slice({info.dims[1], info.dims[0]});
     bool ok = false;
     {

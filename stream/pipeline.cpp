@@ -50,6 +50,8 @@ class SliceFeed {
     throwIfInterrupted();  // a slice boundary: unwinding joins the threads and removes temporaries
     const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
     if (!source_.lendsSlices()) {
+      // The slice's data first, then its slot: the ring grows a slice at a time as data arrives.
+      if (!source_.fetchSlice()) return false;
       const std::span<float> slice = ring.acquire(k);
       if (!source_.readSlice(slice)) return false;
       if (trackRange_) range_.add(slice.data(), n);

@@ -168,7 +168,7 @@ ValueHistogram streamHistogram(SliceSource& source, std::size_t bins, const Sour
   h.counts.assign(std::max<std::size_t>(bins, 1), 0);
   h.workingBytes = h.counts.size() * sizeof(std::uint64_t);
   const VolumeInfo& info = source.info();
-  std::vector<float> slice(static_cast<std::size_t>(info.sliceVoxels()));
+  std::vector<float> slice;  // sized by readSliceInto once the first slice's data is there
   FirstPassCounts first;
 
   // PASS 1 with a declared range: bin as the slices stream past.
@@ -177,7 +177,7 @@ ValueHistogram streamHistogram(SliceSource& source, std::size_t bins, const Sour
     setRange(h, (*declared)[0], (*declared)[1]);
     h.rangeFromReader = true;
     h.passes = 1;
-    for (; source.readSlice(slice); ++h.slicesRead) {
+    for (; readSliceInto(source, slice); ++h.slicesRead) {
       throwIfInterrupted();
       for (const float v : slice) {
         if (first.add(h, v)) binValue(h, v, 1);
@@ -192,7 +192,7 @@ ValueHistogram streamHistogram(SliceSource& source, std::size_t bins, const Sour
   DistinctValues exact;
   h.workingBytes += exact.bytes();
   h.passes = 1;
-  for (; source.readSlice(slice); ++h.slicesRead) {
+  for (; readSliceInto(source, slice); ++h.slicesRead) {
     throwIfInterrupted();
     for (const float v : slice) {
       if (first.add(h, v) && !exact.overflowed()) exact.add(v);
@@ -212,7 +212,7 @@ ValueHistogram streamHistogram(SliceSource& source, std::size_t bins, const Sour
     throw Error(info.source + ": the second pass over the input found other dims than the first");
   }
   h.passes = 2;
-  for (; again->readSlice(slice); ++h.slicesRead) {
+  for (; readSliceInto(*again, slice); ++h.slicesRead) {
     throwIfInterrupted();
     for (const float v : slice) {
       if (std::isfinite(v)) binValue(h, v, 1);

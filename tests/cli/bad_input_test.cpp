@@ -15,11 +15,13 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -248,6 +250,53 @@ std::string pngHeaderOnly(std::uint32_t w, std::uint32_t h) {
   };
   return std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", be32(w) + be32(h) + std::string("\x08\0\0\0\0", 5)) +
          chunk("IDAT", std::string("\x78\x9c\x03\x00\x00\x00\x00\x01", 8)) + chunk("IEND", "");
+}
+
+// Issue 33, class 2: the series of dicomSeries with `edit` applied to every slice, saved in
+// `syntax`. Returns the first slice (the one the scan meets first).
+std::string dicomSeriesSaved(const std::string& dir, const std::function<void(DcmDataset*)>& edit,
+                             E_TransferSyntax syntax = EXS_LittleEndianExplicit) {
+  dicomSeries(dir, "0\\0\\1", "1\\0\\0\\0\\1\\0");
+  for (int k = 0; k < 3; ++k) {
+    const std::string path = fmt::format("{}/series/{}.dcm", dir, k);
+    DcmFileFormat ff;
+    ff.loadFile(path.c_str());
+    edit(ff.getDataset());
+    ff.saveFile(path.c_str(), syntax);
+  }
+  return dir + "/series/0.dcm";
+}
+
+// Issue 33, class 2: pixels of `bits` bits, `rows` x `columns`, with `bytes` bytes of pixel data.
+std::function<void(DcmDataset*)> dicomPixels(Uint16 rows, Uint16 columns, Uint16 bits, std::size_t bytes) {
+  return [=](DcmDataset* d) {
+    d->putAndInsertUint16(DCM_Rows, rows);
+    d->putAndInsertUint16(DCM_Columns, columns);
+    d->putAndInsertUint16(DCM_BitsAllocated, bits);
+    d->putAndInsertUint16(DCM_BitsStored, bits);
+    d->putAndInsertUint16(DCM_HighBit, static_cast<Uint16>(bits - 1));
+    const std::vector<Uint8> pixels(bytes, 1);
+    d->putAndInsertUint8Array(DCM_PixelData, pixels.data(), static_cast<unsigned long>(bytes));
+  };
+}
+
+// Issue 33, class 7: a gzip NRRD or .nii.gz in `dir` that declares 10000 x 10000 x 10000 floats
+// (400 MB a slice) and holds 16 MiB of zeros (16 KB compressed). Returns its path.
+std::string cutHugeVolume(const std::string& dir, const std::string& ext) {
+  const std::string zeros(std::size_t{1} << 24, '\0');
+  const std::string path = dir + "/cut" + ext;
+  if (ext == ".nrrd") {
+    write(path, "NRRD0004\ntype: float\nencoding: gzip\ndimension: 3\nsizes: 10000 10000 10000\n\n" + deflated(zeros));
+  } else {
+    std::string header = niftiOne([](std::string& h) {
+      for (std::size_t i = 1; i <= 3; ++i) putAt<std::int16_t>(h, 40 + 2 * i, 10000);
+      putAt<std::int16_t>(h, 70, 16);  // DT_FLOAT32
+      putAt<std::int16_t>(h, 72, 32);
+    });
+    header.resize(352);
+    write(path, deflated(header + zeros));
+  }
+  return path;
 }
 
 struct Case {
@@ -1182,6 +1231,90 @@ const Case kCases[] = {
      },
      "extract {dir}/v.nrrd --max-memory 5 --threads 2 --iso 1 -o {dir}/out.glb", 2},
     // (end of helper 2 section)
+    // Issue 33, class 2: uncompressed DICOM pixel data longer or shorter than Rows x Columns x
+    // SamplesPerPixel x BitsAllocated (x NumberOfFrames) need, once padded to an even length.
+    {"DicomRowsFewerThanThePixelDataHolds",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicomU16(DCM_Rows, 2), true); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomBitsAllocated8Holding16BitPixels",
+     [](const std::string& d) {
+       return dicomSeriesEdited(
+           d,
+           [](DcmDataset* s) {
+             s->putAndInsertUint16(DCM_BitsAllocated, 8);
+             s->putAndInsertUint16(DCM_BitsStored, 8);
+             s->putAndInsertUint16(DCM_HighBit, 7);
+           },
+           true);
+     },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomPixelDataLongerInOneSlice",
+     [](const std::string& d) { return dicomSeriesEdited(d, [](DcmDataset* s) {
+         const std::vector<Uint16> pixels(32, 7);
+         s->putAndInsertUint16Array(DCM_PixelData, pixels.data(), 32);
+       }); },
+     "extract {dir}/series --iso 50 -o {dir}/out.glb"},
+    {"DicomDeflatedRowsFewerThanThePixelDataHolds",
+     [](const std::string& d) {
+       return dicomSeriesSaved(d, setDicomU16(DCM_Rows, 3), EXS_DeflatedLittleEndianExplicit);
+     },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomBigEndianOddPixelDataOneByteLong",
+     [](const std::string& d) { return dicomSeriesSaved(d, dicomPixels(3, 3, 8, 11), EXS_BigEndianExplicit); },
+     "info {dir}/series"},
+    {"DicomRowsMoreThanThePixelDataHolds",
+     [](const std::string& d) { return dicomSeriesEdited(d, setDicomU16(DCM_Rows, 8), true); },
+     "extract {dir}/series --iso 50 -o {dir}/out.ply"},
+    {"DicomNumberOfFramesMoreThanThePixelDataHolds",
+     [](const std::string& d) {
+       writeDicomSlice(d + "/frames.dcm", 0, "0\\0\\0", "1\\0\\0\\0\\1\\0", "2");
+       return d + "/frames.dcm";
+     },
+     "extract {in} --iso 50 -o {dir}/out.ply"},
+    {"DicomOneBitPixelDataTooLong",
+     [](const std::string& d) { return dicomSeriesSaved(d, dicomPixels(4, 4, 1, 4)); }, "info {dir}/series"},
+    // Issue 33, class 6: messages in isoslab's words (BadInputMessages checks the words).
+    {"CompareOutIsAFile",
+     [](const std::string& d) {
+       write(d + "/results", "not a folder");
+       return d + "/results";
+     },
+     "compare --suite cubes --out {in}"},
+    {"CompareOutUnderAFile",
+     [](const std::string& d) {
+       write(d + "/results", "not a folder");
+       return d + "/results/cubes";
+     },
+     "compare --suite cubes --out {in}"},
+    {"BatchOutIsAFile",
+     [](const std::string& d) {
+       nrrd4(d);
+       write(d + "/list.txt", d + "/v.nrrd\n");
+       write(d + "/results", "not a folder");
+       return d + "/results";
+     },
+     "batch {dir}/list.txt --out {in} -- --iso 1"},
+    {"PngSliceTruncatedMidImage",
+     [](const std::string& d) {
+       const std::string stack = imageStack(d, ".png", 64, 64);
+       fs::resize_file(stack + "/s1.png", fs::file_size(stack + "/s1.png") / 2);
+       return stack + "/s1.png";
+     },
+     "extract {dir}/stack --iso 50 -q -o {dir}/out.ply"},
+    {"MetaImageBinaryHeaderLine",
+     [](const std::string& d) {
+       write(d + "/v.mha", kMha + std::string("\x01\xff\xfe\x00\x1b[2J\xc3(", 10) + "\nElementDataFile = LOCAL\n" +
+                               voxels(64));
+       return d + "/v.mha";
+     },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    // Issue 33, class 7: a small compressed file that declares 10000 x 10000 slices of floats ends
+    // in its first slice (16 MiB of zeros where the slice needs 400 MB). BadInputMemory checks the
+    // memory this takes.
+    {"NrrdGzipEndsInTheFirstOfItsHugeSlices", [](const std::string& d) { return cutHugeVolume(d, ".nrrd"); },
+     "extract {in} --iso 1 -o {dir}/out.ply"},
+    {"NiftiGzEndsInTheFirstOfItsHugeSlices", [](const std::string& d) { return cutHugeVolume(d, ".nii.gz"); },
+     "extract {in} --iso 1 --close-boundary -o {dir}/out.glb"},
     // --- Fuzz regressions ---------------------------------------------------------------------------
     // tests/fuzz/fuzz_mesh: `decode` to Draco quantized a vertex outside the volume's box that the
     // file's metadata states (volume_faces) on that box's grid, overflowing int (UBSan).
@@ -1470,6 +1603,134 @@ TEST(BadInputLimits, StacksJustInsideTheRulesRead) {
   EXPECT_NE(r.err.find("image stack of 3 slices, 2x2"), std::string::npos) << r.err;
   r = runCli("extract '" + dir + "/t*.tif' --iso 30000 -o " + dir + "/out.ply");
   EXPECT_EQ(r.exitCode, 0) << r.err;
+}
+
+// Issue 33, class 2: pixel data of exactly the length the pixel module needs reads, padded to an
+// even length (9 bytes of 3 x 3 8-bit pixels, saved as 10), in any uncompressed syntax; and
+// 1-bit pixels are counted bit-packed (4 x 4 in 2 bytes), so `info` lists them.
+TEST(BadInputLimits, DicomPixelDataOfTheRightLengthReads) {
+  for (const E_TransferSyntax syntax :
+       {EXS_LittleEndianExplicit, EXS_LittleEndianImplicit, EXS_BigEndianExplicit, EXS_DeflatedLittleEndianExplicit}) {
+    const std::string dir = tempDir();
+    dicomSeriesSaved(dir, dicomPixels(3, 3, 8, 9), syntax);
+    const CliResult r = runCli("extract " + dir + "/series --iso 0.5 -o " + dir + "/out.ply");
+    EXPECT_EQ(r.exitCode, 0) << DcmXfer(syntax).getXferName() << ": " << r.err;
+  }
+  const std::string dir = tempDir();
+  dicomSeriesSaved(dir, dicomPixels(4, 4, 1, 2));
+  const CliResult r = runCli("info " + dir + "/series");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("images         3"), std::string::npos) << r.out;
+}
+
+// Issue 33, class 2: the message gives both lengths and the tags that disagree.
+TEST(BadInputMessages, DicomPixelDataLengthNamesBothLengthsAndTheTags) {
+  const std::string dir = tempDir();
+  const std::string first = dicomSeriesEdited(
+      dir,
+      [](DcmDataset* s) {
+        s->putAndInsertUint16(DCM_BitsAllocated, 8);
+        s->putAndInsertUint16(DCM_BitsStored, 8);
+        s->putAndInsertUint16(DCM_HighBit, 7);
+      },
+      true);
+  const CliResult r = runCli("extract " + dir + "/series --iso 50 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.err, "isoslab: error: " + first +
+                       ": the pixel data holds 32 bytes, but Rows 4, Columns 4, SamplesPerPixel 1 and BitsAllocated 8 "
+                       "need 16; the length and those tags disagree; BitsAllocated 16 or Rows 8 would use them all\n");
+}
+
+// Issue 33, class 6: every message is one line of isoslab's own words, and bytes that are not
+// UTF-8 are escaped as \\xNN (and so are C1 controls) while UTF-8 names are kept.
+TEST(BadInputMessages, LibraryTextsAreIsoslabsWordsAndBytesThatAreNotUtf8AreEscaped) {
+  const std::string dir = tempDir();
+  // Bytes of the message other than printable ASCII, once `keep` (UTF-8 text) is taken out.
+  auto rawBytes = [](std::string err, const std::string& keep) {
+    for (std::size_t at = err.find(keep); !keep.empty() && at != std::string::npos; at = err.find(keep))
+      err.erase(at, keep.size());
+    std::string raw;
+    for (std::size_t i = 0; i + 1 < err.size(); ++i) {
+      const auto u = static_cast<unsigned char>(err[i]);
+      if (u < 0x20 || u >= 0x7f) raw += fmt::format("\\x{:02x}", u);
+    }
+    return raw;
+  };
+  // File names: invalid UTF-8, a C1 control (U+009B, a terminal's CSI), and a name in UTF-8.
+  const std::string odd = dir + "/v\xff\xfe\xc2\x9b.nrrd";
+  const std::string accented = dir + "/t\xc3\xaate.nii";
+  write(odd, "NRRD0004\ntype: uint8\n");
+  write(accented, "not NIfTI");
+  CliResult r = runCli("extract '" + odd + "' --iso 1 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_EQ(rawBytes(r.err, ""), "") << r.err;
+  EXPECT_NE(r.err.find(dir + "/v\\xff\\xfe\\xc2\\x9b.nrrd: "), std::string::npos) << r.err;
+  r = runCli("extract '" + accented + "' --iso 1 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find(accented + ": "), std::string::npos) << r.err;
+  EXPECT_EQ(rawBytes(r.err, "t\xc3\xaate"), "") << r.err;
+
+  // A MetaImage header line of binary bytes is not quoted.
+  write(dir + "/v.mha",
+        kMha + std::string("\x01\xff\xfe\x00\x1b[2J\xc3(", 10) + "\nElementDataFile = LOCAL\n" + voxels(64));
+  r = runCli("extract " + dir + "/v.mha --iso 1 -o " + dir + "/out.ply");
+  EXPECT_EQ(r.err, "isoslab: error: " + dir +
+                       "/v.mha: header line 5 holds binary bytes, not a MetaImage 'Key = Value' field\n");
+
+  // A truncated PNG slice: isoslab's words, libpng's detail, not OpenImageIO's closing words.
+  const std::string stack = imageStack(dir, ".png", 64, 64);
+  fs::resize_file(stack + "/s1.png", fs::file_size(stack + "/s1.png") / 2);
+  r = runCli("extract " + stack + " --iso 50 -q -o " + dir + "/out.ply");
+  EXPECT_EQ(r.err.rfind("isoslab: error: " + stack + "/s1.png: the PNG data is truncated or corrupt: ", 0), 0u)
+      << r.err;
+  EXPECT_EQ(r.err.find("library error"), std::string::npos) << r.err;
+
+  // compare --out naming a file fails before any run, without the C++ library's text.
+  write(dir + "/results", "not a folder");
+  r = runCli("compare --suite cubes --out " + dir + "/results/cubes");
+  EXPECT_EQ(r.err, "isoslab: error: " + dir + "/results/cubes: cannot create the output folder: " + dir +
+                       "/results is a file, not a folder\n");
+  r = runCli("compare --suite cubes --out " + dir + "/results");
+  EXPECT_EQ(r.err,
+            "isoslab: error: " + dir + "/results: cannot create the output folder: it is a file, not a folder\n");
+}
+
+// Issue 33, class 7: a compressed file that ends in its first slice is found to end before the
+// slice's buffers are allocated, so the program's peak resident memory stays near what the stream
+// held (16 MiB), far below the 400 MB slice it declares. Peak RSS is what the issue bounds, so it
+// is measured rather than capped with `ulimit -v`, whose address-space count glibc's per-thread
+// arenas and the shared libraries inflate regardless (a 40^3 phantom needs about 100 MB of it).
+// The program runs under python3, which reports RUSAGE_CHILDREN's ru_maxrss: a child forked from
+// this test process would start its count at this process's size, and Linux keeps that count
+// across exec. Skipped under sanitizers, whose shadow memory and quarantine are not the program's.
+TEST(BadInputMemory, DataThatEndsInTheFirstSliceTakesUnder100MiB) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "sanitizer builds' memory use is not the program's";
+#else
+  if (!fs::exists("/usr/bin/python3")) GTEST_SKIP() << "no /usr/bin/python3 to measure the peak";
+  const std::string dir = tempDir();
+  const std::string nrrd = cutHugeVolume(dir, ".nrrd");
+  const std::string nifti = cutHugeVolume(dir, ".nii.gz");
+  const std::string logs = tempDir();
+  const std::string measure =
+      "/usr/bin/python3 -c 'import resource, subprocess, sys; "
+      "r = subprocess.run(sys.argv[1:], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL); "
+      "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)' " ISOSLAB_CLI_PATH " ";
+  for (const std::string& args : {"extract " + nrrd + " --iso 1 -o " + dir + "/out.ply",
+                                  "extract " + nrrd + " --iso 1 --close-boundary --threads 2 -o " + dir + "/out.glb",
+                                  "extract " + nifti + " --iso 1 -o " + dir + "/out.ply", "info " + nrrd}) {
+    ASSERT_EQ(std::system((measure + args + " >" + logs + "/out 2>" + logs + "/err").c_str()), 0) << args;
+    int exitCode = -1;
+    long peakKiB = -1;
+    std::istringstream(slurp(logs + "/out")) >> exitCode >> peakKiB;
+    const std::string err = slurp(logs + "/err");
+    EXPECT_EQ(exitCode, 1) << args << "\n" << err;
+    EXPECT_NE(err.find(": data ends after "), std::string::npos) << err;
+    EXPECT_GT(peakKiB, 0) << args;
+    EXPECT_LT(peakKiB, 100 * 1024) << args << ": peak RSS " << peakKiB << " KiB";
+  }
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_TRUE(e.path().stem() == "cut" || e.path().stem() == "cut.nii") << e.path();
+#endif
 }
 
 // Control characters in a file name or a header value are escaped in the message, which stays one

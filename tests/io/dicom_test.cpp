@@ -606,6 +606,8 @@ TEST(Dicom, BadInputsNameTheFileAndTheProblem) {
     ASSERT_TRUE(ff.loadFile((dir + "/s003.dcm").c_str()).good());
     ff.getDataset()->putAndInsertUint16(DCM_Rows, 20);
     ff.getDataset()->putAndInsertUint16(DCM_Columns, 20);
+    std::vector<Uint16> pixels(400, 0);  // as many as 20x20 needs (issue 33: the length is checked first)
+    ff.getDataset()->putAndInsertUint16Array(DCM_PixelData, pixels.data(), 400);
     ASSERT_TRUE(ff.saveFile((dir + "/s003.dcm").c_str(), EXS_LittleEndianExplicit).good());
     EXPECT_EQ(
         openError(dir),
@@ -620,7 +622,10 @@ TEST(Dicom, BadInputsNameTheFileAndTheProblem) {
     std::vector<Uint16> few(100, 0);
     ff.getDataset()->putAndInsertUint16Array(DCM_PixelData, few.data(), 100);
     ASSERT_TRUE(ff.saveFile((dir + "/s001.dcm").c_str(), EXS_LittleEndianExplicit).good());
-    EXPECT_EQ(openError(dir), dir + "/s001.dcm: the pixel data holds 200 bytes, but 40x36 pixels of 16 bits need 2880");
+    EXPECT_EQ(openError(dir),
+              dir +
+                  "/s001.dcm: the pixel data holds 200 bytes, but Rows 36, Columns 40, SamplesPerPixel 1 "
+                  "and BitsAllocated 16 need 2880; the length and those tags disagree");
   }
   {
     const std::string dir = testing::tempDir();

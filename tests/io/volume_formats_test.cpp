@@ -14,7 +14,9 @@
 
 #include "core/error.h"
 #include "extract/frame.h"
+#include "io/crop_source.h"
 #include "io/open_source.h"
+#include "io/pad_source.h"
 #include "io/phantom.h"
 #include "io/volume_writer.h"
 #include "stream/pipeline.h"
@@ -649,6 +651,58 @@ TEST(VolumeFormats, CompressedStreamsAreCheckedAtTheirEnd) {
     ADD_FAILURE() << "a bad CRC was accepted";
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), dir + "/bad.nrrd: corrupt gzip data: incorrect data check");
+  }
+}
+
+// Issue 33, class 7: fetchSlice reads a slice's bytes ahead of readSlice, once; a fetched slice is
+// the one read or skipped next, through CropSource and PadSource too; and a compressed stream that
+// ends early fails in fetchSlice, before any caller has sized a slice buffer.
+TEST(VolumeFormats, FetchedSlicesAreTheOnesReadOrSkippedNext) {
+  const std::string dir = testing::tempDir();
+  std::vector<char> data(4 * 4 * 5);
+  for (std::size_t i = 0; i < data.size(); ++i) data[i] = static_cast<char>(i / 16);  // slice k holds k
+  const std::string nrrd = "NRRD0004\ntype: uint8\nencoding: gzip\ndimension: 3\nsizes: 4 4 5\n\n";
+  writeFile(dir + "/v.nrrd", nrrd, gzipped(data));
+  writeFile(dir + "/plain.nrrd", "NRRD0004\ntype: uint8\nencoding: raw\ndimension: 3\nsizes: 4 4 5\n\n", data);
+  for (const char* name : {"/v.nrrd", "/plain.nrrd"}) {
+    auto source = openSource(dir + name, {});
+    std::vector<float> slice(16, -1.0F);
+    EXPECT_TRUE(source->fetchSlice());
+    EXPECT_TRUE(source->fetchSlice());
+    ASSERT_TRUE(source->readSlice(slice));
+    EXPECT_EQ(slice.front(), 0.0F) << name;
+    EXPECT_TRUE(source->fetchSlice());
+    EXPECT_EQ(source->skipSlices(2), 2) << name;  // the fetched slice 1, and slice 2
+    ASSERT_TRUE(readSliceInto(*source, slice));
+    EXPECT_EQ(slice.back(), 3.0F) << name;
+    ASSERT_TRUE(source->fetchSlice());
+    ASSERT_TRUE(source->readSlice(slice));
+    EXPECT_EQ(slice.back(), 4.0F) << name;
+    EXPECT_FALSE(source->fetchSlice());
+    EXPECT_FALSE(source->readSlice(slice));
+  }
+  // Cropped to slices 1..3 and padded: NaN, 1, 2, 3, NaN.
+  auto padded = std::make_unique<PadSource>(
+      std::make_unique<CropSource>(openSource(dir + "/v.nrrd", {}), LatticeBox{{0, 0, 1}, {3, 3, 3}}));
+  std::vector<float> slice;
+  std::vector<float> centres;
+  while (readSliceInto(*padded, slice)) centres.push_back(slice[slice.size() / 2 + 2]);
+  ASSERT_EQ(centres.size(), 5u);
+  EXPECT_TRUE(std::isnan(centres[0]));
+  EXPECT_EQ(centres[1], 1.0F);
+  EXPECT_EQ(centres[3], 3.0F);
+  EXPECT_TRUE(std::isnan(centres[4]));
+
+  // 16 MiB of zeros where a 10000 x 10000 slice of floats needs 400 MB: fetchSlice says where the
+  // data ended.
+  writeFile(dir + "/cut.nrrd", "NRRD0004\ntype: float\nencoding: gzip\ndimension: 3\nsizes: 10000 10000 3\n\n",
+            gzipped(std::vector<char>(std::size_t{1} << 24)));
+  auto cut = openSource(dir + "/cut.nrrd", {});
+  try {
+    cut->fetchSlice();
+    ADD_FAILURE() << "a stream that ends early was fetched";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), dir + "/cut.nrrd: data ends after 16777216 of 1200000000 bytes");
   }
 }
 
