@@ -16,7 +16,8 @@ import xml.etree.ElementTree as ET
 
 
 def expected_skips(path):
-    """name pattern -> reason. One line each: a test name (fnmatch pattern), spaces, the reason."""
+    """pattern -> reason. One line each: a test name (fnmatch pattern), optionally after the build
+    folder it applies to and a colon (build-asan:NAME), then spaces and the reason."""
     out = {}
     with open(path, encoding="utf-8") as f:
         for number, line in enumerate(f, 1):
@@ -28,6 +29,15 @@ def expected_skips(path):
                 sys.exit(f"check_skips: {path}:{number}: '{parts[0]}' has no reason")
             out[parts[0]] = parts[1].strip()
     return out
+
+
+def matches(pattern, folder, name):
+    """A pattern is NAME, or FOLDER:NAME for the suite built in that folder (build-asan:...)."""
+    if ":" in pattern:
+        where, pattern = pattern.split(":", 1)
+        if not fnmatch.fnmatchcase(folder, where):
+            return False
+    return fnmatch.fnmatchcase(name, pattern)
 
 
 def reason_of(case):
@@ -70,13 +80,14 @@ def main():
                 continue
             print(f"check_skips: {path} is absent (ctest --output-junit did not run)", file=sys.stderr)
             return 2
-        found += skips(path, "Python.Pytest/" if is_pytest else "")
+        folder = os.path.basename(os.path.dirname(os.path.abspath(path)))
+        found += [(folder, name, reason) for name, reason in skips(path, "Python.Pytest/" if is_pytest else "")]
     ci = os.environ.get("CI", "").lower() in ("true", "1")
     unexpected = []
-    for name, reason in found:
-        listed = next((r for p, r in expected.items() if fnmatch.fnmatchcase(name, p)), None)
+    for folder, name, reason in found:
+        listed = next((r for p, r in expected.items() if matches(p, folder, name)), None)
         tag = f"expected: {listed}" if listed is not None else "UNEXPECTED" if ci else "skipped"
-        print(f"check_skips: {name}: {reason} ({tag})")
+        print(f"check_skips: {folder}: {name}: {reason} ({tag})")
         if listed is None:
             unexpected.append(name)
     if unexpected and ci:
