@@ -187,4 +187,47 @@ std::size_t editDistance(const std::string& a, const std::string& b) {
   return row[b.size()];
 }
 
+std::string terminalLine(const std::string& text) {
+  std::string line;
+  // Control characters, and every byte that does not start a well-formed UTF-8 sequence (stray
+  // continuation bytes, overlong forms, surrogates, code points past U+10FFFF, cut sequences), are
+  // written as \xNN; well-formed multi-byte characters ("tête.nii") are kept as they are, except
+  // the C1 controls U+0080..U+009F, which terminals may act on.
+  for (std::size_t at = 0; at < text.size();) {
+    const auto u = static_cast<unsigned char>(text[at]);
+    auto next = [&](std::size_t k) { return at + k < text.size() ? static_cast<unsigned char>(text[at + k]) : 0; };
+    // The length of a well-formed sequence at `at`, 0 if there is none (RFC 3629's table).
+    std::size_t length = 0;
+    if (u >= 0xc2 && u <= 0xdf) {
+      length = (next(1) & 0xc0) == 0x80 && !(u == 0xc2 && next(1) < 0xa0) ? 2 : 0;
+    } else if (u >= 0xe0 && u <= 0xef) {
+      const unsigned char lo = u == 0xe0 ? 0xa0 : 0x80;
+      const unsigned char hi = u == 0xed ? 0x9f : 0xbf;
+      length = next(1) >= lo && next(1) <= hi && (next(2) & 0xc0) == 0x80 ? 3 : 0;
+    } else if (u >= 0xf0 && u <= 0xf4) {
+      const unsigned char lo = u == 0xf0 ? 0x90 : 0x80;
+      const unsigned char hi = u == 0xf4 ? 0x8f : 0xbf;
+      length = next(1) >= lo && next(1) <= hi && (next(2) & 0xc0) == 0x80 && (next(3) & 0xc0) == 0x80 ? 4 : 0;
+    }
+    if (length > 0) {
+      line.append(text, at, length);
+      at += length;
+      continue;
+    }
+    if (u == '\n') {
+      line += "\\n";
+    } else if (u == '\t') {
+      line += "\\t";
+    } else if (u == '\r') {
+      line += "\\r";
+    } else if (u < 0x20 || u >= 0x7f) {
+      line += fmt::format("\\x{:02x}", u);
+    } else {
+      line += static_cast<char>(u);
+    }
+    ++at;
+  }
+  return line;
+}
+
 }  // namespace isoslab::cli

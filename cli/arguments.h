@@ -56,6 +56,11 @@ std::vector<double> parseList(const std::string& text, const std::string& option
 /// this program's options (--channel, --raw-dims). Other text, backticks included, is kept.
 std::string withFlags(const std::string& text);
 
+/// `text` made safe for one line of a terminal: newline, tab and carriage return as \n, \t, \r;
+/// other control characters (C0, DEL and the C1 controls U+0080..U+009F) and every byte that does
+/// not start a well-formed UTF-8 sequence as \xNN; well-formed UTF-8 ("tête.nii") kept.
+std::string terminalLine(const std::string& text);
+
 /// Levenshtein distance, for "did you mean".
 std::size_t editDistance(const std::string& a, const std::string& b);
 

@@ -302,7 +302,7 @@ int runBatch(const BatchArgs& args, RankGroup* ranks) {
   if (rank > 0) {
     nlohmann::json mine = nlohmann::json::array();
     for (const Outcome& o : outcomes) mine.push_back(toJson(o));
-    ranks->send(0, bytesOf(mine.dump()));
+    ranks->send(0, bytesOf(mine.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)));
     const std::string verdict = textOf(ranks->receive(0));
     return verdict == "0" ? 0 : 1;
   }

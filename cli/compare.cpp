@@ -67,8 +67,16 @@ int runProgram(std::vector<std::string> argv) {
   std::vector<char*> cargv;
   for (std::string& a : argv) cargv.push_back(a.data());
   cargv.push_back(nullptr);
+  // In a process group of its own, so that a terminal's Ctrl-C reaches only isoslab, which ends
+  // the child itself (no KeyboardInterrupt traceback from Python on the shared stderr).
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attributes, 0);
   pid_t pid = 0;
-  if (posix_spawnp(&pid, cargv[0], nullptr, nullptr, cargv.data(), environ) != 0) return -1;
+  const int spawned = posix_spawnp(&pid, cargv[0], nullptr, &attributes, cargv.data(), environ);
+  posix_spawnattr_destroy(&attributes);
+  if (spawned != 0) return -1;
   int status = 0;
   bool stopped = false;
   for (;;) {
@@ -109,8 +117,12 @@ void drawCharts(const std::string& csv, const std::string& out, bool quiet) {
     std::fprintf(stderr, "isoslab: charts skipped: %s failed (is python3-matplotlib installed?)\n", script.c_str());
     return;
   }
-  for (const auto& chart : fs::directory_iterator(scratch))
-    fs::rename(chart.path(), fs::path(out) / chart.path().filename());
+  std::error_code ec;
+  for (auto chart = fs::directory_iterator(scratch, ec); !ec && chart != fs::directory_iterator(); chart.increment(ec)) {
+    fs::rename(chart->path(), fs::path(out) / chart->path().filename(), ec);
+    if (ec) break;
+  }
+  if (ec) throw Error(fmt::format("{}: cannot move the charts into place: {}", out, ec.message()));
   if (!quiet) std::fprintf(stderr, "isoslab: charts written to %s\n", out.c_str());
 }
 
@@ -231,7 +243,17 @@ int runSpheres(const CompareArgs& args) {
   if (!args.quiet)
     std::fprintf(stderr, "isoslab: spheres51: %zu rows in %.1f s -> %s\n", radii.size() * 2 * methods.size(), seconds,
                  csvPath.c_str());
-  if (args.charts) drawCharts(csvPath, args.out, args.quiet);
+  if (args.charts) {
+    try {
+      drawCharts(csvPath, args.out, args.quiet);
+    } catch (const Interrupted&) {
+      // Stopped while drawing: the results go too, so that nothing of the run is left.
+      std::error_code ec;
+      fs::remove(csvPath, ec);
+      fs::remove(args.out + "/summary.md", ec);
+      throw;
+    }
+  }
   return 0;
 }
 
@@ -393,9 +415,9 @@ int runCompare(const CompareArgs& args) {
     if (args.suite == "paper") return runPaper(args);
     if (args.suite == "cubes") return runCubes(args);
     return runFigures(args, methodsOf(args.methods));
-  } catch (const Interrupted&) {
-    // The suites write their files at the end (figures through a CommitGroup); a folder this run
-    // made goes too, when nothing is in it.
+  } catch (...) {
+    // Interrupted or failed: the suites write their files at the end (figures through a
+    // CommitGroup), and a folder this run made goes too, when nothing is in it.
     if (!outExisted) fs::remove(args.out, ec);
     throw;
   }

@@ -398,7 +398,7 @@ std::optional<std::string> emptySurfaceWarning(double iso, const std::string& na
 }
 
 void printWarning(const std::string& warning) {
-  std::fprintf(stderr, "isoslab: warning: %s\n", cli::withFlags(warning).c_str());
+  std::fprintf(stderr, "isoslab: warning: %s\n", cli::terminalLine(cli::withFlags(warning)).c_str());
 }
 
 // Whether two output paths name one file: the same spelling after normalisation, or (when the file
@@ -472,6 +472,12 @@ int runExtract(const ExtractArgs& args) {
   }
   std::vector<std::string> notes;
   auto source = openSource(args.inputs, sourceOptions(args.raw), &notes);
+  // The mesh's coordinates are float32: a physical box they cannot hold is refused before the
+  // first slice (voxel coordinates always fit).
+  if (args.space != "voxel") {
+    const VolumeInfo& opened = source->info();
+    validateFloat32Geometry(opened, opened.source.empty() ? args.inputs.front() : opened.source);
+  }
   std::optional<RoiChoice> roi;
   // Readers' notes that are warnings print even with --quiet and go to the report.
   std::vector<std::string> warnings;
@@ -750,6 +756,7 @@ std::array<double, 2> valueRange(SliceSource& source) {
   double lo = std::numeric_limits<double>::infinity();
   double hi = -lo;
   while (readSliceInto(source, slice)) {
+    throwIfInterrupted();  // a slice boundary
     for (float v : slice) {
       lo = std::min(lo, static_cast<double>(v));
       hi = std::max(hi, static_cast<double>(v));
@@ -888,6 +895,8 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw, std::siz
         const auto range = valueRange(*source);
         std::printf("  value range    %g .. %g (after rescale)\n", range[0], range[1]);
       }
+    } catch (const Interrupted&) {
+      throw;  // not an unreadable series: the run stops
     } catch (const Error& e) {
       std::printf("  unreadable     %s\n", e.what());
     }
@@ -1015,47 +1024,7 @@ extern "C" void onStopSignal(int signal) {
 // file name or a header value) escaped: a newline, tab or ESC must not make a second line or
 // drive the terminal.
 static void printError(const std::string& message) {
-  // Control characters, and every byte that does not start a well-formed UTF-8 sequence (stray
-  // continuation bytes, overlong forms, surrogates, code points past U+10FFFF, cut sequences), are
-  // written as \xNN; well-formed multi-byte characters ("tête.nii") are kept as they are, except
-  // the C1 controls U+0080..U+009F, which terminals may act on.
-  const std::string text = isoslab::cli::withFlags(message);
-  std::string line;
-  for (std::size_t at = 0; at < text.size();) {
-    const auto u = static_cast<unsigned char>(text[at]);
-    auto next = [&](std::size_t k) { return at + k < text.size() ? static_cast<unsigned char>(text[at + k]) : 0; };
-    // The length of a well-formed sequence at `at`, 0 if there is none (RFC 3629's table).
-    std::size_t length = 0;
-    if (u >= 0xc2 && u <= 0xdf) {
-      length = (next(1) & 0xc0) == 0x80 && !(u == 0xc2 && next(1) < 0xa0) ? 2 : 0;
-    } else if (u >= 0xe0 && u <= 0xef) {
-      const unsigned char lo = u == 0xe0 ? 0xa0 : 0x80;
-      const unsigned char hi = u == 0xed ? 0x9f : 0xbf;
-      length = next(1) >= lo && next(1) <= hi && (next(2) & 0xc0) == 0x80 ? 3 : 0;
-    } else if (u >= 0xf0 && u <= 0xf4) {
-      const unsigned char lo = u == 0xf0 ? 0x90 : 0x80;
-      const unsigned char hi = u == 0xf4 ? 0x8f : 0xbf;
-      length = next(1) >= lo && next(1) <= hi && (next(2) & 0xc0) == 0x80 && (next(3) & 0xc0) == 0x80 ? 4 : 0;
-    }
-    if (length > 0) {
-      line.append(text, at, length);
-      at += length;
-      continue;
-    }
-    if (u == '\n') {
-      line += "\\n";
-    } else if (u == '\t') {
-      line += "\\t";
-    } else if (u == '\r') {
-      line += "\\r";
-    } else if (u < 0x20 || u >= 0x7f) {
-      line += fmt::format("\\x{:02x}", u);
-    } else {
-      line += static_cast<char>(u);
-    }
-    ++at;
-  }
-  std::fprintf(stderr, "isoslab: error: %s\n", line.c_str());
+  std::fprintf(stderr, "isoslab: error: %s\n", isoslab::cli::terminalLine(isoslab::cli::withFlags(message)).c_str());
 }
 
 int main(int argc, char** argv) {

@@ -70,7 +70,8 @@ nlohmann::ordered_json gltfDocument(const MeshHeader& header, const WriterOption
 
 std::int64_t writeGlbFile(const std::string& path, const nlohmann::ordered_json& gltf,
                           const std::vector<SpoolFile*>& bin) {
-  std::string json = gltf.dump();
+  // Strings from the input (names, metadata) that are not UTF-8 get U+FFFD: JSON holds UTF-8 only.
+  std::string json = gltf.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
   json.append((4 - json.size() % 4) % 4, ' ');
   std::int64_t binLength = 0;
   for (const SpoolFile* spool : bin) binLength += spool->size();

@@ -74,7 +74,6 @@ void validateGeometry(const VolumeInfo& info, const std::string& what) {
   if (std::abs(det) < kTolerance) {
     throw Error(fmt::format("{}: direction columns are coplanar (determinant {:.3g}): the volume is flat", what, det));
   }
-  validateFloat32Geometry(info, what);
 }
 
 void validateFloat32Geometry(const VolumeInfo& info, const std::string& what) {
@@ -128,9 +127,10 @@ void validateFloat32Geometry(const VolumeInfo& info, const std::string& what) {
                             kFloatMax));
   }
   // Neighbouring lattice points must stay apart in float32: along each axis, the step must span
-  // at least kSteps of float32's steps at the box's largest value of some coordinate that the step
-  // changes (so that a vertex between two lattice points still has 16 places to be).
-  constexpr double kSteps = 16;
+  // at least one of float32's steps at the box's largest value of some coordinate that the step
+  // changes. (Fewer than 16 leave a vertex between two lattice points few places to be, but
+  // microscopy in micrometres at stage coordinates lives there and is meshed usefully.)
+  constexpr double kSteps = 1;
   std::array<double, 3> resolution{};
   for (std::size_t r = 0; r < 3; ++r) {
     const auto top = static_cast<float>(std::max(reachOf[r], static_cast<double>(std::numeric_limits<float>::min())));
@@ -168,10 +168,10 @@ void validateFloat32Geometry(const VolumeInfo& info, const std::string& what) {
                             info.origin[1], info.origin[2])
               : "";
       throw Error(fmt::format("{}: {} gives a step of {:.6g} along axis {}, below float32's resolution at the "
-                              "volume's coordinates (which reach {:.3g}, where float32 steps by {:.3g}; a lattice "
-                              "step must span at least {:g} of them){}",
+                              "volume's coordinates (which reach {:.3g}, where float32 steps by {:.3g}): neighbouring "
+                              "lattice points would coincide{}",
                               what, info.spacingFields[a], std::hypot(step[0], step[1], step[2]), a, reachOf[best],
-                              resolution[best], kSteps, far));
+                              resolution[best], far));
     }
   }
 }

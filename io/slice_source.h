@@ -75,13 +75,13 @@ bool readSliceInto(SliceSource& source, std::vector<float>& slice);
 /// neither collinear nor nearly coplanar (a flat or NaN mesh would follow). Throws
 /// isoslab::Error "WHAT: FIELD ..." naming the field otherwise. openSource() applies it to every
 /// source it opens.
-/// Then validateFloat32Geometry().
 void validateGeometry(const VolumeInfo& info, const std::string& what);
 
-/// Checks that the volume's box, in output coordinates, is finite in float32 (the meshes'
-/// coordinates), and that each lattice step spans at least 16 float32 steps at that box's largest
-/// coordinate. Throws isoslab::Error naming the field (VolumeInfo::spacingFields, originField)
-/// that puts the box out of range or the step below float32's resolution.
+/// Checks that the volume's box, in physical coordinates, is finite in float32 (the meshes'
+/// coordinates), and that each lattice step spans at least one float32 step at that box's largest
+/// value of the coordinates it moves. Throws isoslab::Error naming the field
+/// (VolumeInfo::spacingFields, originField) that puts the box out of range or the step below
+/// float32's resolution. `isoslab extract` applies it unless --space is voxel.
 void validateFloat32Geometry(const VolumeInfo& info, const std::string& what);
 
 }  // namespace isoslab

@@ -150,7 +150,8 @@ std::string reportText(const nlohmann::ordered_json& report, const std::string& 
   if (const std::string field = firstNonFinite(report, "", value); !field.empty()) {
     throw Error(fmt::format("{}: the report's {} is {}, not a finite number", what, field, value));
   }
-  return report.dump(indent);
+  // Strings from the input (paths, header values) that are not UTF-8 get U+FFFD: JSON holds UTF-8 only.
+  return report.dump(indent, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
 }
 
 }  // namespace isoslab

@@ -28,8 +28,8 @@ _METHODS = ("mc", "mt5", "mt6", "bcc12", "mt24", "mc33")
 
 def _check_float32_reach(spacing, shape):
     """Vertices are float32: along each axis, the farthest vertex (spacing times the last index)
-    must be finite there, and a step must span at least 16 of float32's steps at that distance,
-    as the program's readers require (issue 33)."""
+    must be finite there, and a step must span at least one of float32's steps at that distance,
+    as `isoslab extract` requires (issue 33)."""
     f32 = np.finfo(np.float32)
     for axis, (s, n) in enumerate(zip(spacing, shape)):
         reach = s * max(int(n) - 1, 0)
@@ -37,10 +37,10 @@ def _check_float32_reach(spacing, shape):
             raise ValueError(f"`spacing` {s:g} along axis {axis} puts the vertices beyond float32's range: "
                              f"its {n} points reach {reach:.3g} (the largest float32 is {float(f32.max):.3g}).")
         resolution = float(np.spacing(np.float32(max(reach, float(f32.tiny)))))
-        if s < 16 * resolution:
+        if s < resolution:
             raise ValueError(f"`spacing` {s:g} along axis {axis} is below float32's resolution at the vertices' "
-                             f"coordinates (which reach {reach:.3g}, where float32 steps by {resolution:.3g}; a "
-                             f"step must span at least 16 of them).")
+                             f"coordinates (which reach {reach:.3g}, where float32 steps by {resolution:.3g}): "
+                             f"neighbouring vertices would coincide.")
 
 
 def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), method="mc", gradient_direction="descent",

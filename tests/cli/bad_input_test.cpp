@@ -1735,6 +1735,31 @@ TEST(BadInputMemory, DataThatEndsInTheFirstSliceTakesUnder100MiB) {
 
 // Control characters in a file name or a header value are escaped in the message, which stays one
 // line (the catalogue compares the raw path, so this is its own test).
+// JSON holds UTF-8 only: an input path or a mesh's metadata that is not UTF-8 reaches the report
+// and the .glb as U+FFFD. nlohmann threw type_error.316 there: its text was the error of
+// `extract 'q\xff.nrrd' --report`, and `decode` to .glb of such an OBJ ended the process (found
+// by fuzz_mesh; tests/fuzz/corpus/mesh/regress_decode_glb_metadata_not_utf8).
+TEST(BadInputMessages, BytesThatAreNotUtf8ReachJsonAsReplacementCharacters) {
+  const std::string dir = tempDir();
+  nrrd4(dir);
+  const std::string odd = dir + "/q\xff.nrrd";
+  fs::rename(dir + "/v.nrrd", dir + "/q\xff.nrrd");
+  CliResult r = runCli("extract '" + odd + "' --iso 1 -q -o " + dir + "/out.ply --report " + dir + "/r.json");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json report = nlohmann::json::parse(slurp(dir + "/r.json"));  // throws on bad UTF-8
+  EXPECT_NE(report.at("input").dump().find("q\xef\xbf\xbd.nrrd"), std::string::npos) << report.at("input");
+
+  write(dir + "/m.obj", "# isoslab mc iso 980 space physica\x9c\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  r = runCli("decode " + dir + "/m.obj -o " + dir + "/m.glb");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const std::string g = slurp(dir + "/m.glb");
+  std::uint32_t jsonLength = 0;
+  ASSERT_GT(g.size(), 20u);
+  std::memcpy(&jsonLength, g.data() + 12, 4);
+  const nlohmann::json gltf = nlohmann::json::parse(g.substr(20, jsonLength));
+  EXPECT_EQ(gltf.at("asset").at("extras").at("space").get<std::string>(), "physica\xef\xbf\xbd");
+}
+
 TEST(BadInputMessages, ControlCharactersAreEscaped) {
   const std::string dir = tempDir();
   const std::string stack = imageStack(dir, ".png", 64, 64);

@@ -1,5 +1,5 @@
 // Issue 33, class 1: finite input geometry whose mapped output overflows float32 (or whose step
-// is below float32's resolution there) must be refused before the first slice; whatever is
+// is below float32's resolution there) must be refused by extract before the first slice; whatever is
 // accepted must give a mesh whose every coordinate and normal, and every report number, is
 // finite. A property test: random geometries at the float limits in every reader that carries
 // geometry (raw, phantom, NRRD, MetaImage, NIfTI, DICOM, image stacks), each run through the
@@ -370,15 +370,21 @@ TEST(FloatLimits, TheBoxAndTheStepAreJudgedAtFloat32sLimits) {
   r = run("8.5e37,1,1");
   EXPECT_EQ(r.exitCode, 0) << r.err;
   fs::remove(dir + "/m.ply");
-  // A step of 1e-44 at coordinates up to 4e-44: float32's step there is 2^-149 (1.4e-45), 7 of
-  // them per lattice step, fewer than 16.
-  r = run("1e-44,1,1");
+  // A step of 1e-46 is below float32's smallest step (2^-149, 1.4e-45): the points would coincide.
+  r = run("1e-46,1,1");
   EXPECT_EQ(r.exitCode, 1);
-  EXPECT_NE(r.err.find("--spacing gives a step of 1e-44 along axis 0, below float32's resolution"), std::string::npos)
+  EXPECT_NE(r.err.find("--spacing gives a step of 1e-46 along axis 0, below float32's resolution"), std::string::npos)
       << r.err;
-  // 1e-40 is about 71,000 of them: accepted.
-  r = run("1e-40,1,1");
+  // 3e-45 is two of them: accepted (in the physical frame; --space voxel is never judged).
+  r = run("3e-45,1,1");
   EXPECT_EQ(r.exitCode, 0) << r.err;
+  fs::remove(dir + "/m.ply");
+  r = run("1e-46,1,1 --space voxel");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  fs::remove(dir + "/m.ply");
+  r = run("8.6e37,1,1 --space voxel");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  fs::remove(dir + "/m.ply");
   EXPECT_FALSE(fs::exists(dir + "/m.ply.tmp"));
 }
 

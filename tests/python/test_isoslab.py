@@ -229,11 +229,11 @@ def test_default_level_is_the_middle_of_the_range():
     (lambda v: isoslab.marching_cubes(v, -6.0, spacing=(1, 1)), "three positive, finite floats"),
     (lambda v: isoslab.marching_cubes(v, -6.0, spacing=(1, 0, 1)), "three positive, finite floats"),
     (lambda v: isoslab.marching_cubes(v, -6.0, spacing="abc"), "three floats"),
-    # float32 vertices (issue 33): the last index times 1e38 is beyond 3.4e38; a step of 1e-44 is
-    # 7 of float32's smallest steps (1.4e-45), fewer than 16.
+    # float32 vertices (issue 33): the last index times 1e38 is beyond 3.4e38; a step of 1e-46 is
+    # below float32's smallest step (1.4e-45).
     (lambda v: isoslab.marching_cubes(v, -6.0, spacing=(1, 1e38, 1)), "`spacing` 1e\+38 along axis 1 puts the "
      "vertices beyond float32's range"),
-    (lambda v: isoslab.marching_cubes(v, -6.0, spacing=(1e-44, 1, 1)), "below float32's resolution"),
+    (lambda v: isoslab.marching_cubes(v, -6.0, spacing=(1e-46, 1, 1)), "below float32's resolution"),
     (lambda v: isoslab.marching_cubes(v, -6.0, method="lewiner"), "method should be one of 'mc'"),
     (lambda v: isoslab.marching_cubes(v, -6.0, gradient_direction="up"), "gradient_direction should be"),
     (lambda v: isoslab.marching_cubes(v, -6.0, step_size=2), "step_size 2 is not supported"),
