@@ -8,12 +8,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
-#include <regex>
 #include <sstream>
 
 #include "test_support.h"
@@ -120,9 +120,18 @@ std::vector<double> numbersOnLine(const std::string& out, const std::string& pre
   std::string line = out.substr(at + 1, out.find('\n', at + 1) - at - 1);
   line = line.substr(prefix.size(),
                      line.find('(') == std::string::npos ? std::string::npos : line.find('(') - prefix.size());
-  static const std::regex number(R"([-+]?[0-9]+(\.[0-9]+)?([eE][-+]?[0-9]+)?)");
-  for (auto m = std::sregex_iterator(line.begin(), line.end(), number); m != std::sregex_iterator(); ++m)
-    numbers.push_back(std::stod(m->str()));
+  // Every decimal number in the line, signed or not (std::regex's iterator trips GCC 12's
+  // -Wmaybe-uninitialized in the sanitizer build).
+  const auto digit = [](char c) { return c >= '0' && c <= '9'; };
+  for (const char* p = line.c_str(); *p != '\0';) {
+    if (digit(*p) || ((*p == '-' || *p == '+') && digit(p[1]))) {
+      char* end = nullptr;
+      numbers.push_back(std::strtod(p, &end));
+      p = end;
+    } else {
+      ++p;
+    }
+  }
   return numbers;
 }
 
