@@ -1,3 +1,5 @@
+// size-exception: the .glb writer's chunking, seam keys and parallel encoders share private state
+// (the waiting chunk, the seam keys); the .drc writer beside it is short.
 #include "encode/draco_writers.h"
 
 #include "core/fans.h"
@@ -203,6 +205,8 @@ void GlbDracoWriter::close(const MeshChunk& last) {
 // gets its key (global id + 2) in both chunks and every other vertex there gets 1, "never weld".
 // Only the waiting chunk's last slab can lie within a quantization step of the current chunk's
 // first slab, so only those vertices are compared. Then hands the waiting chunk to the encoder.
+// size-exception: the seam's three cases (one unmarked vertex each side, keyed, never weld) are
+// decided together per position group; split, each part would rebuild the groups.
 void GlbDracoWriter::resolveSeam() {
   struct Group {
     std::vector<VertexId> there;  // in the waiting chunk

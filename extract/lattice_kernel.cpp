@@ -1,3 +1,6 @@
+// size-exception: one class, LatticeKernel, whose row loop, welding cache, cell points and vertex
+// creation are every lattice method's hot path; kept in one translation unit so that they inline
+// into each other.
 // Marching Tetrahedra and the comparison of decompositions: V. Skala and A. Brus, "Two methods for
 // iso-surface extraction from volumetric data and their comparison".
 // BCC: C.-S. Chan and E. O. Purisima, Computers & Graphics 22(1), 1998.

@@ -1,3 +1,5 @@
+// size-exception: the derivation of the mc33 tables and the topology argument it rests on (the
+// long comment below); the steps refer to each other and read as one proof.
 // Topologically correct Marching Cubes: the per-cell decider and the triangulation of each key.
 //
 // E. V. Chernyaev, "Marching cubes 33: construction of topologically correct isosurfaces", CERN
@@ -366,6 +368,8 @@ void fanDisc(const std::vector<int>& loop, Mc33Case& out) {
 /// the other loop along one run of rungs, or an edge would be used twice: with x0 (y0) the last di
 /// (dj) the path reaches while dj (di) is still 0, the path may not come back to dj = m (di = n)
 /// before di > x0 (dj > y0). The search tries every start and every such (x0, y0).
+// size-exception: one exhaustive search over starts and (x0, y0) limits, with the ordering of its
+// candidates; it runs once, when the tables are generated.
 void bandAnnulus(const std::vector<int>& a, const std::vector<int>& b, Mc33Case& out) {
   const int n = static_cast<int>(a.size());
   const int m = static_cast<int>(b.size());

@@ -1,3 +1,6 @@
+// size-exception: the single-process pipeline (reader, extraction runs, ordered emit) and its
+// rank variants share the run scheduling and result merging kept private here; the rank half
+// is the part to move to a file of its own next.
 #include "stream/pipeline.h"
 
 #include <fmt/format.h>
@@ -634,6 +637,8 @@ PipelineResult runRank(RankGroup& group, SliceSource& source, Extractor& extract
 
 // Rank 0: extracts and emits its own range, then the other ranks' runs in rank order, and tells
 // every rank the outcome. The first failure (its own, or the lowest rank's) is the one reported.
+// size-exception: one sequence (own range, then each rank's runs in order, then the shared
+// outcome) whose error paths must stay beside the happy path that they unwind.
 PipelineResult runRankZero(RankGroup& group, SliceSource& source, Extractor& extractor, MeshSink& sink,
                            const MeshHeader& header, const PipelineOptions& options) {
   const auto start = Clock::now();
