@@ -118,7 +118,8 @@ void drawCharts(const std::string& csv, const std::string& out, bool quiet) {
     return;
   }
   std::error_code ec;
-  for (auto chart = fs::directory_iterator(scratch, ec); !ec && chart != fs::directory_iterator(); chart.increment(ec)) {
+  for (auto chart = fs::directory_iterator(scratch, ec); !ec && chart != fs::directory_iterator();
+       chart.increment(ec)) {
     fs::rename(chart->path(), fs::path(out) / chart->path().filename(), ec);
     if (ec) break;
   }

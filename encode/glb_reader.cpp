@@ -188,8 +188,8 @@ class GlbReader {
     if (!p.contains("indices")) throw Error(fmt::format("{}: a primitive has no indices", path_));
     const std::vector<double> idx = accessor(p.at("indices").get<std::uint64_t>(), 1);
     if (idx.size() % 3 != 0) {
-      throw Error(fmt::format("{}: a primitive of triangles has {} indices, which is not a multiple of 3", path_,
-                              idx.size()));
+      throw Error(
+          fmt::format("{}: a primitive of triangles has {} indices, which is not a multiple of 3", path_, idx.size()));
     }
     for (std::size_t t = 0; t + 2 < idx.size(); t += 3) {
       throwIfInterruptedEvery(t / 3);
@@ -212,7 +212,8 @@ class GlbReader {
   void checkAttributeCounts(const nlohmann::json& p) const {
     const auto& attributes = p.at("attributes");
     if (!attributes.is_object() || !attributes.contains("POSITION")) {
-      throw Error(fmt::format("{}: mesh {} primitive {} has no POSITION attribute", path_, meshIndex_, primitiveIndex_));
+      throw Error(
+          fmt::format("{}: mesh {} primitive {} has no POSITION attribute", path_, meshIndex_, primitiveIndex_));
     }
     const auto countOf = [&](const nlohmann::json& index) {
       return gltf_.at("accessors").at(index.get<std::uint64_t>()).at("count").get<std::uint64_t>();

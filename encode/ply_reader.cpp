@@ -137,8 +137,8 @@ Header parseHeader(Input& in, const std::string& path, MeshMetadata& meta) {
       if (e.name.empty()) throw Error(fmt::format("{}: PLY header line {} '{}' names no element", path, lineNumber, l));
       e.count = elementCount(count, l, lineNumber, path);
       if (s >> extra) {
-        throw Error(fmt::format("{}: PLY header line {} '{}': '{}' follows the element count", path, lineNumber, l,
-                                extra));
+        throw Error(
+            fmt::format("{}: PLY header line {} '{}': '{}' follows the element count", path, lineNumber, l, extra));
       }
       header.elements.push_back(e);
     } else if (word == "property") {

@@ -51,7 +51,7 @@ class CropSource final : public SliceSource {
   LatticeBox box_;
   VolumeInfo info_;
   std::vector<float> full_;  // the inner source's slice, allocated once its first slice is fetched
-  std::int64_t next_ = 0;  // the inner source's next slice
+  std::int64_t next_ = 0;    // the inner source's next slice
 };
 
 }  // namespace isoslab

@@ -26,7 +26,7 @@ class PadSource final : public SliceSource {
   std::unique_ptr<SliceSource> inner_;
   VolumeInfo info_;
   std::vector<float> inner_slice_;  // allocated once the inner source's first slice is fetched
-  std::int64_t next_ = 0;  // padded slices handed out
+  std::int64_t next_ = 0;           // padded slices handed out
 };
 
 }  // namespace isoslab

@@ -116,15 +116,16 @@ void validateFloat32Geometry(const VolumeInfo& info, const std::string& what) {
       if (!(extent[a] <= extent[axis])) axis = a;
     }
     if (originReach >= extent[axis]) {
-      throw Error(fmt::format("{}: {} {:.6g},{:.6g},{:.6g} puts the volume beyond float32's range (the largest "
-                              "float32 is {:.3g}): the mesh's coordinates would be infinite",
-                              what, info.originField, info.origin[0], info.origin[1], info.origin[2], kFloatMax));
+      throw Error(
+          fmt::format("{}: {} {:.6g},{:.6g},{:.6g} puts the volume beyond float32's range (the largest "
+                      "float32 is {:.3g}): the mesh's coordinates would be infinite",
+                      what, info.originField, info.origin[0], info.origin[1], info.origin[2], kFloatMax));
     }
     const std::string reached = std::isfinite(extent[axis]) ? fmt::format("{:.3g}", extent[axis]) : "beyond 1.8e+308";
-    throw Error(fmt::format("{}: {} {:.6g} along axis {} puts the volume beyond float32's range: its {} points reach "
-                            "{} (the largest float32 is {:.3g}), so the mesh's coordinates would be infinite",
-                            what, info.spacingFields[axis], info.spacing[axis], axis, info.dims[axis], reached,
-                            kFloatMax));
+    throw Error(
+        fmt::format("{}: {} {:.6g} along axis {} puts the volume beyond float32's range: its {} points reach "
+                    "{} (the largest float32 is {:.3g}), so the mesh's coordinates would be infinite",
+                    what, info.spacingFields[axis], info.spacing[axis], axis, info.dims[axis], reached, kFloatMax));
   }
   // Neighbouring lattice points must stay apart in float32: along each axis, the step must span
   // at least one of float32's steps at the box's largest value of some coordinate that the step
@@ -162,16 +163,15 @@ void validateFloat32Geometry(const VolumeInfo& info, const std::string& what) {
       }
     }
     if (!(spans >= kSteps)) {
-      const std::string far =
-          originReach >= 0.5 * reachOf[best]
-              ? fmt::format(" ({} {:.6g},{:.6g},{:.6g} is far from 0)", info.originField, info.origin[0],
-                            info.origin[1], info.origin[2])
-              : "";
-      throw Error(fmt::format("{}: {} gives a step of {:.6g} along axis {}, below float32's resolution at the "
-                              "volume's coordinates (which reach {:.3g}, where float32 steps by {:.3g}): neighbouring "
-                              "lattice points would coincide{}",
-                              what, info.spacingFields[a], std::hypot(step[0], step[1], step[2]), a, reachOf[best],
-                              resolution[best], far));
+      const std::string far = originReach >= 0.5 * reachOf[best]
+                                  ? fmt::format(" ({} {:.6g},{:.6g},{:.6g} is far from 0)", info.originField,
+                                                info.origin[0], info.origin[1], info.origin[2])
+                                  : "";
+      throw Error(fmt::format(
+          "{}: {} gives a step of {:.6g} along axis {}, below float32's resolution at the "
+          "volume's coordinates (which reach {:.3g}, where float32 steps by {:.3g}): neighbouring "
+          "lattice points would coincide{}",
+          what, info.spacingFields[a], std::hypot(step[0], step[1], step[2]), a, reachOf[best], resolution[best], far));
     }
   }
 }

@@ -64,15 +64,16 @@ TEST(Arguments, WithFlagsSpellsKnownSettingsAsOptions) {
 // What errors and warnings print: one line, no byte a terminal could act on, UTF-8 kept (issue 33).
 TEST(TerminalLine, EscapesControlsAndBytesThatAreNotUtf8) {
   EXPECT_EQ(terminalLine("plain.nii"), "plain.nii");
-  EXPECT_EQ(terminalLine("t\xc3\xaate.nii \xe2\x82\xac \xf0\x9f\x98\x80"), "t\xc3\xaate.nii \xe2\x82\xac \xf0\x9f\x98\x80");
+  EXPECT_EQ(terminalLine("t\xc3\xaate.nii \xe2\x82\xac \xf0\x9f\x98\x80"),
+            "t\xc3\xaate.nii \xe2\x82\xac \xf0\x9f\x98\x80");
   EXPECT_EQ(terminalLine("a\nb\tc\rd\x1b[31m\x7f"), "a\\nb\\tc\\rd\\x1b[31m\\x7f");
   EXPECT_EQ(terminalLine("q\xff.nrrd"), "q\\xff.nrrd");                 // never a UTF-8 byte
-  EXPECT_EQ(terminalLine("\xc2\x9b"), "\\xc2\\x9b");                     // C1 CSI, well-formed
-  EXPECT_EQ(terminalLine("\xc0\xaf"), "\\xc0\\xaf");                     // overlong '/'
-  EXPECT_EQ(terminalLine("\xed\xa0\x80"), "\\xed\\xa0\\x80");            // a surrogate
-  EXPECT_EQ(terminalLine("\xf4\x90\x80\x80"), "\\xf4\\x90\\x80\\x80");   // past U+10FFFF
-  EXPECT_EQ(terminalLine("\xe2\x82"), "\\xe2\\x82");                     // cut short
-  EXPECT_EQ(terminalLine("\x80x"), "\\x80x");                            // a stray continuation
+  EXPECT_EQ(terminalLine("\xc2\x9b"), "\\xc2\\x9b");                    // C1 CSI, well-formed
+  EXPECT_EQ(terminalLine("\xc0\xaf"), "\\xc0\\xaf");                    // overlong '/'
+  EXPECT_EQ(terminalLine("\xed\xa0\x80"), "\\xed\\xa0\\x80");           // a surrogate
+  EXPECT_EQ(terminalLine("\xf4\x90\x80\x80"), "\\xf4\\x90\\x80\\x80");  // past U+10FFFF
+  EXPECT_EQ(terminalLine("\xe2\x82"), "\\xe2\\x82");                    // cut short
+  EXPECT_EQ(terminalLine("\x80x"), "\\x80x");                           // a stray continuation
 }
 
 }  // namespace

@@ -9,9 +9,9 @@
 #include <dcmtk/dcmdata/dcuid.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <sys/stat.h>
 #include <zlib.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdint>

@@ -98,9 +98,9 @@ class Generator {
       const double len = std::hypot(std::hypot(q[0], q[1]), std::hypot(q[2], q[3]));
       for (double& c : q) c /= len;
       const double a = q[0], b = q[1], c = q[2], d = q[3];
-      g.direction = {a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c),
-                     2 * (b * c + a * d), a * a - b * b + c * c - d * d, 2 * (c * d - a * b),
-                     2 * (b * d - a * c), 2 * (c * d + a * b), a * a - b * b - c * c + d * d};
+      g.direction = {a * a + b * b - c * c - d * d, 2 * (b * c - a * d),           2 * (b * d + a * c),
+                     2 * (b * c + a * d),           a * a - b * b + c * c - d * d, 2 * (c * d - a * b),
+                     2 * (b * d - a * c),           2 * (c * d + a * b),           a * a - b * b - c * c + d * d};
     }
     return g;
   }
@@ -122,16 +122,16 @@ Input rawInput(const std::string& dir, const Geometry& g) {
 }
 
 Input phantomInput(const Geometry& g) {
-  return {fmt::format("phantom:sphere?n={}&spacing={:.17g},{:.17g},{:.17g}", 8, g.spacing[0], g.spacing[1],
-                      g.spacing[2]),
-          ""};
+  return {
+      fmt::format("phantom:sphere?n={}&spacing={:.17g},{:.17g},{:.17g}", 8, g.spacing[0], g.spacing[1], g.spacing[2]),
+      ""};
 }
 
 Input nrrdInput(const std::string& dir, const Geometry& g) {
   std::string axes;
   for (int a = 0; a < 3; ++a) {
-    axes += fmt::format(" ({:.17g},{:.17g},{:.17g})", g.direction[a] * g.spacing[a],
-                        g.direction[3 + a] * g.spacing[a], g.direction[6 + a] * g.spacing[a]);
+    axes += fmt::format(" ({:.17g},{:.17g},{:.17g})", g.direction[a] * g.spacing[a], g.direction[3 + a] * g.spacing[a],
+                        g.direction[6 + a] * g.spacing[a]);
   }
   write(dir + "/v.nrrd", fmt::format("NRRD0004\ntype: uint8\nencoding: raw\ndimension: 3\nsizes: {0} {0} {0}\n"
                                      "space: left-posterior-superior\nspace directions:{1}\n"
@@ -163,15 +163,17 @@ Input niftiInput(const std::string& dir, const Geometry& g, bool sform) {
   for (std::size_t i = 0; i < 8; ++i) put(40 + 2 * i, dim[i]);
   put(70, std::int16_t{2});  // DT_UINT8
   put(72, std::int16_t{8});
-  const float pixdim[8] = {1, static_cast<float>(g.spacing[0]), static_cast<float>(g.spacing[1]),
-                           static_cast<float>(g.spacing[2]), 1, 1, 1, 1};
+  const float pixdim[8] = {
+      1, static_cast<float>(g.spacing[0]), static_cast<float>(g.spacing[1]), static_cast<float>(g.spacing[2]), 1, 1, 1,
+      1};
   for (std::size_t i = 0; i < 8; ++i) put(76 + 4 * i, pixdim[i]);
   put(108, 352.0f);
   put(252, static_cast<std::int16_t>(sform ? 0 : 1));
   put(254, static_cast<std::int16_t>(sform ? 1 : 0));
   for (std::size_t r = 0; r < 3; ++r) put(268 + 4 * r, static_cast<float>(g.origin[r]));
   for (std::size_t r = 0; r < 3; ++r) {
-    for (std::size_t c = 0; c < 3; ++c) put(280 + 16 * r + 4 * c, static_cast<float>(g.direction[3 * r + c] * g.spacing[c]));
+    for (std::size_t c = 0; c < 3; ++c)
+      put(280 + 16 * r + 4 * c, static_cast<float>(g.direction[3 * r + c] * g.spacing[c]));
     put(280 + 16 * r + 12, static_cast<float>(g.origin[r]));
   }
   std::memcpy(h.data() + 344, "n+1", 4);
@@ -224,8 +226,7 @@ Input stackInput(const std::string& dir, const Geometry& g) {
     out->write_image(OIIO::TypeDesc::UINT8, ball.data() + k * kN * kN);
     out->close();
   }
-  return {dir + "/stack",
-          fmt::format("--spacing {:.17g},{:.17g},{:.17g}", g.spacing[0], g.spacing[1], g.spacing[2])};
+  return {dir + "/stack", fmt::format("--spacing {:.17g},{:.17g},{:.17g}", g.spacing[0], g.spacing[1], g.spacing[2])};
 }
 
 // The vertices' coordinates (and normals) of a binary little-endian PLY of float properties.
@@ -273,8 +274,8 @@ void judge(const Input& input, const std::string& dir, Generator& gen, Tally& ta
   if (gen.chance(0.5)) options += " --normals";
   if (gen.chance(0.3)) options += " --close-boundary";
   const std::string iso = input.path.rfind("phantom:", 0) == 0 ? "" : " --iso 100";
-  const CliResult r = runCli(fmt::format("extract '{}' {}{} -q -o {}/m.ply --report {}/r.json", input.path, options,
-                                         iso, dir, dir));
+  const CliResult r =
+      runCli(fmt::format("extract '{}' {}{} -q -o {}/m.ply --report {}/r.json", input.path, options, iso, dir, dir));
   const std::string context = what + " " + options;
   if (r.exitCode == 1) {
     ++tally.refused;
@@ -353,8 +354,9 @@ TEST(FloatLimits, TheBoxAndTheStepAreJudgedAtFloat32sLimits) {
   const std::string dir = tempDir();
   write(dir + "/v.raw", voxelBytes());
   auto run = [&](const std::string& spacing) {
-    return runCli(fmt::format("extract {}/v.raw --raw-dims {},{},{} --raw-type u8 --spacing {} --iso 100 -q -o {}/m.ply",
-                              dir, kN, kN, kN, spacing, dir));
+    return runCli(
+        fmt::format("extract {}/v.raw --raw-dims {},{},{} --raw-type u8 --spacing {} --iso 100 -q -o {}/m.ply", dir, kN,
+                    kN, kN, spacing, dir));
   };
   // 4 steps of 8.5e37 reach 3.4e38, inside float32; 4 of 8.6e37 reach 3.44e38, beyond it.
   CliResult r = run("8.5e37,1e37,1e37");
