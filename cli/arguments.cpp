@@ -143,12 +143,26 @@ std::vector<double> parseList(const std::string& text, const std::string& option
   return *std::move(values);
 }
 
+CLI::Validator sphereList() {
+  return numberList([](const std::vector<double>& v) -> std::string {
+    return v.size() == 4 && v[3] > 0 ? "" : "needs cx,cy,cz,r with r > 0";
+  });
+}
+
+Sphere parseSphere(const std::string& text) {
+  const auto v = parseList(text, "--sphere");
+  return Sphere{{v.at(0), v.at(1), v.at(2)}, v.at(3)};
+}
+
 std::string withFlags(const std::string& text) {
-  // The settings of SourceOptions and WriterOptions that have an option of the same name.
-  static const char* const kSettings[] = {"iso",         "series",      "strict",     "skip_bad",        "channel",
-                                          "nifti_xform", "raw_dims",    "raw_type",   "raw_endian",      "raw_offset",
-                                          "spacing",     "draco_level", "quant_bits", "chunk_triangles", "roi",
-                                          "smooth",      "pass_band",   "decimate",   "max_error"};
+  // The settings of SourceOptions, WriterOptions and ExtractSettings that have an option of the
+  // same name (`output` is -o).
+  static const char* const kSettings[] = {
+      "iso",         "series",        "strict",      "skip_bad",      "channel",     "nifti_xform",   "raw_dims",
+      "raw_type",    "raw_endian",    "raw_offset",  "spacing",       "draco_level", "quant_bits",    "chunk_triangles",
+      "roi",         "roi_space",     "smooth",      "pass_band",     "decimate",    "max_error",     "report",
+      "preview",     "threads",       "max_memory",  "sphere",        "keep_largest", "min_triangles", "min_volume",
+      "seed",        "preview_size"};
   std::string out;
   std::size_t at = 0;
   while (at < text.size()) {
@@ -159,6 +173,11 @@ std::string withFlags(const std::string& text) {
     const bool known =
         std::any_of(std::begin(kSettings), std::end(kSettings), [&](const char* s) { return name == s; });
     out += text.substr(at, open - at);
+    if (name == "output") {
+      out += "-o";
+      at = close + 1;
+      continue;
+    }
     if (known) {
       std::string flag = "--" + name;
       std::replace(flag.begin(), flag.end(), '_', '-');

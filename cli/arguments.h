@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "metrics/sphere_metrics.h"
+
 namespace isoslab::cli {
 
 /// A command line that cannot work whatever the input holds (a malformed list, an unknown name, a
@@ -51,6 +53,11 @@ CLI::Validator numberList(std::function<std::string(const std::vector<double>&)>
 /// The numbers of a list; throws UsageError naming `option` when the text is not one (numberList()
 /// has already refused such text on the command line).
 std::vector<double> parseList(const std::string& text, const std::string& option);
+
+/// --sphere cx,cy,cz,r (extract and metrics): four numbers with r > 0.
+CLI::Validator sphereList();
+/// The sphere of a --sphere text that sphereList() accepted.
+Sphere parseSphere(const std::string& text);
 
 /// Library text with the settings it names (core/error.h: `channel`, `raw_dims`, ...) spelled as
 /// this program's options (--channel, --raw-dims). Other text, backticks included, is kept.

@@ -20,4 +20,12 @@ class Error : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// An Error in the caller's settings rather than in the data: a value out of range, two outputs
+/// that name one file, a setting the input needs but was not given. The program exits with its
+/// usage status (2) for these, and 1 for every other Error.
+class SettingError : public Error {
+ public:
+  using Error::Error;
+};
+
 }  // namespace isoslab

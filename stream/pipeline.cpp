@@ -112,6 +112,7 @@ class PipelineRun {
         // Slab z needs slices z - below .. z + 1 + above; the runs in flight need their slabs' too.
         ring_(info_.sliceVoxels(), below_ + 1 + above_ + inFlightSlabs()),
         progress_("extract", info_.dims[2] - 1, options.progress && !partOut_),
+        onSlab_(partOut_ ? nullptr : options.onSlab),
         feed_(source, !staged()),
         runTriangles_(std::max<std::int64_t>(1, options.runTriangles)) {
     result_.ringBytes = ring_.bytes();
@@ -347,6 +348,7 @@ class PipelineRun {
     sink_.consume(chunk);
     result_.writeSeconds += since(t0);
     progress_.update(chunk.slab + 1);
+    if (onSlab_) onSlab_(chunk.slab + 1, info_.dims[2] - 1);
   }
 
   const VolumeInfo& info_;
@@ -361,6 +363,7 @@ class PipelineRun {
   SlabRing ring_;
   PipelineResult result_;
   Progress progress_;
+  std::function<void(std::int64_t, std::int64_t)> onSlab_;
   SliceFeed feed_;
   std::int64_t slicesRead_ = 0;
 

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -21,6 +22,10 @@ class RankGroup;
 struct PipelineOptions {
   /// Show a progress line on stderr (only if stderr is a terminal and the run is long).
   bool progress = false;
+  /// Called after each slab's chunk went to the sink, on the thread that feeds it, with the slabs
+  /// done and their total (on rank 0 alone under ranks). It may throw (Interrupted) to stop the
+  /// run, which then unwinds as for a failing sink.
+  std::function<void(std::int64_t done, std::int64_t total)> onSlab;
   /// 1: everything on the calling thread. N > 1: up to N extraction workers (planThreads), each
   /// with a detached extractor taking runs of consecutive slabs, stitched in slab order; the
   /// source is read on a thread of its own and the sink fed on another, through small bounded

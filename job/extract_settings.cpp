@@ -1,0 +1,118 @@
+#include "job/extract_settings.h"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <cmath>
+#include <filesystem>
+
+#include "core/error.h"
+#include "process/decimation.h"
+
+namespace isoslab {
+namespace {
+
+constexpr std::array<std::string_view, 4> kSpaceNames{"physical", "lps", "ras", "voxel"};
+
+/// --threads: more would fail to start (EAGAIN) long before it helped.
+constexpr int kMaxThreads = 256;
+
+// Whether two output paths name one file: the same spelling after normalisation, or (when the file
+// exists) the same file through links and other spellings.
+bool sameFile(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::equivalent(a, b, ec) && !ec) return true;
+  // A link to a file that does not exist yet names that file.
+  const auto resolve = [&](fs::path p) {
+    for (int hops = 0; hops < 40 && fs::is_symlink(fs::symlink_status(p, ec)); ++hops) {
+      const fs::path link = fs::read_symlink(p, ec);
+      if (ec) break;
+      p = link.is_absolute() ? link : p.parent_path() / link;
+    }
+    return fs::weakly_canonical(fs::absolute(p), ec).lexically_normal();
+  };
+  return resolve(a) == resolve(b);
+}
+
+void require(bool ok, const std::string& message) {
+  if (!ok) throw SettingError(message);
+}
+
+void checkRanges(const ExtractSettings& s) {
+  require(!s.inputs.empty(), "`inputs` names no input");
+  require(!s.output.empty(), "`output` names no file");
+  require(s.threads >= 0 && s.threads <= kMaxThreads,
+          fmt::format("`threads` must be 1 to {} (or 0: the default), not {}", kMaxThreads, s.threads));
+  require(s.maxMemoryMiB >= 16 && s.maxMemoryMiB <= (1 << 20),
+          fmt::format("`max_memory` must be 16 to {} MiB, not {}", 1 << 20, s.maxMemoryMiB));
+  require(s.dracoLevel >= 0 && s.dracoLevel <= 10, fmt::format("`draco_level` must be 0 to 10, not {}", s.dracoLevel));
+  require(s.quantBits >= 0 && s.quantBits <= 30,
+          fmt::format("`quant_bits` must be 1 to 30 (or 0: the default), not {}", s.quantBits));
+  require(s.chunkTriangles >= 1, fmt::format("`chunk_triangles` must be at least 1, not {}", s.chunkTriangles));
+  if (s.iso && s.iso->kind == IsoRequest::Kind::kValue) {
+    require(std::isfinite(s.iso->value), "`iso` must be a finite number");
+  }
+  if (s.sphere) {
+    const Sphere& sp = *s.sphere;
+    require(std::isfinite(sp.centre[0]) && std::isfinite(sp.centre[1]) && std::isfinite(sp.centre[2]) &&
+                std::isfinite(sp.radius) && sp.radius > 0,
+            "`sphere` needs a finite centre and a radius above 0");
+  }
+  if (s.roi) {
+    const auto& v = *s.roi;
+    for (double x : v) require(std::isfinite(x), "`roi` needs six finite numbers");
+    for (std::size_t a = 0; a < 3; ++a) {
+      require(v[a] <= v[a + 3],
+              fmt::format("`roi` is reversed: its upper corner is below its lower one on axis {}", a));
+    }
+  }
+  const ComponentRules& c = s.components;
+  if (c.keepLargest) require(*c.keepLargest >= 1, "`keep_largest` must be at least 1");
+  if (c.minTriangles) require(*c.minTriangles >= 1, "`min_triangles` must be at least 1");
+  if (c.minVolume) require(*c.minVolume >= 0 && std::isfinite(*c.minVolume), "`min_volume` must be 0 or more");
+  if (c.seed) {
+    require(std::isfinite(c.seed->x) && std::isfinite(c.seed->y) && std::isfinite(c.seed->z),
+            "`seed` needs three finite numbers");
+  }
+  const PreviewSettings& p = s.preview;
+  if (!p.path.empty()) {
+    require(p.width >= 1 && p.height >= 1 && p.width <= 16384 && p.height <= 16384,
+            fmt::format("`preview_size` must be 1 to 16384 pixels a side, not {}x{}", p.width, p.height));
+  }
+}
+
+}  // namespace
+
+std::string_view outputSpaceName(OutputSpace space) noexcept {
+  return kSpaceNames[static_cast<std::size_t>(space)];
+}
+
+std::optional<OutputSpace> parseOutputSpace(std::string_view name) noexcept {
+  for (std::size_t i = 0; i < kSpaceNames.size(); ++i) {
+    if (kSpaceNames[i] == name) return static_cast<OutputSpace>(i);
+  }
+  return std::nullopt;
+}
+
+void checkExtractSettings(const ExtractSettings& s) {
+  checkRanges(s);
+  if (!s.reportPath.empty() && sameFile(s.reportPath, s.output)) {
+    throw SettingError(fmt::format("`report` '{}' names the same file as `output` '{}'", s.reportPath, s.output));
+  }
+  if (!s.preview.path.empty() &&
+      (sameFile(s.preview.path, s.output) || (!s.reportPath.empty() && sameFile(s.preview.path, s.reportPath)))) {
+    throw SettingError(fmt::format("`preview` '{}' names the same file as another output", s.preview.path));
+  }
+  if (s.decimate != 1.0 || s.maxError != 0) {
+    DecimateOptions d;
+    d.ratio = s.decimate;
+    d.maxError = s.maxError;
+    if (const std::string e = checkDecimateOptions(d); !e.empty()) throw SettingError(e);
+  }
+  if (s.smoothing.iterations != 0) {
+    if (const std::string e = checkSmoothOptions(s.smoothing); !e.empty()) throw SettingError(e);
+  }
+}
+
+}  // namespace isoslab

@@ -1,0 +1,113 @@
+// Every setting of an extraction run (`isoslab extract`), as typed values: what the program parses
+// its options into, and what Python's isoslab.extract() and a C++ caller fill in.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "extract/extractor.h"
+#include "io/open_source.h"
+#include "metrics/component_filter.h"
+#include "metrics/sphere_metrics.h"
+#include "process/smoothing.h"
+#include "render/camera.h"
+#include "render/rasterizer.h"
+#include "stream/iso_choice.h"
+
+namespace isoslab {
+
+class RankGroup;
+
+/// The coordinates of the mesh: the input's own frame (LPS for DICOM), LPS, RAS, or lattice indices.
+enum class OutputSpace : std::uint8_t { kPhysical, kLps, kRas, kVoxel };
+
+/// "physical", "lps", "ras", "voxel".
+std::string_view outputSpaceName(OutputSpace space) noexcept;
+std::optional<OutputSpace> parseOutputSpace(std::string_view name) noexcept;
+
+/// How a region of interest is given: lattice indices, or output coordinates (of `space`).
+enum class RoiSpace : std::uint8_t { kVoxel, kPhysical };
+
+/// An image rendered from the triangles as they stream past (`--preview`): the image alone is held.
+struct PreviewSettings {
+  std::string path;  // empty: none
+  render::View view;
+  int width = 800;
+  int height = 800;
+  /// Gouraud shading; empty: when the mesh has normals.
+  std::optional<bool> smooth;
+  render::Rgb background{255, 255, 255};
+};
+
+struct ExtractSettings {
+  /// One volume: DICOM folders or files, a raw file or pattern, any other reader's file, or a
+  /// phantom spec ("phantom:head?n=64").
+  std::vector<std::string> inputs;
+  /// How to read them: DICOM series choice, raw layout, spacing for stacks, NIfTI transform.
+  SourceOptions source;
+  /// The mesh: .ply, .stl, .obj, .glb or .drc, by extension. Required.
+  std::string output;
+  /// A JSON report of the run (extractReportText), written with the mesh; empty: none.
+  std::string reportPath;
+
+  OutputSpace space = OutputSpace::kPhysical;
+  /// A number, Otsu's threshold ("auto") or a named CT value; empty: the input's suggestion (phantoms).
+  std::optional<IsoRequest> iso;
+  Method method = Method::kMarchingCubes;
+  /// Vertex normals from the field's gradient.
+  bool normals = false;
+  /// The field is outside beyond the volume's faces: the surface is capped there, and closed.
+  bool closeBoundary = false;
+  /// Measure the mesh against this sphere (output coordinates); phantom spheres are measured anyway.
+  std::optional<Sphere> sphere;
+
+  /// Extraction threads; 0: the cores this process may use, at most 8, shared among the ranks on
+  /// one machine. The output is the same for every count.
+  int threads = 0;
+  /// MiB for what grows with threads (slices in flight, caches, .glb encoders on threads).
+  int maxMemoryMiB = 256;
+  /// The cost model's smallest volume for threads (-1: its default); for tests of threaded paths.
+  std::int64_t sequentialVoxels = -1;
+
+  /// Draco (.glb, .drc): level 0..10; bits per position component (0: the fewest whose step is at
+  /// most 1/64 voxel).
+  int dracoLevel = 7;
+  int quantBits = 0;
+  /// .glb: triangles per chunk (a chunk closes at the next slab boundary).
+  std::int64_t chunkTriangles = std::int64_t{1} << 19;
+  /// .glb: Draco-compressed chunks, else plain accessors.
+  bool draco = true;
+  /// .glb: a root node maps the output space to glTF's Y-up frame in metres.
+  bool gltfFrame = true;
+
+  /// Extract only this box: i0,j0,k0,i1,j1,k1 (lattice indices, inclusive, clipped to the volume)
+  /// or, with RoiSpace::kPhysical, x0,y0,z0,x1,y1,z1 in output coordinates.
+  std::optional<std::array<double, 6>> roi;
+  RoiSpace roiSpace = RoiSpace::kVoxel;
+
+  /// Connected-component filters (a first pass over the input); seedReach is the job's to set.
+  ComponentRules components;
+  /// Smoothing in the stream (iterations 0: off).
+  SmoothOptions smoothing;
+  /// Decimation: keep this fraction of the triangles, and/or stay within maxError voxels
+  /// (1 and 0: off).
+  double decimate = 1.0;
+  double maxError = 0;
+
+  PreviewSettings preview;
+
+  /// Processes that share the run under mpirun (not owned; nullptr: this process alone). Every
+  /// rank calls runExtract() with the same settings; rank 0 alone writes and reports.
+  RankGroup* ranks = nullptr;
+};
+
+/// Checks what can be checked without opening the input: ranges, and outputs that name one file.
+/// Throws SettingError naming the setting in backticks by its snake_case name (`threads`,
+/// `report`), as core/error.h describes. runExtract() calls it first.
+void checkExtractSettings(const ExtractSettings& settings);
+
+}  // namespace isoslab

@@ -1,0 +1,54 @@
+// The steps of runExtract (job/extract_job.cpp) that stand on their own: opening and cropping the
+// input, choosing the iso value, and the pieces of the report and the sinks that the settings give.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "core/volume_info.h"
+#include "io/slice_source.h"
+#include "job/extract_job.h"
+#include "process/decimation.h"
+#include "stream/iso_choice.h"
+
+namespace isoslab {
+
+struct OpenedInput {
+  std::unique_ptr<SliceSource> source;  // cut to the region of interest, when one is set
+  std::optional<LatticeBox> roiBox;     // the lattice points the region selected
+};
+
+/// Opens settings.inputs, refuses a geometry beyond float32 (unless the space is voxel), hands the
+/// readers' notes and warnings to `observer` (nullptr: a rank that does not report) and the
+/// warnings to report.warnings, and cuts the source to settings.roi (filling report.roi).
+OpenedInput openInput(const ExtractSettings& settings, ExtractObserver* observer, ExtractReport& report);
+
+/// The input opened again (for a second pass), cut to the same box.
+std::unique_ptr<SliceSource> reopenInput(const ExtractSettings& settings, const OpenedInput& input);
+
+/// The iso value of a run: settings.iso's number, Otsu's threshold or name, else the input's
+/// suggestion (SettingError when it has none). "auto" reads the source to its end, which is then
+/// opened again.
+IsoChoice chooseIsoValue(const ExtractSettings& settings, OpenedInput& input);
+
+/// report.isoSource, isoRequest, isoNote and isoHistogram from the choice.
+void fillIsoReport(const ExtractSettings& settings, const IsoChoice& choice, ExtractReport& report);
+
+/// Why a run wrote no triangles, which would otherwise pass for success (an empty mesh is
+/// "closed"): one warning naming the cause, or none when there are triangles.
+std::optional<std::string> emptySurfaceWarning(const ExtractSettings& settings, const ExtractReport& report);
+
+/// How far a component seed may lie from a component's bounds: one voxel diagonal.
+double seedReach(const ExtractSettings& settings, const VolumeInfo& info);
+
+/// The decimation of the settings, for a voxel edge of `voxelSize` output units.
+DecimateOptions decimateOptions(const ExtractSettings& settings, double voxelSize);
+
+/// A value of the float slices by its shortest decimal form (999.7, not 999.7000122070312).
+double asFloat(double value);
+
+/// Writes `text` to `path` through an AtomicFile (committed with the run's CommitGroup).
+void writeReportFile(const std::string& path, const std::string& text);
+
+}  // namespace isoslab
