@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <optional>
 
+#include "job/extract_settings.h"
 #include "stream/iso_choice.h"
 
 namespace isoslab::cli {
@@ -155,40 +156,7 @@ Sphere parseSphere(const std::string& text) {
 }
 
 std::string withFlags(const std::string& text) {
-  // The settings of SourceOptions, WriterOptions and ExtractSettings that have an option of the
-  // same name (`output` is -o).
-  static const char* const kSettings[] = {
-      "iso",         "series",        "strict",      "skip_bad",      "channel",     "nifti_xform",   "raw_dims",
-      "raw_type",    "raw_endian",    "raw_offset",  "spacing",       "draco_level", "quant_bits",    "chunk_triangles",
-      "roi",         "roi_space",     "smooth",      "pass_band",     "decimate",    "max_error",     "report",
-      "preview",     "threads",       "max_memory",  "sphere",        "keep_largest", "min_triangles", "min_volume",
-      "seed",        "preview_size"};
-  std::string out;
-  std::size_t at = 0;
-  while (at < text.size()) {
-    const std::size_t open = text.find('`', at);
-    const std::size_t close = open == std::string::npos ? open : text.find('`', open + 1);
-    if (close == std::string::npos) break;
-    const std::string name = text.substr(open + 1, close - open - 1);
-    const bool known =
-        std::any_of(std::begin(kSettings), std::end(kSettings), [&](const char* s) { return name == s; });
-    out += text.substr(at, open - at);
-    if (name == "output") {
-      out += "-o";
-      at = close + 1;
-      continue;
-    }
-    if (known) {
-      std::string flag = "--" + name;
-      std::replace(flag.begin(), flag.end(), '_', '-');
-      out += flag;
-      at = close + 1;
-    } else {
-      out += '`';
-      at = open + 1;
-    }
-  }
-  return out + text.substr(std::min(at, text.size()));
+  return settingsAsFlags(text);
 }
 
 std::size_t editDistance(const std::string& a, const std::string& b) {

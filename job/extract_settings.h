@@ -4,6 +4,8 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -103,7 +105,16 @@ struct ExtractSettings {
   /// Processes that share the run under mpirun (not owned; nullptr: this process alone). Every
   /// rank calls runExtract() with the same settings; rank 0 alone writes and reports.
   RankGroup* ranks = nullptr;
+
+  /// A caller's own volume (Python's NumPy arrays): when set, the run reads the source this makes,
+  /// once per pass, instead of opening `inputs`, which then only name it in messages and the report.
+  std::function<std::unique_ptr<SliceSource>()> openVolume;
 };
+
+/// Library text with the settings it names in backticks (core/error.h: `channel`, `raw_dims`,
+/// `output`) spelled as the isoslab program's options (--channel, --raw-dims, -o), so that every
+/// front end gives the program's one line. Other text, backticks included, is kept.
+std::string settingsAsFlags(const std::string& text);
 
 /// Checks what can be checked without opening the input: ranges, and outputs that name one file.
 /// Throws SettingError naming the setting in backticks by its snake_case name (`threads`,

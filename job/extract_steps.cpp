@@ -132,7 +132,7 @@ double asFloat(double value) {
 OpenedInput openInput(const ExtractSettings& settings, ExtractObserver* observer, ExtractReport& report) {
   std::vector<std::string> notes;
   OpenedInput opened;
-  opened.source = openSource(settings.inputs, settings.source, &notes);
+  opened.source = settings.openVolume ? settings.openVolume() : openSource(settings.inputs, settings.source, &notes);
   // The mesh's coordinates are float32: a physical box they cannot hold is refused before the
   // first slice (voxel coordinates always fit).
   if (settings.space != OutputSpace::kVoxel) {
@@ -158,7 +158,7 @@ OpenedInput openInput(const ExtractSettings& settings, ExtractObserver* observer
 }
 
 std::unique_ptr<SliceSource> reopenInput(const ExtractSettings& settings, const OpenedInput& input) {
-  auto reopened = openSource(settings.inputs, settings.source);
+  auto reopened = settings.openVolume ? settings.openVolume() : openSource(settings.inputs, settings.source);
   if (input.roiBox) return std::make_unique<CropSource>(std::move(reopened), *input.roiBox);
   return reopened;
 }

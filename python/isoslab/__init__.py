@@ -2,21 +2,19 @@
 
 - marching_cubes(volume, level, ...): scikit-image's calling convention on a NumPy array, with
   isoslab's methods (mc, mt5, mt6, bcc12, mt24, mc33).
-- extract(inputs, output, iso=..., ...): the `isoslab extract` job on files or an array; returns
-  its report as a dict.
+- extract(inputs, output, iso=..., ...): the `isoslab extract` job, in process, on files or an
+  array; returns its report as a dict.
 - read_volume_info(path) and iter_slices(path): the readers alone.
 - metrics(verts, faces, sphere=None): mesh statistics and the paper's measures for any mesh.
 """
 import json
 import math
 import os
-import subprocess
-import tempfile
+import sys
 
 import numpy as np
 
 from . import _isoslab
-from ._program import PROGRAM as _PROGRAM
 
 __version__ = _isoslab.__version__
 Error = _isoslab.Error
@@ -117,102 +115,104 @@ def _remove_degenerate(verts, faces, normals, values):
     return verts[used], remap[faces].astype(np.int32), normals[used], values[used]
 
 
-def _flag(name):
-    return "--" + name.replace("_", "-")
+# extract()'s options: the program's, with underscores (job/extract_settings.h).
+_EXTRACT_OPTIONS = {
+    "series", "strict", "skip_bad", "channel", "nifti_xform", "raw_dims", "raw_type", "raw_endian", "raw_offset",
+    "space", "normals", "close_boundary", "report", "sphere", "threads", "max_memory", "sequential_voxels",
+    "draco_level", "quant_bits", "chunk_triangles", "draco", "gltf_frame", "roi", "roi_space", "keep_largest",
+    "component_measure", "min_triangles", "min_volume", "seed", "smooth", "smooth_method", "pass_band",
+    "smooth_faces", "smooth_normals", "decimate", "max_error", "preview", "quiet"}
+# Options that take several numbers: a sequence, or the program's comma-separated text.
+_LIST_OPTIONS = {"raw_dims", "sphere", "roi", "seed", "spacing"}
 
 
-def extract(inputs, output, *, iso, method="mc", spacing=None, **options):
-    """Runs `isoslab extract` on files (a path or a list of paths: DICOM folders, NIfTI, NRRD,
-    MetaImage, image stacks, raw with raw_dims=...) or on a 3D NumPy array, writing `output`
-    (.glb, .ply, .stl, .obj, .drc). Returns the run's report as a dict.
-
-    Options are the command's, with underscores: normals=True, close_boundary=True,
-    threads=2, smooth=10, keep_largest=1, roi="0,0,0,99,99,99", raw_dims=(256, 256, 113), ...
-    (True gives the flag, a sequence a comma list). `iso` may be a number or "auto", "bone",
-    "skin". An array is given to the command without a copy in memory: an np.memmap of a file
-    is read from its file, slice by slice, and another array is written to a temporary raw file
-    slice by slice first. Its axes are (slices, rows, columns), and `spacing` follows them.
-    Raises isoslab.Error with the command's one-line message when it fails.
-    """
-    args = []
-    temporary = None
+def _numbers(name, value):
+    if isinstance(value, str):
+        value = value.split(",")
     try:
-        if isinstance(inputs, np.ndarray):
-            args, temporary = _array_input(inputs, spacing)
-        else:
-            args = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
-            args = [os.fspath(a) for a in args]
-            if spacing is not None:
-                options["spacing"] = spacing
-        args += ["--iso", str(iso), "--method", str(method), "-o", os.fspath(output)]
-        for name, value in options.items():
-            if value is None or value is False:
-                continue
-            if value is True:
-                args.append(_flag(name))
-            elif isinstance(value, (list, tuple)):
-                args += [_flag(name), ",".join(str(v) for v in value)]
-            else:
-                args += [_flag(name), str(value)]
-        with tempfile.TemporaryDirectory(prefix="isoslab-") as folder:
-            report = os.path.join(folder, "report.json")
-            run = subprocess.run([_PROGRAM, "extract", *args, "-q", "--report", report], capture_output=True,
-                                 text=True)
-            if run.returncode != 0:
-                lines = [line for line in run.stderr.splitlines() if line.startswith("isoslab: error: ")]
-                message = lines[-1][len("isoslab: error: "):] if lines else run.stderr.strip()
-                raise Error(message)
-            with open(report) as f:
-                return json.load(f)
-    finally:
-        if temporary is not None:
-            os.unlink(temporary)
+        return [float(v) for v in value]
+    except (TypeError, ValueError):
+        raise ValueError(f"`{name}` must be a sequence of numbers (got {value!r}).") from None
 
 
-_RAW_TYPES = {("u", 1): "u8", ("i", 1): "i8", ("u", 2): "u16", ("i", 2): "i16", ("u", 4): "u32", ("i", 4): "i32",
-              ("f", 4): "f32", ("f", 8): "f64", ("b", 1): "u8"}
+def _terminal_progress():
+    """A progress bar on stderr (Debian's python3-tqdm) when stderr is a terminal, else None."""
+    if not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    bar = tqdm(total=1000, desc="isoslab", unit="‰", leave=False)
+
+    def show(fraction, stage):
+        bar.set_description(f"isoslab {stage}")
+        bar.update(int(fraction * 1000) - bar.n)
+        if fraction >= 1:
+            bar.close()
+    return show
 
 
-_RAW_DTYPES = {"u8": "u1", "i8": "i1", "u16": "<u2", "i16": "<i2", "u32": "<u4", "i32": "<i4", "f32": "<f4",
-               "f64": "<f8"}
+def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=None, **options):
+    """Runs the `isoslab extract` job in this process on files (a path or a list of paths: DICOM
+    folders, NIfTI, NRRD, MetaImage, image stacks, raw with raw_dims=...) or on a 3D NumPy array,
+    writing `output` (.glb, .ply, .stl, .obj, .drc). Returns the run's report as a dict (the
+    program's --report).
 
+    Options are the program's, with underscores: normals=True, close_boundary=True, threads=2,
+    smooth=10, keep_largest=1, roi=(0, 0, 0, 99, 99, 99), raw_dims=(256, 256, 113), report="r.json",
+    ... (lists as sequences or comma-separated text). `iso` may be a number or "auto", "bone",
+    "skin" (None: the input's suggestion, for phantoms). An array is read in place, a slice at a
+    time, without a copy or a temporary file; its axes are (slices, rows, columns), and `spacing`
+    follows them. The GIL is released while the job runs.
 
-def _array_input(volume, spacing):
-    """The command's input for an array: its memmap'ed file, or a temporary raw file."""
-    if volume.ndim != 3:
-        raise ValueError(f"Input volume should be a 3D numpy array (it has {volume.ndim} dimensions).")
-    nz, ny, nx = volume.shape
-    raw_type = _RAW_TYPES.get((volume.dtype.kind, volume.dtype.itemsize))
-    args = []
-    temporary = None
-    # A memmap of a file, unless copy-on-write (mode "c": its changes are not in the file).
-    file_backed = (isinstance(volume, np.memmap) and getattr(volume, "filename", None) and raw_type
-                   and getattr(volume, "mode", "c") != "c" and volume.flags.c_contiguous
-                   and volume.dtype.byteorder in ("=", "<", "|"))
-    if file_backed:
-        # The root memmap's data starts at its `offset` in the file; a view starts further on.
-        root = volume
-        while isinstance(root.base, np.memmap):
-            root = root.base
-        start = volume.__array_interface__["data"][0] - root.__array_interface__["data"][0]
-        args = [os.fspath(volume.filename), "--raw-offset", str(int(root.offset) + start)]
+    `progress`: a callable progress(fraction, stage), called on this thread with fractions rising
+    to 1 (stage "components" for a component filter's first pass, then "extract"); an exception it
+    raises stops the run and is raised here. Left out, a progress bar is shown when stderr is a
+    terminal and tqdm is installed; False shows none. Ctrl-C stops the run within a slab and raises
+    KeyboardInterrupt. A stopped or failed run leaves no output. Errors raise isoslab.Error with the
+    program's one-line message.
+    """
+    unknown = sorted(set(options) - _EXTRACT_OPTIONS)
+    if unknown:
+        raise TypeError(f"extract() got an unexpected keyword argument {unknown[0]!r}")
+    settings = {"output": os.fspath(output), "method": str(method)}
+    if iso is not None:
+        settings["iso"] = iso if isinstance(iso, str) else float(iso)
+    volume = None
+    if isinstance(inputs, np.ndarray):
+        volume = inputs
+        if volume.ndim != 3:
+            raise ValueError(f"Input volume should be a 3D numpy array (it has {volume.ndim} dimensions).")
+        # A memmap is named by its file in messages and the report; another array as "array".
+        name = getattr(volume, "filename", None) if isinstance(volume, np.memmap) else None
+        settings["inputs"] = [os.fspath(name) if name else "array"]
+        if spacing is not None:
+            settings["array_spacing"] = _numbers("spacing", spacing)
     else:
-        raw_type = raw_type or "f32"
-        dtype = np.dtype(_RAW_DTYPES[raw_type])
-        fd, temporary = tempfile.mkstemp(prefix="isoslab-", suffix=".raw")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                for k in range(nz):
-                    f.write(np.ascontiguousarray(volume[k], dtype=dtype).tobytes())
-        except BaseException:
-            os.unlink(temporary)  # a full disk or an interrupt leaves no temporary file
-            raise
-        args = [temporary]
-    args += ["--raw-dims", f"{nx},{ny},{nz}", "--raw-type", raw_type, "--raw-endian", "little"]
-    if spacing is not None:
-        s = tuple(float(v) for v in spacing)
-        args += ["--spacing", f"{s[2]},{s[1]},{s[0]}"]
-    return args, temporary
+        paths = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
+        settings["inputs"] = [os.fspath(p) for p in paths]
+        if spacing is not None:
+            settings["spacing"] = _numbers("spacing", spacing)
+    for name, value in options.items():
+        if value is None or name == "quiet":
+            continue
+        if name in _LIST_OPTIONS:
+            value = _numbers(name, value)
+            if name == "raw_dims":
+                value = [int(v) for v in value]
+        elif name == "draco" and isinstance(value, bool):
+            value = "on" if value else "off"
+        elif name in ("report", "preview"):
+            value = os.fspath(value)
+        settings[name] = value
+    if progress is None:
+        progress = _terminal_progress()
+    elif progress is False:
+        progress = None
+    elif not callable(progress):
+        raise TypeError(f"progress must be callable (got {progress!r}).")
+    return json.loads(_isoslab.extract(settings, volume, progress))
 
 
 def read_volume_info(path):
