@@ -41,11 +41,17 @@ def _check_float32_reach(spacing, shape):
                              f"neighbouring vertices would coincide.")
 
 
-def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), method="mc", gradient_direction="descent",
-                   step_size=1, allow_degenerate=True, mask=None, threads=None):
-    """The iso-surface of a 3D array at `level`, as skimage.measure.marching_cubes returns it.
+# scikit-image's method names: "lewiner" is its topologically correct MC33 (Lewiner et al.),
+# "lorensen" and "_lorensen" the classic cases (the second returns only verts and faces).
+_SKIMAGE_METHODS = {"lewiner": "mc33", "lorensen": "mc", "_lorensen": "mc"}
 
-    Returns (verts, faces, normals, values):
+
+def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), gradient_direction="descent", step_size=1,
+                   allow_degenerate=True, method="lewiner", mask=None, threads=None):
+    """The iso-surface of a 3D array at `level`, as skimage.measure.marching_cubes (0.19) returns it,
+    so that scikit-image's own calls run unchanged.
+
+    Returns (verts, faces, normals, values), or (verts, faces) for method "_lorensen":
     - verts (V, 3) float32: positions in array index order (axis 0, 1, 2), times `spacing`;
     - faces (F, 3) int32: vertex indices; with gradient_direction "descent" (the object is
       brighter than its surroundings) in scikit-image's order, "ascent" reversed;
@@ -55,11 +61,15 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), method="mc", 
       it, scikit-image's measure for colour maps.
 
     The vertices are welded (each once). `level` defaults to the middle of the data's range and
-    must lie within it. `method`: "mc" (Lorensen's cases, as skimage's "lorensen"), "mt5",
-    "mt6", "bcc12" (marching tetrahedra), "mt24", "mc33". `threads`: extraction threads (default
-    1). A C-contiguous float32 array is read in place, one slice at a time; other dtypes and
-    strides are converted a slice at a time. The GIL is released while extracting.
-    `step_size` other than 1 and `mask` are not supported (ValueError).
+    must lie within it. `method`: scikit-image's "lewiner" (the default: isoslab's mc33,
+    topologically correct), "lorensen" or "_lorensen" (isoslab's mc, Lorensen's cases), or any of
+    isoslab's: "mc", "mt5", "mt6", "bcc12", "mt24", "mc33". `step_size` N extracts on every N-th
+    lattice point along each axis (vertices still in the full array's index space, as
+    scikit-image's). `mask`: a boolean array of the volume's shape; a cell gives triangles only
+    where the mask holds at its corner of highest indices, as in scikit-image 0.19. `threads`:
+    extraction threads (default 1). A C-contiguous float32 array is read in place, one slice at a
+    time; other dtypes and strides are converted a slice at a time. The GIL is released while
+    extracting.
     """
     if not isinstance(volume, np.ndarray):
         volume = np.asarray(volume)
@@ -67,8 +77,11 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), method="mc", 
         raise ValueError(f"Input volume should be a 3D numpy array (it has {volume.ndim} dimensions).")
     if min(volume.shape) < 2:
         raise ValueError(f"Input array must be at least 2x2x2 (its shape is {volume.shape}).")
-    if method not in _METHODS:
-        raise ValueError(f"method should be one of {', '.join(repr(m) for m in _METHODS)} (got {method!r}).")
+    classic_only = method == "_lorensen"
+    kernel = _SKIMAGE_METHODS.get(method, method)
+    if kernel not in _METHODS:
+        names = list(_SKIMAGE_METHODS) + list(_METHODS)
+        raise ValueError(f"method should be one of {', '.join(repr(m) for m in names)} (got {method!r}).")
     if gradient_direction not in ("descent", "ascent"):
         raise ValueError(f"gradient_direction should be 'descent' or 'ascent' (got {gradient_direction!r}).")
     try:
@@ -78,10 +91,17 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), method="mc", 
     if len(spacing) != 3 or not all(math.isfinite(s) and s > 0 for s in spacing):
         raise ValueError(f"`spacing` must consist of three positive, finite floats (got {spacing!r}).")
     _check_float32_reach(spacing, np.shape(volume))
-    if int(step_size) != 1:
-        raise ValueError(f"step_size {step_size} is not supported: isoslab visits every cell (use step_size=1).")
     if mask is not None:
-        raise ValueError("mask is not supported: crop the volume instead (isoslab extract --roi for files).")
+        if classic_only:
+            raise NotImplementedError('Parameter `mask` is not implemented for method "_lorensen" and will be '
+                                      'ignored.')
+        mask = np.asarray(mask)
+        if mask.shape != volume.shape:
+            raise ValueError(f"volume and mask must have the same shape ({volume.shape} and {mask.shape}).")
+        mask = mask.astype(bool, copy=False)
+    if int(step_size) != step_size or int(step_size) < 1:
+        raise ValueError(f"step_size must be a whole number, at least one (got {step_size!r}).")
+    step = int(step_size)
     if threads is not None and int(threads) < 1:
         raise ValueError(f"threads must be at least 1 (got {threads}).")
     lo, hi = _isoslab.volume_range(volume)
@@ -95,13 +115,40 @@ def marching_cubes(volume, level=None, *, spacing=(1.0, 1.0, 1.0), method="mc", 
             raise ValueError("Surface level must be a number, not NaN.")
         if math.isnan(lo) or level < lo or level > hi:
             raise ValueError(f"Surface level must be within volume data range ({lo} .. {hi}; got {level}).")
-    verts, faces, normals, values = _isoslab.marching_cubes(volume, level, spacing, method,
+    lattice = volume
+    if step > 1:
+        # Every step-th point, as scikit-image's cells of `step` points: the view is read a slice
+        # at a time, and its spacing is `step` of the volume's.
+        lattice = volume[::step, ::step, ::step]
+        if min(lattice.shape) < 2:
+            raise ValueError(f"step_size {step} leaves fewer than 2 lattice points on an axis of {volume.shape}.")
+        spacing = tuple(s * step for s in spacing)
+    verts, faces, normals, values = _isoslab.marching_cubes(lattice, level, spacing, kernel,
                                                              int(threads or 1), gradient_direction == "ascent")
+    if mask is not None:
+        verts, faces, normals, values = _masked(verts, faces, normals, values, mask, spacing, step)
     if len(verts) == 0:
         raise RuntimeError("No surface found at the given iso value.")
     if not allow_degenerate:
         verts, faces, normals, values = _remove_degenerate(verts, faces, normals, values)
+    if classic_only:
+        return verts, faces
     return verts, faces, normals, values
+
+
+def _masked(verts, faces, normals, values, mask, spacing, step):
+    """The triangles of the cells whose corner of highest indices the mask holds (scikit-image's
+    rule), and the vertices they use. A triangle lies in one cell: its centroid's cell."""
+    centroid = verts[faces].astype(np.float64).mean(axis=1) / np.asarray(spacing)
+    shape = np.array([(n - 1) // step + 1 for n in mask.shape])
+    cell = np.clip(np.floor(centroid).astype(np.int64), 0, shape - 2)
+    corner = (cell + 1) * step
+    keep = mask[corner[:, 0], corner[:, 1], corner[:, 2]]
+    faces = faces[keep]
+    used = np.zeros(len(verts), bool)
+    used[faces.ravel()] = True
+    remap = np.cumsum(used, dtype=np.int64) - 1
+    return verts[used], remap[faces].astype(np.int32), normals[used], values[used]
 
 
 def _remove_degenerate(verts, faces, normals, values):

@@ -73,7 +73,7 @@ def test_mc_vertices_equal_scikit_image_lorensen(name, capsys):
     else:
         volume = smooth_noise((30, 26, 28), int(name[-1]))
         level, spacing = 0.05, (1.0, 2.0, 0.5)
-    verts, faces, normals, values = isoslab.marching_cubes(volume, level, spacing=spacing)
+    verts, faces, normals, values = isoslab.marching_cubes(volume, level, spacing=spacing, method="lorensen")
     sv, sf, sn, svals = measure.marching_cubes(volume, level, spacing=spacing, method="lorensen")
     with capsys.disabled():
         print(f"\n{name}: isoslab {len(verts)} vertices, {len(faces)} triangles; "
@@ -231,13 +231,15 @@ def test_default_level_is_the_middle_of_the_range():
     (lambda v: isoslab.marching_cubes(v, -6.0, spacing="abc"), "three floats"),
     # float32 vertices (issue 33): the last index times 1e38 is beyond 3.4e38; a step of 1e-46 is
     # below float32's smallest step (1.4e-45).
-    (lambda v: isoslab.marching_cubes(v, -6.0, spacing=(1, 1e38, 1)), "`spacing` 1e\+38 along axis 1 puts the "
+    (lambda v: isoslab.marching_cubes(v, -6.0, spacing=(1, 1e38, 1)), r"`spacing` 1e\+38 along axis 1 puts the "
      "vertices beyond float32's range"),
     (lambda v: isoslab.marching_cubes(v, -6.0, spacing=(1e-46, 1, 1)), "below float32's resolution"),
-    (lambda v: isoslab.marching_cubes(v, -6.0, method="lewiner"), "method should be one of 'mc'"),
+    (lambda v: isoslab.marching_cubes(v, -6.0, method="marching"), "method should be one of 'lewiner', 'lorensen'"),
     (lambda v: isoslab.marching_cubes(v, -6.0, gradient_direction="up"), "gradient_direction should be"),
-    (lambda v: isoslab.marching_cubes(v, -6.0, step_size=2), "step_size 2 is not supported"),
-    (lambda v: isoslab.marching_cubes(v, -6.0, mask=np.ones(v.shape, bool)), "mask is not supported"),
+    (lambda v: isoslab.marching_cubes(v, -6.0, step_size=0), "step_size must be a whole number, at least one"),
+    (lambda v: isoslab.marching_cubes(v, -6.0, step_size=1.5), "step_size must be a whole number"),
+    (lambda v: isoslab.marching_cubes(v, -6.0, step_size=20), "leaves fewer than 2 lattice points"),
+    (lambda v: isoslab.marching_cubes(v, -6.0, mask=np.ones((2, 2, 2), bool)), "volume and mask must have the same"),
     (lambda v: isoslab.marching_cubes(v[:1], -6.0), "at least 2x2x2"),
 ])
 def test_bad_arguments_raise_value_error(call, message):
@@ -347,7 +349,7 @@ def test_extract_on_arrays_and_memmaps(tmp_path):
     for name in ("array.ply", "memmap.ply"):
         assert (tmp_path / name).read_bytes() == expected.read_bytes(), name
     isoslab.extract(mapped[5:], tmp_path / "view.ply", iso=0)
-    direct = isoslab.marching_cubes(volume[5:].astype(np.float32), 0.0)
+    direct = isoslab.marching_cubes(volume[5:].astype(np.float32), 0.0, method="mc")
     verts, faces = read_ply(tmp_path / "view.ply")
     np.testing.assert_array_equal(verts, direct[0][:, ::-1])
     np.testing.assert_array_equal(faces, direct[1])
