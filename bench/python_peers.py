@@ -47,7 +47,7 @@ WORKER = textwrap.dedent(r'''
     del data
     if tool == "isoslab":
         import isoslab
-        run = lambda: len(isoslab.marching_cubes(volume, level, threads=1)[1])
+        run = lambda: len(isoslab.marching_cubes(volume, level, method="mc", threads=1)[1])
     elif tool in ("lewiner", "lorensen"):
         from skimage import measure
         run = lambda: len(measure.marching_cubes(volume, level, method=tool)[1])

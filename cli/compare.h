@@ -25,6 +25,10 @@ struct CompareArgs {
 
 int runCompare(const CompareArgs& args);
 
+/// Draws the charts of the spheres51 results `csv` into the folder `out` (compare_charts.cpp);
+/// none when the chart script or matplotlib is missing (with a note), or when interrupted.
+void drawCharts(const std::string& csv, const std::string& out, bool quiet);
+
 enum class Method : std::uint8_t;
 /// The figures suite (compare_figures.cpp).
 int runFigures(const CompareArgs& args, const std::vector<Method>& methods);

@@ -313,7 +313,7 @@ int runExtractCommand(const ExtractArgs& args, RankGroup* ranks) {
   const ExtractReport r = runExtract(extractSettings(args, ranks), observer);
   if (args.quiet || !primary) return 0;
   const MeshStats& s = r.stats;
-  const std::string how = args.iso.empty()           ? " (the input's suggestion)"
+  const std::string how = args.iso.empty()         ? " (the input's suggestion)"
                           : r.isoSource == "value" ? ""
                                                    : fmt::format(" (--iso {})", args.iso);
   const std::string closed = s.closed() ? "closed" : fmt::format("{} boundary edges", s.boundaryEdges);

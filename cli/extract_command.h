@@ -60,7 +60,6 @@ struct ExtractArgs {
   double maxError = 0;
 };
 
-
 /// Adds the extract command and its options to `app`.
 CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args);
 

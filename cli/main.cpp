@@ -199,7 +199,6 @@ int main(int argc, char** argv) {
   viewCmd->add_option("--report", viewReport, "The extraction's JSON report, whose numbers the page shows");
   viewCmd->add_option("-o,--output", viewPage, "The page (default: the .glb's path with .html)");
 
-
   cli::BatchArgs bx;
   auto* batch = app.add_subcommand(
       "batch",

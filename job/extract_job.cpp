@@ -51,8 +51,7 @@ class Reporting {
       p.stage = stage;
       p.done = done;
       p.total = total;
-      p.fraction = (pass + static_cast<double>(done) / static_cast<double>(std::max<std::int64_t>(1, total))) /
-                   passes_;
+      p.fraction = (pass + static_cast<double>(done) / static_cast<double>(std::max<std::int64_t>(1, total))) / passes_;
       // The last slab of the last pass is not yet the end: 1 comes once the outputs are committed.
       p.fraction = std::min(p.fraction, std::nextafter(1.0, 0.0));
       observer_.progress(p);
@@ -89,7 +88,8 @@ WriterOptions writerOptions(const ExtractSettings& settings, const VolumeInfo& i
   w.chunkTriangles = settings.chunkTriangles;
   w.draco = settings.draco;
   w.gltfFrame = settings.gltfFrame;
-  w.voxelSize = settings.space == OutputSpace::kVoxel ? 1.0 : std::min({info.spacing[0], info.spacing[1], info.spacing[2]});
+  w.voxelSize =
+      settings.space == OutputSpace::kVoxel ? 1.0 : std::min({info.spacing[0], info.spacing[1], info.spacing[2]});
   return w;
 }
 
@@ -155,6 +155,96 @@ struct SinkChain {
   }
 };
 
+// The report's description of the volume and the mesh's frame.
+void describeVolume(const ExtractSettings& settings, const VolumeInfo& info, const MeshHeader& header,
+                    const PipelineResult& run, ExtractReport& report) {
+  report.reader = info.reader;
+  report.method = header.method;
+  report.dims = info.dims;
+  report.spacing = info.spacing;
+  report.volumeBounds = header.volumeBounds;
+  report.voxelType = std::string(voxelTypeName(info.type));
+  report.space = header.space;
+  report.normals = settings.normals;
+  if (run.valueRange) report.valueRange = std::array{asFloat((*run.valueRange)[0]), asFloat((*run.valueRange)[1])};
+}
+
+// The report's parts from the sinks: smoothing, decimation, components, sphere, times, output.
+void describeFinishing(const ExtractSettings& settings, const SinkChain& chain, const std::optional<Sphere>& sphere,
+                       const PipelineResult& run, const MeshFileSink* writer, const MeshHeader& header,
+                       double voxelSize, ExtractReport& report) {
+  if (settings.smoothing.iterations > 0) {
+    report.smoothing =
+        ExtractReport::Smoothing{settings.smoothing, chain.smoothing->peakChunks(), chain.smoothing->peakVertices()};
+  }
+  if (chain.decimation) {
+    report.decimation =
+        ExtractReport::Decimation{settings.decimate, settings.maxError, settings.maxError > 0 ? settings.maxError : 0.5,
+                                  voxelSize, chain.decimation->report()};
+  }
+  if (!settings.components.any()) {
+    const std::vector<Component> none;
+    report.componentsJson =
+        reportText(componentsJson(chain.components ? chain.components->components() : none), settings.reportPath, -1);
+  }
+  if (sphere) {
+    report.sphereJson =
+        reportText(sphereJson(sphereReport(*sphere, report.stats, *chain.sphereErrors)), settings.reportPath, -1);
+  }
+  report.seconds.read = run.readSeconds;
+  report.seconds.extract = run.extractSeconds;
+  report.seconds.write = run.writeSeconds;
+  report.seconds.total = run.totalSeconds + report.seconds.componentPass.value_or(0);
+  report.ringBytes = run.ringBytes;
+  if (writer) {
+    report.output.path = settings.output;
+    report.output.bytes = writer->bytes();
+    report.output.binaryPlyBytes = PlyWriter::binaryBytes(report.stats.vertices, report.stats.triangles, header);
+    report.output.details = writer->details();
+  }
+}
+
+ExtractOptions extractOptions(const ExtractSettings& settings, double iso, bool sphere) {
+  ExtractOptions options;
+  options.method = settings.method;
+  options.iso = iso;
+  options.normals = settings.normals;
+  // The per-tetrahedron inside volume (volume_cells) costs a quarter of mt6's time: only for a
+  // report or sphere measures.
+  options.cellVolumes = !settings.reportPath.empty() || sphere;
+  options.closeBoundary = settings.closeBoundary;
+  return options;
+}
+
+PipelineOptions pipelineOptionsOf(const ExtractSettings& settings, RankGroup* ranks, int threads) {
+  PipelineOptions p;
+  p.ranks = ranks;
+  p.threads = threads;
+  p.maxThreadBytes = (static_cast<std::size_t>(settings.maxMemoryMiB) << 20) / 2;
+  if (settings.sequentialVoxels >= 0) p.sequentialVoxels = settings.sequentialVoxels;
+  return p;
+}
+
+// The warnings after the run: the readers' (this rank's, then the other ranks'), then an empty
+// surface's; handed to `observer` (nullptr: a rank that does not report).
+void collectWarnings(const ExtractSettings& settings, SliceSource& source, const PipelineResult& run,
+                     ExtractObserver* observer, ExtractReport& report) {
+  for (std::string& w : source.warnings()) report.warnings.push_back(std::move(w));
+  for (const std::string& w : run.rankWarnings) report.warnings.push_back(w);
+  if (auto w = emptySurfaceWarning(settings, report)) report.warnings.push_back(*w);
+  if (observer == nullptr) return;
+  for (std::size_t n = report.openingWarnings; n < report.warnings.size(); ++n) observer->warning(report.warnings[n]);
+}
+
+// Every rank ends here together: a rank that failed after the last extraction (rank 0 writing the
+// report) tells the others.
+void agreeAtTheEnd(RankGroup& ranks) {
+  if (const int failed = ranks.agree(true); failed >= 0) {
+    ranks.setFailureShared();
+    throw RankFailed(failed);
+  }
+}
+
 }  // namespace
 
 int defaultExtractThreads(bool ranked) {
@@ -210,24 +300,13 @@ ExtractReport runExtract(const ExtractSettings& settings, ExtractObserver& obser
   if (primary) writer = makeMeshWriter(settings.output, writing);
   std::optional<Sphere> sphere = phantomSphere(info);
   if (settings.sphere) sphere = settings.sphere;
-  ExtractOptions options;
-  options.method = settings.method;
-  options.iso = iso;
-  options.normals = settings.normals;
-  // The per-tetrahedron inside volume (volume_cells) costs a quarter of mt6's time: only for a
-  // report or sphere measures.
-  options.cellVolumes = !settings.reportPath.empty() || sphere.has_value();
-  options.closeBoundary = settings.closeBoundary;
+  const ExtractOptions options = extractOptions(settings, iso, sphere.has_value());
   auto extractor = makeExtractor(options, info, frame);
   const MeshHeader header = extractionHeader(options, info, frame, *extractor);
   // The caps need the field beyond the faces: one NaN point around the volume (the header, frame
   // and value range stay the volume's own).
   if (settings.closeBoundary) source = std::make_unique<PadSource>(std::move(source));
-  PipelineOptions pipelineOptions;
-  pipelineOptions.ranks = ranks;
-  pipelineOptions.threads = threads;
-  pipelineOptions.maxThreadBytes = (static_cast<std::size_t>(settings.maxMemoryMiB) << 20) / 2;
-  if (settings.sequentialVoxels >= 0) pipelineOptions.sequentialVoxels = settings.sequentialVoxels;
+  PipelineOptions pipelineOptions = pipelineOptionsOf(settings, ranks, threads);
 
   // Component filters: a first pass finds and measures the components, and chooses; the second
   // (the run below) extracts again from the input reopened, and keeps only the chosen ones.
@@ -242,8 +321,8 @@ ExtractReport runExtract(const ExtractSettings& settings, ExtractObserver& obser
     if (settings.closeBoundary) source = std::make_unique<PadSource>(std::move(source));
     extractor = makeExtractor(options, info, frame);
   }
-  SinkChain chain(settings, writer.get(), sphere, !settings.reportPath.empty() && !wantsComponents,
-                  writing.voxelSize, wantsComponents ? &keepPart : nullptr);
+  SinkChain chain(settings, writer.get(), sphere, !settings.reportPath.empty() && !wantsComponents, writing.voxelSize,
+                  wantsComponents ? &keepPart : nullptr);
   pipelineOptions.onSlab = reporting.slabHook(wantsComponents ? 1 : 0, "extract");
   const PipelineResult run = runPipeline(*source, *extractor, *chain.head, header, pipelineOptions);
   if (chain.preview && primary) {
@@ -252,66 +331,19 @@ ExtractReport runExtract(const ExtractSettings& settings, ExtractObserver& obser
   }
 
   report.stats = chain.stats.stats();
-  report.reader = info.reader;
-  report.method = header.method;
   report.iso = iso;
   fillIsoReport(settings, isoChoice, report);
-  report.dims = info.dims;
-  report.spacing = info.spacing;
-  report.volumeBounds = header.volumeBounds;
-  report.voxelType = std::string(voxelTypeName(info.type));
-  report.space = header.space;
-  report.normals = settings.normals;
-  if (run.valueRange) report.valueRange = std::array{asFloat((*run.valueRange)[0]), asFloat((*run.valueRange)[1])};
-  for (std::string& w : source->warnings()) report.warnings.push_back(std::move(w));
-  for (const std::string& w : run.rankWarnings) report.warnings.push_back(w);  // the other ranks' readers
-  if (auto w = emptySurfaceWarning(settings, report)) report.warnings.push_back(*w);
-  if (primary) {
-    for (std::size_t n = report.openingWarnings; n < report.warnings.size(); ++n) observer.warning(report.warnings[n]);
-  }
-  if (settings.smoothing.iterations > 0) {
-    report.smoothing = ExtractReport::Smoothing{settings.smoothing, chain.smoothing->peakChunks(),
-                                                chain.smoothing->peakVertices()};
-  }
-  if (chain.decimation) {
-    report.decimation = ExtractReport::Decimation{settings.decimate, settings.maxError,
-                                                  settings.maxError > 0 ? settings.maxError : 0.5, writing.voxelSize,
-                                                  chain.decimation->report()};
-  }
-  if (!wantsComponents) {
-    const std::vector<Component> none;
-    report.componentsJson =
-        reportText(componentsJson(chain.components ? chain.components->components() : none), settings.reportPath, -1);
-  }
-  if (sphere) {
-    report.sphereJson =
-        reportText(sphereJson(sphereReport(*sphere, report.stats, *chain.sphereErrors)), settings.reportPath, -1);
-  }
-  report.seconds.read = run.readSeconds;
-  report.seconds.extract = run.extractSeconds;
-  report.seconds.write = run.writeSeconds;
-  report.seconds.total = run.totalSeconds + report.seconds.componentPass.value_or(0);
-  report.ringBytes = run.ringBytes;
-  if (writer) {
-    report.output.path = settings.output;
-    report.output.bytes = writer->bytes();
-    report.output.binaryPlyBytes = PlyWriter::binaryBytes(report.stats.vertices, report.stats.triangles, header);
-    report.output.details = writer->details();
-  }
+  describeVolume(settings, info, header, run, report);
+  collectWarnings(settings, *source, run, primary ? &observer : nullptr, report);
+  describeFinishing(settings, chain, sphere, run, writer.get(), header, writing.voxelSize, report);
   report.peakRssMib = peakRssMib();
   if (!settings.reportPath.empty() && primary) {
-    writeReportFile(settings.reportPath, extractReportText(report, settings.reportPath, [&](const std::string& t) { return observer.spell(t); }) + "\n");
+    const auto spell = [&](const std::string& t) { return observer.spell(t); };
+    writeReportFile(settings.reportPath, extractReportText(report, settings.reportPath, spell) + "\n");
   }
   reporting.checkStop();
   outputs.commit();
-  // Every rank ends here together: a rank that failed after the last extraction (rank 0 writing
-  // the report) tells the others.
-  if (ranks != nullptr) {
-    if (const int failed = ranks->agree(true); failed >= 0) {
-      ranks->setFailureShared();
-      throw RankFailed(failed);
-    }
-  }
+  if (ranks != nullptr) agreeAtTheEnd(*ranks);
   if (primary) reporting.finished(info.dims[2] - 1);
   return report;
 }

@@ -86,8 +86,7 @@ std::string extractReportText(const ExtractReport& report, const std::string& wh
   r["voxel_type"] = report.voxelType;
   r["space"] = report.space;
   r["normals"] = report.normals;
-  r["value_range"] =
-      report.valueRange ? Json::array({(*report.valueRange)[0], (*report.valueRange)[1]}) : Json();
+  r["value_range"] = report.valueRange ? Json::array({(*report.valueRange)[0], (*report.valueRange)[1]}) : Json();
   Json warnings = Json::array();
   for (const std::string& w : report.warnings) warnings.push_back(spelled(w));
   r["warnings"] = warnings;

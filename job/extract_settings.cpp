@@ -4,9 +4,9 @@
 
 #include <algorithm>
 #include <array>
-#include <iterator>
 #include <cmath>
 #include <filesystem>
+#include <iterator>
 
 #include "core/error.h"
 #include "process/decimation.h"
@@ -101,11 +101,11 @@ std::string settingsAsFlags(const std::string& text) {
   // The settings of SourceOptions, WriterOptions and ExtractSettings that have an option of the
   // same name (`output` is -o).
   static const char* const kSettings[] = {
-      "iso",         "series",        "strict",      "skip_bad",      "channel",     "nifti_xform",   "raw_dims",
-      "raw_type",    "raw_endian",    "raw_offset",  "spacing",       "draco_level", "quant_bits",    "chunk_triangles",
-      "roi",         "roi_space",     "smooth",      "pass_band",     "decimate",    "max_error",     "report",
-      "preview",     "threads",       "max_memory",  "sphere",        "keep_largest", "min_triangles", "min_volume",
-      "seed",        "preview_size"};
+      "iso",        "series",          "strict",        "skip_bad",   "channel", "nifti_xform",
+      "raw_dims",   "raw_type",        "raw_endian",    "raw_offset", "spacing", "draco_level",
+      "quant_bits", "chunk_triangles", "roi",           "roi_space",  "smooth",  "pass_band",
+      "decimate",   "max_error",       "report",        "preview",    "threads", "max_memory",
+      "sphere",     "keep_largest",    "min_triangles", "min_volume", "seed",    "preview_size"};
   std::string out;
   std::size_t at = 0;
   while (at < text.size()) {

@@ -184,15 +184,15 @@ void fillIsoReport(const ExtractSettings& settings, const IsoChoice& choice, Ext
   report.isoNote = choice.note;
   if (choice.histogram && choice.split) {
     const ValueHistogram& h = *choice.histogram;
-    report.isoHistogram = ExtractReport::IsoHistogram{h.bins(), {h.lo, h.hi}, h.rangeFromReader, h.passes,
-                                                      choice.split->firstUpperBin};
+    report.isoHistogram =
+        ExtractReport::IsoHistogram{h.bins(), {h.lo, h.hi}, h.rangeFromReader, h.passes, choice.split->firstUpperBin};
   }
 }
 
 std::optional<std::string> emptySurfaceWarning(const ExtractSettings& settings, const ExtractReport& report) {
   if (report.stats.triangles > 0) return std::nullopt;
   const double iso = report.iso;
-  const std::string name = !settings.iso                    ? fmt::format("the suggested iso {}", iso)
+  const std::string name = !settings.iso               ? fmt::format("the suggested iso {}", iso)
                            : report.isoRequest.empty() ? fmt::format("`iso` {}", iso)
                                                        : fmt::format("`iso` {} ({})", report.isoRequest, iso);
   if (!report.valueRange) return "0 triangles: the input holds no values but NaN";
@@ -215,7 +215,8 @@ std::optional<std::string> emptySurfaceWarning(const ExtractSettings& settings, 
 
 double seedReach(const ExtractSettings& settings, const VolumeInfo& info) {
   const auto& sp = info.spacing;
-  return settings.space == OutputSpace::kVoxel ? std::sqrt(3.0) : std::sqrt(sp[0] * sp[0] + sp[1] * sp[1] + sp[2] * sp[2]);
+  return settings.space == OutputSpace::kVoxel ? std::sqrt(3.0)
+                                               : std::sqrt(sp[0] * sp[0] + sp[1] * sp[1] + sp[2] * sp[2]);
 }
 
 DecimateOptions decimateOptions(const ExtractSettings& settings, double voxelSize) {

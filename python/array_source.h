@@ -85,14 +85,14 @@ class ArraySource final : public SliceSource {
     info_.source = name;
     // The voxel type that a raw file of this dtype would have (64-bit integers read as float).
     static const std::array<std::pair<const char*, VoxelType>, 9> kTypes{{{"u1", VoxelType::kU8},
-                                                                            {"i1", VoxelType::kI8},
-                                                                            {"b1", VoxelType::kU8},
-                                                                            {"u2", VoxelType::kU16},
-                                                                            {"i2", VoxelType::kI16},
-                                                                            {"u4", VoxelType::kU32},
-                                                                            {"i4", VoxelType::kI32},
-                                                                            {"f4", VoxelType::kF32},
-                                                                            {"f8", VoxelType::kF64}}};
+                                                                          {"i1", VoxelType::kI8},
+                                                                          {"b1", VoxelType::kU8},
+                                                                          {"u2", VoxelType::kU16},
+                                                                          {"i2", VoxelType::kI16},
+                                                                          {"u4", VoxelType::kU32},
+                                                                          {"i4", VoxelType::kI32},
+                                                                          {"f4", VoxelType::kF32},
+                                                                          {"f8", VoxelType::kF64}}};
     const std::string code = std::string(1, kind_) + std::to_string(itemsize_);
     for (const auto& [key, type] : kTypes) {
       if (code == key) info_.type = type;
@@ -185,6 +185,5 @@ class ArraySource final : public SliceSource {
   bool lends_ = false;
   std::int64_t next_ = 0;
 };
-
 
 }  // namespace isoslab

@@ -75,7 +75,8 @@ SourceOptions sourceSettings(const py::dict& d) {
   for (std::size_t a = 0; a < dims.size(); ++a) r.dims[a] = dims[a];
   const std::string type = get<std::string>(d, "raw_type").value_or("u8");
   const auto parsed = parseVoxelType(type);
-  if (!parsed) throw SettingError(fmt::format("`raw_type`: unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", type));
+  if (!parsed)
+    throw SettingError(fmt::format("`raw_type`: unknown voxel type '{}' (use u8 i8 u16 i16 u32 i32 f32 f64)", type));
   r.type = *parsed;
   r.byteOrder = choice<ByteOrder>(d, "raw_endian", {{"little", ByteOrder::kLittle}, {"big", ByteOrder::kBig}},
                                   ByteOrder::kLittle);
@@ -87,9 +88,9 @@ SourceOptions sourceSettings(const py::dict& d) {
 
 void componentSettings(const py::dict& d, ComponentRules& c) {
   if (auto v = get<std::uint64_t>(d, "keep_largest")) c.keepLargest = *v;
-  c.measure = choice<ComponentMeasure>(d, "component_measure",
-                                       {{"triangles", ComponentMeasure::kTriangles}, {"volume", ComponentMeasure::kVolume}},
-                                       ComponentMeasure::kTriangles);
+  c.measure = choice<ComponentMeasure>(
+      d, "component_measure", {{"triangles", ComponentMeasure::kTriangles}, {"volume", ComponentMeasure::kVolume}},
+      ComponentMeasure::kTriangles);
   if (auto v = get<std::uint64_t>(d, "min_triangles")) c.minTriangles = *v;
   if (auto v = get<double>(d, "min_volume")) c.minVolume = *v;
   if (get<py::object>(d, "seed")) {
@@ -100,8 +101,8 @@ void componentSettings(const py::dict& d, ComponentRules& c) {
 
 void smoothingSettings(const py::dict& d, SmoothOptions& s) {
   s.iterations = get<int>(d, "smooth").value_or(0);
-  s.method = choice<SmoothMethod>(d, "smooth_method", {{"sinc", SmoothMethod::kSinc}, {"taubin", SmoothMethod::kTaubin}},
-                                  SmoothMethod::kSinc);
+  s.method = choice<SmoothMethod>(
+      d, "smooth_method", {{"sinc", SmoothMethod::kSinc}, {"taubin", SmoothMethod::kTaubin}}, SmoothMethod::kSinc);
   s.passBand = get<double>(d, "pass_band").value_or(s.passBand);
   s.faces = choice<FaceVertices>(d, "smooth_faces", {{"slide", FaceVertices::kSlide}, {"lock", FaceVertices::kLock}},
                                  FaceVertices::kSlide);
@@ -115,8 +116,8 @@ ExtractSettings settingsOf(const py::dict& d) {
   s.reportPath = get<std::string>(d, "report").value_or("");
   s.source = sourceSettings(d);
   if (auto iso = get<py::object>(d, "iso")) {
-    const std::string text = py::isinstance<py::str>(*iso) ? iso->cast<std::string>()
-                                                           : py::repr(py::float_(*iso)).cast<std::string>();
+    const std::string text =
+        py::isinstance<py::str>(*iso) ? iso->cast<std::string>() : py::repr(py::float_(*iso)).cast<std::string>();
     s.iso = parseIsoRequest(text);
     if (!s.iso) throw SettingError(fmt::format("`iso`: '{}' is not a number, auto, bone or skin", text));
   }
@@ -208,9 +209,7 @@ std::string extract(const py::dict& settingsDict, const py::object& volume, cons
     // Read here, with the GIL; each pass then copies it without Python (`array` keeps the buffer).
     auto prototype = std::make_shared<ArraySource>(*array);
     prototype->setGeometry(spacing, settings.inputs.front());
-    settings.openVolume = [prototype]() -> std::unique_ptr<SliceSource> {
-      return prototype->clone();
-    };
+    settings.openVolume = [prototype]() -> std::unique_ptr<SliceSource> { return prototype->clone(); };
   }
   ThreadObserver observer;
   std::string reportText;
@@ -224,7 +223,8 @@ std::string extract(const py::dict& settingsDict, const py::object& volume, cons
         try {
           std::lock_guard one(gRunMutex);
           const ExtractReport report = runExtract(settings, observer);
-          reportText = extractReportText(report, settings.output, [](const std::string& t) { return settingsAsFlags(t); });
+          reportText =
+              extractReportText(report, settings.output, [](const std::string& t) { return settingsAsFlags(t); });
         } catch (...) {
           failure = std::current_exception();
         }

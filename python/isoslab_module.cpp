@@ -32,10 +32,10 @@
 #include "metrics/mesh_stats.h"
 #include "metrics/report.h"
 #include "metrics/sphere_metrics.h"
-#include "stream/pipeline.h"
-#include "stream/value_range.h"
 #include "python/array_source.h"
 #include "python/extract_binding.h"
+#include "stream/pipeline.h"
+#include "stream/value_range.h"
 
 namespace py = pybind11;
 

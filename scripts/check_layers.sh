@@ -15,6 +15,7 @@ declare -A allowed=(
   [metrics]="stream io extract core"
   [render]="core"
   [process]="core"
+  [job]="process render metrics encode stream io extract core"
 )
 # Libraries that core/ and extract/ must not use: the kernels build with the compiler alone.
 thirdParty='^#include <(fmt|nlohmann|draco|dcmtk|OpenImageIO|openjpeg|zlib\.h|CLI|Eigen)'

@@ -51,6 +51,7 @@ fi
 
 # The module graph (docs/design.md): includes and links follow the layer rules.
 bash scripts/check_layers.sh
+python3 scripts/check_sizes.py
 # The kernels build and pass with only a compiler, CMake and GoogleTest: every other package is
 # hidden from CMake.
 hide=()
