@@ -29,6 +29,8 @@ fi
 
 runs=0
 differ=0
+# CHECK_BYTES_OPTIONS_ONLY=1: only the option runs below (the method runs take minutes).
+[ "${CHECK_BYTES_OPTIONS_ONLY:-0}" = 1 ] && inputs=()
 for k in "${!inputs[@]}"; do
   input=${inputs[$k]}
   for method in mc mt5 mt6 bcc12 mt24 mc33; do
@@ -67,26 +69,26 @@ PY
 }
 phantom="phantom:head?n=40,36,32&seed=3&noise=0.05"
 option_runs=(
-  "--iso 0.5 --report R"
-  "--iso auto --report R --normals"
-  "--iso bone --report R"
-  "--report R"
-  "--iso 0.5 --close-boundary --keep-largest 1 --report R"
-  "--iso 0.5 --min-triangles 50 --component-measure volume --report R"
-  "--iso 0.5 --seed 20,18,16 --report R"
-  "--iso 0.5 --roi 2,2,2,30,30,30 --report R"
-  "--iso 0.5 --roi -5,-5,-5,100,100,100 --report R"
-  "--iso 0.5 --roi 0,0,0,10,10,10 --roi-space physical --report R"
-  "--iso 0.5 --smooth 10 --normals --report R"
-  "--iso 0.5 --smooth 6 --smooth-method taubin --smooth-faces lock --report R"
-  "--iso 0.5 --decimate 0.3 --report R"
-  "--iso 0.5 --max-error 0.5 --close-boundary --report R"
-  "--iso 0.5 --sphere 20,18,16,10 --report R --space voxel"
-  "--iso 0.5 --space ras --preview P --report R"
-  "--iso 99 --report R"
-  "--iso -99 --report R"
+  "--iso 0.5 --report @R@"
+  "--iso auto --report @R@ --normals"
+  "--iso bone --report @R@"
+  "--report @R@"
+  "--iso 0.5 --close-boundary --keep-largest 1 --report @R@"
+  "--iso 0.5 --min-triangles 50 --component-measure volume --report @R@"
+  "--iso 0.5 --seed 20,18,16 --report @R@"
+  "--iso 0.5 --roi 2,2,2,30,30,30 --report @R@"
+  "--iso 0.5 --roi -5,-5,-5,100,100,100 --report @R@"
+  "--iso 0.5 --roi 0,0,0,10,10,10 --roi-space physical --report @R@"
+  "--iso 0.5 --smooth 10 --normals --report @R@"
+  "--iso 0.5 --smooth 6 --smooth-method taubin --smooth-faces lock --report @R@"
+  "--iso 0.5 --decimate 0.3 --report @R@"
+  "--iso 0.5 --max-error 0.5 --close-boundary --report @R@"
+  "--iso 0.5 --sphere 20,18,16,10 --report @R@ --space voxel"
+  "--iso 0.5 --space ras --preview @P@ --report @R@"
+  "--iso 99 --report @R@"
+  "--iso -99 --report @R@"
   "--iso 0.5 --pass-band 3 --smooth 4"
-  "--iso 0.5 --report OUT"
+  "--iso 0.5 --report @OUT@"
   "--iso 0.5 --roi 0,0,0,10,10,0.5"
 )
 for opts in "${option_runs[@]}"; do
@@ -94,9 +96,9 @@ for opts in "${option_runs[@]}"; do
     bin=$ref
     [ "$side" = new ] && bin=$new
     # shellcheck disable=SC2206
-    args=(${opts//R/$work/$side.json})
-    args=("${args[@]//P/$work/$side.png}")
-    args=("${args[@]//OUT/$work/$side.ply}")
+    args=(${opts//@R@/$work/$side.json})
+    args=("${args[@]//@P@/$work/$side.png}")
+    args=("${args[@]//@OUT@/$work/$side.ply}")
     rm -f "$work/$side.json" "$work/$side.png" "$work/$side.ply"
     set +e
     "$bin" extract "$phantom" "${args[@]}" -o "$work/$side.ply" 2>"$work/$side.err"
