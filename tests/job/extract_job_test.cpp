@@ -1,5 +1,6 @@
 // The extraction job as a library call (job/extract_job.h, issue 34): the program's bytes and
 // report, progress, stops that leave nothing, and settings errors that name the setting.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -14,6 +15,12 @@
 
 namespace isoslab {
 namespace {
+
+using testing::CliResult;
+using testing::fileCount;
+using testing::runCli;
+using testing::slurp;
+using testing::tempDir;
 
 constexpr const char* kPhantom = "phantom:head?n=48,44,40&seed=5&noise=0.05";
 
@@ -33,6 +40,7 @@ nlohmann::json stable(const std::string& text) {
   r.erase("seconds");
   r.erase("peak_rss_mib");
   r["output"].erase("path");
+  r["output"].erase("encode_seconds");
   return r;
 }
 
@@ -149,7 +157,10 @@ TEST(ExtractJob, SettingsErrorsNameTheSetting) {
   EXPECT_EQ(message([](ExtractSettings& s) { s.decimate = 2; }), "`decimate` must be above 0 and at most 1");
   EXPECT_EQ(message([](ExtractSettings& s) { s.roi = std::array<double, 6>{0, 0, 9, 9, 9, 3}; }),
             "`roi` is reversed: its upper corner is below its lower one on axis 2");
-  EXPECT_EQ(message([](ExtractSettings& s) { s.iso.reset(); s.inputs = {"phantom:noise?n=8"}; }),
+  EXPECT_EQ(message([](ExtractSettings& s) {
+              s.iso.reset();
+              s.inputs = {"phantom:sphere?n=8"};
+            }),
             "no SettingError");  // phantoms suggest their iso value
   EXPECT_EQ(settingsAsFlags(message([](ExtractSettings& s) { s.dracoLevel = 11; })),
             "--draco-level must be 0 to 10, not 11");
@@ -160,15 +171,16 @@ TEST(ExtractJob, NotesAndWarningsReachTheObserver) {
   const std::string dir = tempDir();
   ExtractSettings s = phantomSettings(dir + "/m.ply");
   s.roi = std::array<double, 6>{-5, 0, 0, 100, 30, 30};
-  s.iso = parseIsoRequest("99");
+  s.iso = parseIsoRequest("5000");
   Recorder r;
   const ExtractReport report = runExtract(s, r);
   ASSERT_EQ(r.notes.size(), 1u);
-  EXPECT_EQ(r.notes[0], "`roi` -5,0,0,100,30,30 reaches past the volume's 48x44x40 lattice points: clipped to "
-                        "0,0,0,47,30,30");
+  EXPECT_EQ(r.notes[0],
+            "`roi` -5,0,0,100,30,30 reaches past the volume's 48x44x40 lattice points: clipped to "
+            "0,0,0,47,30,30");
   ASSERT_EQ(r.warnings.size(), 1u);
   EXPECT_EQ(r.warnings, report.warnings);
-  EXPECT_NE(r.warnings[0].find("`iso` 99 is above the input's value range"), std::string::npos) << r.warnings[0];
+  EXPECT_NE(r.warnings[0].find("`iso` 5000 is above the input's value range"), std::string::npos) << r.warnings[0];
 }
 
 }  // namespace
