@@ -16,6 +16,8 @@ packages=(
   libopenmpi-dev openmpi-bin
   # The Python module and its tests (issue 21).
   pybind11-dev python3-dev python3-numpy python3-pytest python3-scipy
+  # extract()'s progress bar on a terminal (issue 34).
+  python3-tqdm
   # The Debian package and its checks (issue 22): cpack's dpkg-shlibdeps needs file; the man page.
   dpkg-dev file help2man lintian
   # A compiler cache for every build of scripts/test.sh (CMakeLists.txt uses it when found).

@@ -190,11 +190,12 @@ def _terminal_progress():
         from tqdm import tqdm
     except ImportError:
         return None
-    bar = tqdm(total=1000, desc="isoslab", unit="‰", leave=False)
+    bar = tqdm(total=1.0, desc="isoslab: ", leave=False,
+               bar_format="{desc}{percentage:3.0f}%|{bar}| {elapsed}<{remaining}")  # set_description adds ": "
 
     def show(fraction, stage):
-        bar.set_description(f"isoslab {stage}")
-        bar.update(int(fraction * 1000) - bar.n)
+        bar.set_description(f"isoslab {stage}", refresh=False)
+        bar.update(fraction - bar.n)
         if fraction >= 1:
             bar.close()
     return show

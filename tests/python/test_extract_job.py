@@ -1,6 +1,7 @@
 """isoslab.extract() in process (issue 34): the program's bytes and messages without a child
 process or a temporary file, progress, and stops from the callable and from Ctrl-C."""
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -158,3 +159,38 @@ def test_errors_raise_the_programs_one_line(tmp_path):
 def test_unknown_options_are_refused():
     with pytest.raises(TypeError, match="unexpected keyword argument 'smoothness'"):
         isoslab.extract("phantom:head?n=20", "a.ply", smoothness=3)
+
+
+CHILD = """
+import sys, isoslab
+isoslab.extract("phantom:head?n=200", sys.argv[1], progress=None if sys.argv[2] == "default" else False)
+"""
+
+
+@pytest.mark.parametrize("progress", ["default", "off"])
+def test_a_progress_bar_on_a_terminal_unless_turned_off(tmp_path, progress):
+    pytest.importorskip("tqdm")
+    import fcntl
+    import pty
+    import struct
+    import termios
+    main, secondary = pty.openpty()
+    fcntl.ioctl(secondary, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))  # a terminal's size
+    run = subprocess.run([sys.executable, "-c", CHILD, str(tmp_path / "a.ply"), progress], stderr=secondary,
+                         env=dict(os.environ), timeout=120)
+    os.close(secondary)
+    seen = b""
+    try:
+        while chunk := os.read(main, 65536):
+            seen += chunk
+    except OSError:
+        pass  # the terminal closed
+    os.close(main)
+    assert run.returncode == 0
+    if progress == "default":
+        # tqdm's bar, redrawn in place up to 100%, then cleared (leave=False).
+        shown = [int(p) for p in re.findall(rb"isoslab extract: +(\d+)%", seen)]
+        assert len(shown) > 5 and shown == sorted(shown) and shown[-1] == 100, seen[-300:]
+        assert seen.endswith(b"\r"), seen[-100:]
+    else:
+        assert seen == b""
