@@ -3,6 +3,9 @@
 #include <fmt/format.h>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <atomic>
 #include <chrono>
@@ -200,6 +203,14 @@ std::mutex gRunMutex;
 // Runs the job on a thread of its own while this one (holding the GIL only between waits) calls
 // `progress` and notices Ctrl-C. Returns the report's JSON text.
 std::string extract(const py::dict& settingsDict, const py::object& volume, const py::object& progress) {
+#if defined(__GLIBC__)
+  // As the program does (cli/main.cpp): buffers of a slab, a chunk or a meshoptimizer batch come
+  // and go with the stream, and glibc's rising mmap threshold would keep their freed space in the
+  // heap (a fifth more peak memory on a 512x512x1024 array, bench/python_extract_memory.py). A
+  // fixed threshold maps each large buffer and unmaps it when freed. Process-wide, once.
+  static const bool fixedThreshold = ::mallopt(M_MMAP_THRESHOLD, 256 * 1024) == 1;
+  (void)fixedThreshold;
+#endif
   ExtractSettings settings = settingsOf(settingsDict);
   std::optional<py::array> array;
   std::array<double, 3> spacing{1, 1, 1};
