@@ -21,6 +21,7 @@
 #include "io/phantom.h"
 #include "io/volume_formats.h"
 #include "io/volume_writer.h"
+#include "job/extract_steps.h"
 #include "metrics/components.h"
 #include "metrics/mesh_stats.h"
 #include "metrics/report.h"
@@ -35,21 +36,6 @@ void writeText(const std::string& path, const std::string& text) {
   AtomicFile f(path);
   f.write(text.data(), text.size());
   f.commit();
-}
-
-// The smallest and largest value of a source, read to its end.
-std::array<double, 2> valueRange(SliceSource& source) {
-  std::vector<float> slice;
-  double lo = std::numeric_limits<double>::infinity();
-  double hi = -lo;
-  while (readSliceInto(source, slice)) {
-    throwIfInterrupted();  // a slice boundary
-    for (float v : slice) {
-      lo = std::min(lo, static_cast<double>(v));
-      hi = std::max(hi, static_cast<double>(v));
-    }
-  }
-  return {lo, hi};
 }
 
 void printGeometry(const VolumeInfo& info) {
@@ -106,7 +92,7 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw, std::siz
     std::optional<ValueHistogram> histogram;
     if (histogramBins > 0)
       histogram = streamHistogram(*source, histogramBins, [&] { return openSource(inputs, options); });
-    const auto range = !histogram              ? valueRange(*source)
+    const auto range = !histogram              ? scanValueRange(*source)
                        : histogram->valueRange ? *histogram->valueRange
                                                : std::array<double, 2>{std::numeric_limits<double>::infinity(),
                                                                        -std::numeric_limits<double>::infinity()};
@@ -181,7 +167,7 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw, std::siz
         std::printf("  value range    %g .. %g (after rescale)\n", range[0], range[1]);
         printHistogram(h, "  ", 15);
       } else {
-        const auto range = valueRange(*source);
+        const auto range = scanValueRange(*source);
         std::printf("  value range    %g .. %g (after rescale)\n", range[0], range[1]);
       }
     } catch (const Interrupted&) {

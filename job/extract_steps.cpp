@@ -82,21 +82,6 @@ std::unique_ptr<SliceSource> cropToRoi(std::unique_ptr<SliceSource> source, cons
   return std::make_unique<CropSource>(std::move(source), roi.box);
 }
 
-// The smallest and largest value of a source, read to its end.
-std::array<double, 2> scanValueRange(SliceSource& source) {
-  std::vector<float> slice;
-  double lo = std::numeric_limits<double>::infinity();
-  double hi = -lo;
-  while (readSliceInto(source, slice)) {
-    throwIfInterrupted();  // a slice boundary
-    for (float v : slice) {
-      lo = std::min(lo, static_cast<double>(v));
-      hi = std::max(hi, static_cast<double>(v));
-    }
-  }
-  return {lo, hi};
-}
-
 bool isCt(std::string modality) {
   std::transform(modality.begin(), modality.end(), modality.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -124,6 +109,20 @@ std::string requestName(const std::optional<IsoRequest>& request) {
 }
 
 }  // namespace
+
+std::array<double, 2> scanValueRange(SliceSource& source) {
+  std::vector<float> slice;
+  double lo = std::numeric_limits<double>::infinity();
+  double hi = -lo;
+  while (readSliceInto(source, slice)) {
+    throwIfInterrupted();  // a slice boundary
+    for (float v : slice) {
+      lo = std::min(lo, static_cast<double>(v));
+      hi = std::max(hi, static_cast<double>(v));
+    }
+  }
+  return {lo, hi};
+}
 
 double asFloat(double value) {
   return std::strtod(fmt::format("{}", static_cast<float>(value)).c_str(), nullptr);

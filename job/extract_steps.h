@@ -2,6 +2,7 @@
 // input, choosing the iso value, and the pieces of the report and the sinks that the settings give.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <optional>
 #include <string>
@@ -44,6 +45,10 @@ double seedReach(const ExtractSettings& settings, const VolumeInfo& info);
 
 /// The decimation of the settings, for a voxel edge of `voxelSize` output units.
 DecimateOptions decimateOptions(const ExtractSettings& settings, double voxelSize);
+
+/// The smallest and largest value of a source, read to its end (NaN skipped; lo > hi when every
+/// value is NaN).
+std::array<double, 2> scanValueRange(SliceSource& source);
 
 /// A value of the float slices by its shortest decimal form (999.7, not 999.7000122070312).
 double asFloat(double value);

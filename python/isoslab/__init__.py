@@ -197,6 +197,7 @@ def _terminal_progress():
         bar.set_description(f"isoslab {stage}", refresh=False)
         bar.update(fraction - bar.n)
         if fraction >= 1:
+            bar.refresh()  # 100% is drawn even within tqdm's redraw interval
             bar.close()
     return show
 

@@ -3,7 +3,6 @@
 Run by ctest (tests/CMakeLists.txt) as /usr/bin/python3 -m pytest, with PYTHONPATH set to the
 build tree's python/ folder and ISOSLAB_PROGRAM to the program.
 """
-import json
 import os
 import subprocess
 import threading
@@ -15,6 +14,7 @@ from scipy.spatial import cKDTree
 from skimage import measure
 
 import isoslab
+from fields import same_vertex_sets, smooth_noise
 
 PROGRAM = os.environ.get("ISOSLAB_PROGRAM", "isoslab")
 BRAIN = "/usr/share/mricron/templates/ch2better.nii.gz"
@@ -23,24 +23,6 @@ BRAIN = "/usr/share/mricron/templates/ch2better.nii.gz"
 def sphere_field(shape=(20, 22, 24), centre=(9.3, 10.1, 11.7)):
     z, y, x = np.mgrid[0:shape[0], 0:shape[1], 0:shape[2]]
     return -np.sqrt((z - centre[0]) ** 2 + (y - centre[1]) ** 2 + (x - centre[2]) ** 2).astype(np.float32)
-
-
-def smooth_noise(shape, seed):
-    """Random but smooth float32 field (no value equals another by chance)."""
-    rng = np.random.default_rng(seed)
-    f = rng.standard_normal(shape)
-    for axis in range(3):  # a few box blurs: many small, closed and open pieces
-        f = (f + np.roll(f, 1, axis) + np.roll(f, -1, axis)) / 3
-    return f.astype(np.float32)
-
-
-def same_vertex_sets(a, b, tol=1e-5):
-    """Every vertex of a within tol of one of b and the other way round, as many of each."""
-    if len(a) != len(b):
-        return False
-    da, _ = cKDTree(b).query(a)
-    db, _ = cKDTree(a).query(b)
-    return da.max() <= tol and db.max() <= tol
 
 
 def signed_volume(verts, faces):

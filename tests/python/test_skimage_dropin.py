@@ -2,33 +2,16 @@
 module run against it, and mask= and step_size= against scikit-image's results."""
 import importlib.util
 import os
-import sys
 
 import numpy as np
 import pytest
-from scipy.spatial import cKDTree
 from skimage import measure
 
 import isoslab
+from fields import same_vertex_sets, smooth_noise
 
 SKIMAGE_TESTS = "/usr/lib/python3/dist-packages/skimage/measure/tests/test_marching_cubes.py"
 IMPORT = "from skimage.measure import marching_cubes, mesh_surface_area"
-
-
-def smooth_noise(shape, seed):
-    rng = np.random.default_rng(seed)
-    f = rng.standard_normal(shape)
-    for axis in range(3):
-        f = (f + np.roll(f, 1, axis) + np.roll(f, -1, axis)) / 3
-    return f.astype(np.float32)
-
-
-def same_vertex_sets(a, b, tol=1e-5):
-    if len(a) != len(b):
-        return False
-    da, _ = cKDTree(b).query(a)
-    db, _ = cKDTree(a).query(b)
-    return da.max() <= tol and db.max() <= tol
 
 
 @pytest.fixture(scope="module")
