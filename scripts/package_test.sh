@@ -86,17 +86,27 @@ for standard in "" 20 17; do
 done
 
 export PKG_CONFIG_PATH=$libdir/pkgconfig
-# The README's example program (the C++ block of "Using the library"), built through pkg-config.
-awk '/^## Using the library/ {on = 1} on && /^```cpp/ {code = 1; next} code && /^```/ {exit} code {print}' \
-  "$src/README.md" >"$work/readme_app.cpp"
-[ -s "$work/readme_app.cpp" ] || fail "README.md has no C++ example under 'Using the library'"
-# shellcheck disable=SC2046 # the flags are words
-g++ -std=c++20 "$work/readme_app.cpp" -o "$work/readme_app" $(pkg-config --cflags --libs isoslab) \
-  -Wl,-rpath,"$(pkg-config --variable=libdir isoslab)" || fail "the README's example did not build"
-"$work/readme_app" 'phantom:sphere?n=32' 900 "$work/readme.ply" || fail "the README's example failed"
-"$program" extract 'phantom:sphere?n=32' --iso 900 -o "$work/readme_ref.ply" -q
-cmp -s "$work/readme.ply" "$work/readme_ref.ply" || fail "the README's example wrote another mesh than isoslab extract"
-echo "package_test: the README's example program writes the mesh isoslab extract writes"
+# The README's example programs (the C++ blocks of "Using the library"), built through pkg-config:
+# the job (runExtract), then the parts underneath. Each must write what isoslab extract writes.
+readme_block() {
+  awk -v want="$1" '/^## Using the library/ {on = 1} on && /^```cpp/ {n++; if (n == want) {code = 1}; next}
+    code && /^```/ {exit} code {print}' "$src/README.md"
+}
+for block in 1 2; do
+  readme_block "$block" >"$work/readme_app$block.cpp"
+  [ -s "$work/readme_app$block.cpp" ] || fail "README.md has no C++ example $block under 'Using the library'"
+  # shellcheck disable=SC2046 # the flags are words
+  g++ -std=c++20 "$work/readme_app$block.cpp" -o "$work/readme_app$block" $(pkg-config --cflags --libs isoslab) \
+    -Wl,-rpath,"$(pkg-config --variable=libdir isoslab)" || fail "the README's example $block did not build"
+done
+"$work/readme_app1" 'phantom:sphere?n=32' "$work/readme1.glb" >/dev/null || fail "the README's job example failed"
+"$program" extract 'phantom:sphere?n=32' --iso bone --close-boundary --keep-largest 1 --smooth 10 \
+  -o "$work/readme1_ref.glb" -q
+cmp -s "$work/readme1.glb" "$work/readme1_ref.glb" || fail "the README's job example wrote another mesh than isoslab extract"
+"$work/readme_app2" 'phantom:sphere?n=32' 900 "$work/readme2.ply" || fail "the README's example failed"
+"$program" extract 'phantom:sphere?n=32' --iso 900 -o "$work/readme2_ref.ply" -q
+cmp -s "$work/readme2.ply" "$work/readme2_ref.ply" || fail "the README's example wrote another mesh than isoslab extract"
+echo "package_test: the README's example programs write the meshes isoslab extract writes"
 # shellcheck disable=SC2046 # the flags are words
 g++ -std=c++20 -O1 "$src/samples/extract_sphere.cpp" -o "$work/pc_sphere" $(pkg-config --cflags --libs isoslab) \
   -Wl,-rpath,"$(pkg-config --variable=libdir isoslab)" || fail "the pkg-config consumer did not build"
