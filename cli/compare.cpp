@@ -6,12 +6,7 @@
 #include "cli/arguments.h"
 
 #include <fmt/format.h>
-#include <signal.h>
-#include <spawn.h>
-#include <stdlib.h>
-#include <sys/wait.h>
 
-#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -20,7 +15,6 @@
 #include <map>
 #include <numbers>
 #include <sstream>
-#include <thread>
 
 #include "core/atomic_file.h"
 #include "core/error.h"

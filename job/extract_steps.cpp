@@ -195,8 +195,7 @@ std::optional<std::string> emptySurfaceWarning(const ExtractSettings& settings, 
                            : report.isoRequest.empty() ? fmt::format("`iso` {}", iso)
                                                        : fmt::format("`iso` {} ({})", report.isoRequest, iso);
   if (!report.valueRange) return "0 triangles: the input holds no values but NaN";
-  const double lo = asFloat((*report.valueRange)[0]);
-  const double hi = asFloat((*report.valueRange)[1]);
+  const auto [lo, hi] = *report.valueRange;  // already in the float slices' shortest form
   if (iso > hi) {
     return fmt::format(
         "{} is above the input's value range {} .. {}: no voxel is inside, so the surface is empty "
