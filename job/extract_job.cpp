@@ -82,7 +82,10 @@ WriterOptions writerOptions(const ExtractSettings& settings, const VolumeInfo& i
   // one thread. The other half goes to slices in flight and the threads' caches.
   const auto budget = static_cast<std::size_t>(settings.maxMemoryMiB) << 20;
   const auto encoderBytes = static_cast<std::size_t>(std::max<std::int64_t>(1, settings.chunkTriangles)) * 200;
-  w.encodeThreads = threads > 1 ? static_cast<int>(std::min<std::size_t>(budget / 2 / encoderBytes, threads)) : 0;
+  w.encodeThreads =
+      threads > 1
+          ? static_cast<int>(std::min<std::size_t>(budget / 2 / encoderBytes, static_cast<std::size_t>(threads)))
+          : 0;
   w.dracoLevel = settings.dracoLevel;
   w.quantBits = settings.quantBits;
   w.chunkTriangles = settings.chunkTriangles;

@@ -16,6 +16,38 @@
 
 namespace isoslab {
 
+/// Parts of ExtractReport, at namespace scope: clang cannot use a nested struct's default member
+/// initializers (std::optional<Nested>::emplace) before the enclosing struct is complete.
+struct ExtractIsoHistogram {
+  std::size_t bins = 0;
+  std::array<double, 2> range{};
+  bool rangeFromReader = false;
+  int passes = 0;
+  std::size_t firstInsideBin = 0;
+};
+
+struct ExtractRoi {
+  LatticeBox box;
+  std::vector<double> requested;
+  std::string space;  // "voxel" or "physical"
+  bool clipped = false;
+  std::array<std::int64_t, 3> inputDims{};
+};
+
+struct ExtractSmoothing {
+  SmoothOptions options;
+  std::uint64_t peakChunks = 0;
+  std::uint64_t peakVertices = 0;
+};
+
+struct ExtractDecimation {
+  double ratio = 1;
+  double maxError = 0;
+  double distanceBoundVoxels = 0.5;
+  double voxelSize = 1;
+  DecimationReport result;
+};
+
 struct ExtractReport {
   std::vector<std::string> inputs;
   std::string reader;
@@ -27,23 +59,11 @@ struct ExtractReport {
   std::string isoRequest;
   /// A note on how the iso value was chosen, naming settings as `iso` (core/error.h); may be empty.
   std::string isoNote;
-  struct IsoHistogram {
-    std::size_t bins = 0;
-    std::array<double, 2> range{};
-    bool rangeFromReader = false;
-    int passes = 0;
-    std::size_t firstInsideBin = 0;
-  };
+  using IsoHistogram = ExtractIsoHistogram;
   std::optional<IsoHistogram> isoHistogram;  // --iso auto
 
   std::array<std::int64_t, 3> dims{};
-  struct Roi {
-    LatticeBox box;
-    std::vector<double> requested;
-    std::string space;  // "voxel" or "physical"
-    bool clipped = false;
-    std::array<std::int64_t, 3> inputDims{};
-  };
+  using Roi = ExtractRoi;
   std::optional<Roi> roi;
   std::array<double, 3> spacing{};
   std::array<double, 6> volumeBounds{};
@@ -58,19 +78,9 @@ struct ExtractReport {
   std::size_t openingWarnings = 0;
 
   MeshStats stats;
-  struct Smoothing {
-    SmoothOptions options;
-    std::uint64_t peakChunks = 0;
-    std::uint64_t peakVertices = 0;
-  };
+  using Smoothing = ExtractSmoothing;
   std::optional<Smoothing> smoothing;
-  struct Decimation {
-    double ratio = 1;
-    double maxError = 0;
-    double distanceBoundVoxels = 0.5;
-    double voxelSize = 1;
-    DecimationReport result;
-  };
+  using Decimation = ExtractDecimation;
   std::optional<Decimation> decimation;
   /// The connected components, and (with filters) the filter's work, as the report writes them:
   /// one-line JSON text (componentsJson, componentFilterJson of metrics/), summarised, the
