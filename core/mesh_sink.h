@@ -29,6 +29,12 @@ struct Vec3f {
 
 using Triangle = std::array<VertexId, 3>;
 
+/// The labels on either side of a triangle of a label complex (extract/label_extractor.h):
+/// {front, back}. The triangle is counter-clockwise seen from the front, so it is a face of the
+/// back label's surface as it is and of the front label's surface reversed. 0 is the background
+/// (and everything beyond the volume).
+using LabelPair = std::array<std::int32_t, 2>;
+
 /// Bit flags of the volume faces a vertex lies on (its lattice edge lies in that face).
 enum BoundaryFace : std::uint8_t {
   kFaceXMin = 1,
@@ -51,6 +57,12 @@ struct MeshChunk {
   std::vector<Triangle> triangles;
   /// Volume inside the surface summed over this slab's tetrahedra (tetrahedral methods only).
   double cellVolume = 0;
+  /// A label complex's chunks only (MeshHeader::labels): per triangle, the labels on its sides.
+  std::vector<LabelPair> faceLabels;
+  /// A label complex's chunks only: one entry per split in this chunk, naming the label whose
+  /// surface was split there (a point where its voxels touch only at an edge or a corner gets one
+  /// vertex per sheet of its surface, so that every label's surface is a 2-manifold).
+  std::vector<std::int32_t> labelSplits;
 
   void clear() {
     positions.clear();
@@ -58,6 +70,8 @@ struct MeshChunk {
     boundary.clear();
     triangles.clear();
     cellVolume = 0;
+    faceLabels.clear();
+    labelSplits.clear();
   }
   VertexId endVertex() const noexcept { return firstVertex + static_cast<VertexId>(positions.size()); }
 };
@@ -82,6 +96,8 @@ struct MeshHeader {
   double positionTolerance = 0;
   /// Whether the method fills cells with tetrahedra, so that chunks carry cellVolume.
   bool cellVolumes = false;
+  /// Whether the chunks are a label complex: every interface once, with faceLabels.
+  bool labels = false;
 };
 
 /// Consumes a mesh as it streams. begin() once, consume() per chunk in slab order, finish() once.

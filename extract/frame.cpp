@@ -54,23 +54,30 @@ LatticeFrame LatticeFrame::physical(const VolumeInfo& info) {
 }
 
 Vec3d LatticeFrame::mapPerSlice(double i, double j, double k) const noexcept {
+  // Between two slices, their origins interpolated; beyond the first or last slice (the label
+  // complex's caps, half a voxel out), the nearest two extrapolated.
   const auto& m = linear_;
-  const auto last = static_cast<double>(sliceOrigins_.size() - 1);
-  const double kc = std::fmin(std::fmax(k, 0.0), last);
-  const auto k0 = static_cast<std::size_t>(std::fmin(std::floor(kc), last - 1));
-  const double t = kc - static_cast<double>(k0);
-  const Vec3d& a = sliceOrigins_[k0];
-  const Vec3d& b = sliceOrigins_[k0 + 1];
-  Vec3d o{a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+  const std::size_t n = sliceOrigins_.size();
+  Vec3d o = sliceOrigins_[0];
+  if (n >= 2) {
+    const double top = static_cast<double>(n - 2);
+    const double k0 = std::fmin(std::fmax(std::floor(k), 0.0), top);
+    const double t = k - k0;
+    const Vec3d& a = sliceOrigins_[static_cast<std::size_t>(k0)];
+    const Vec3d& b = sliceOrigins_[static_cast<std::size_t>(k0) + 1];
+    o = {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+  } else {
+    o = {o[0] + m[2] * k, o[1] + m[5] * k, o[2] + m[8] * k};
+  }
   return {o[0] + m[0] * i + m[1] * j, o[1] + m[3] * i + m[4] * j, o[2] + m[6] * i + m[7] * j};
 }
 
-std::array<double, 6> LatticeFrame::bounds(const std::array<std::int64_t, 3>& dims) const noexcept {
+std::array<double, 6> LatticeFrame::bounds(const std::array<std::int64_t, 3>& dims, double margin) const noexcept {
   std::array<double, 6> b{};
   for (int c = 0; c < 8; ++c) {
-    const Vec3d p =
-        map((c & 1) ? static_cast<double>(dims[0] - 1) : 0.0, (c & 2) ? static_cast<double>(dims[1] - 1) : 0.0,
-            (c & 4) ? static_cast<double>(dims[2] - 1) : 0.0);
+    const Vec3d p = map((c & 1) ? static_cast<double>(dims[0] - 1) + margin : -margin,
+                        (c & 2) ? static_cast<double>(dims[1] - 1) + margin : -margin,
+                        (c & 4) ? static_cast<double>(dims[2] - 1) + margin : -margin);
     for (std::size_t a = 0; a < 3; ++a) {
       b[a] = c == 0 ? p[a] : std::min(b[a], p[a]);
       b[a + 3] = c == 0 ? p[a] : std::max(b[a + 3], p[a]);
@@ -79,11 +86,14 @@ std::array<double, 6> LatticeFrame::bounds(const std::array<std::int64_t, 3>& di
   return b;
 }
 
-std::optional<VolumeFaces> LatticeFrame::faces(const std::array<std::int64_t, 3>& dims) const {
-  const double last[3] = {static_cast<double>(dims[0] - 1), static_cast<double>(dims[1] - 1),
-                          static_cast<double>(dims[2] - 1)};
-  if (!(last[0] > 0 && last[1] > 0 && last[2] > 0)) return std::nullopt;
-  auto corner = [&](int c) { return map((c & 1) ? last[0] : 0.0, (c & 2) ? last[1] : 0.0, (c & 4) ? last[2] : 0.0); };
+std::optional<VolumeFaces> LatticeFrame::faces(const std::array<std::int64_t, 3>& dims, double margin) const {
+  const double first = -margin;
+  const double last[3] = {static_cast<double>(dims[0] - 1) + margin, static_cast<double>(dims[1] - 1) + margin,
+                          static_cast<double>(dims[2] - 1) + margin};
+  if (!(last[0] > first && last[1] > first && last[2] > first)) return std::nullopt;
+  auto corner = [&](int c) {
+    return map((c & 1) ? last[0] : first, (c & 2) ? last[1] : first, (c & 4) ? last[2] : first);
+  };
   Vec3d centre{0, 0, 0};
   double scale = 0;
   for (int c = 0; c < 8; ++c) {
@@ -115,9 +125,9 @@ std::optional<VolumeFaces> LatticeFrame::faces(const std::array<std::int64_t, 3>
       const std::int64_t slices = axis == 2 ? 1 : dims[2];
       for (std::int64_t k = 0; k < slices; ++k) {
         for (int c = 0; c < 4; ++c) {
-          const double kk = axis == 2 ? (side ? last[2] : 0.0) : static_cast<double>(k);
-          const double ii = axis == 0 ? (side ? last[0] : 0.0) : ((c & 1) ? last[0] : 0.0);
-          const double jj = axis == 1 ? (side ? last[1] : 0.0) : ((c & 2) ? last[1] : 0.0);
+          const double kk = axis == 2 ? (side ? last[2] : first) : static_cast<double>(k);
+          const double ii = axis == 0 ? (side ? last[0] : first) : ((c & 1) ? last[0] : first);
+          const double jj = axis == 1 ? (side ? last[1] : first) : ((c & 2) ? last[1] : first);
           if (std::abs(dot(n, map(ii, jj, kk)) - d) > tolerance) return std::nullopt;
         }
       }

@@ -48,11 +48,14 @@ class LatticeFrame {
   bool flipsWinding() const noexcept { return determinant_ < 0; }
 
   /// The box around the lattice's eight corners in output coordinates: xmin ymin zmin xmax ymax zmax.
-  std::array<double, 6> bounds(const std::array<std::int64_t, 3>& dims) const noexcept;
+  /// `margin` moves each corner that many lattice steps out along every axis (0.5: the voxels'
+  /// boxes, where the label complex's caps lie).
+  std::array<double, 6> bounds(const std::array<std::int64_t, 3>& dims, double margin = 0) const noexcept;
 
   /// The lattice's six faces as planes (MeshHeader::volumeFaces), or nothing when the slices'
   /// origins bend a face out of its plane by more than a rounding tolerance.
-  std::optional<VolumeFaces> faces(const std::array<std::int64_t, 3>& dims) const;
+  /// `margin` as for bounds().
+  std::optional<VolumeFaces> faces(const std::array<std::int64_t, 3>& dims, double margin = 0) const;
 
   /// The smallest box of lattice indices (of a lattice of `dims`) that holds every lattice point
   /// whose position, as map() gives it, lies in the axis-aligned `box` (xmin ymin zmin xmax ymax

@@ -9,7 +9,8 @@
 
 namespace isoslab {
 
-PadSource::PadSource(std::unique_ptr<SliceSource> inner) : inner_(std::move(inner)), info_(inner_->info()) {
+PadSource::PadSource(std::unique_ptr<SliceSource> inner, float fill)
+    : inner_(std::move(inner)), info_(inner_->info()), fill_(fill) {
   const VolumeInfo& in = inner_->info();
   for (std::size_t a = 0; a < 3; ++a) info_.dims[a] = in.dims[a] + 2;
   validateDims(info_.dims, in.source);
@@ -47,8 +48,7 @@ bool PadSource::fetchSlice() {
 
 bool PadSource::readSlice(std::span<float> slice) {
   if (next_ >= info_.dims[2]) return false;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::fill(slice.begin(), slice.end(), nan);
+  std::fill(slice.begin(), slice.end(), fill_);
   const bool padSlice = next_ == 0 || next_ == info_.dims[2] - 1;
   if (!padSlice) {
     if (!readSliceInto(*inner_, inner_slice_)) return false;

@@ -5,6 +5,7 @@
 // and the geometry keeps it where it was.
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -14,7 +15,8 @@ namespace isoslab {
 
 class PadSource final : public SliceSource {
  public:
-  explicit PadSource(std::unique_ptr<SliceSource> inner);
+  /// `fill`: the padding's value (NaN; the label complex pads with 0, the background).
+  explicit PadSource(std::unique_ptr<SliceSource> inner, float fill = std::numeric_limits<float>::quiet_NaN());
   const VolumeInfo& info() const noexcept override { return info_; }
   bool readSlice(std::span<float> slice) override;
   /// Fetches the inner source's next slice, also ahead of the first padding slice: the padding is
@@ -27,6 +29,7 @@ class PadSource final : public SliceSource {
   VolumeInfo info_;
   std::vector<float> inner_slice_;  // allocated once the inner source's first slice is fetched
   std::int64_t next_ = 0;           // padded slices handed out
+  float fill_ = 0;
 };
 
 }  // namespace isoslab

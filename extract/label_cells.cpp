@@ -1,0 +1,165 @@
+#include "extract/label_cells.h"
+
+namespace isoslab {
+namespace {
+
+// The edge (kLabelEdgeCorners) that joins two corners of a cell.
+constexpr int edgeOf(int a, int b) noexcept {
+  for (int e = 0; e < 12; ++e) {
+    const auto& c = kLabelEdgeCorners[static_cast<std::size_t>(e)];
+    if ((c[0] == a && c[1] == b) || (c[0] == b && c[1] == a)) return e;
+  }
+  return -1;
+}
+
+int find(std::array<int, 12>& parent, int e) noexcept {
+  while (parent[static_cast<std::size_t>(e)] != e) {
+    auto& p = parent[static_cast<std::size_t>(e)];
+    p = parent[static_cast<std::size_t>(p)];
+    e = p;
+  }
+  return e;
+}
+
+void join(std::array<int, 12>& parent, int a, int b) noexcept {
+  a = find(parent, a);
+  b = find(parent, b);
+  if (a < b) parent[static_cast<std::size_t>(b)] = a;
+  if (b < a) parent[static_cast<std::size_t>(a)] = b;
+}
+
+std::array<CellGroups, 256> makeTwoLabelTable() noexcept {
+  std::array<CellGroups, 256> table{};
+  for (int mask = 0; mask < 256; ++mask) {
+    std::array<std::int32_t, 8> labels{};
+    for (int c = 0; c < 8; ++c) labels[static_cast<std::size_t>(c)] = (mask >> c) & 1;
+    table[static_cast<std::size_t>(mask)] = groupCell(labels);
+  }
+  return table;
+}
+
+}  // namespace
+
+int faceSplit(const std::array<std::int32_t, 4>& f) noexcept {
+  if (f[0] == f[1] || f[1] == f[2] || f[2] == f[3] || f[3] == f[0]) return 0;  // fewer than four crossed
+  const bool even = f[0] == f[2];
+  const bool odd = f[1] == f[3];
+  if (even && odd) return connectsBefore(f[0], f[1]) ? 2 : 1;
+  if (even) return 2;  // corners 0 and 2 connect: copies around 1 and 3
+  if (odd) return 1;
+  return 0;  // four labels: one edge with four quads, two per label
+}
+
+CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept {
+  CellGroups out;
+  out.edge.fill(0xff);
+  std::array<int, 12> parent{};
+  std::array<bool, 12> crossed{};
+  bool any = false;
+  for (int e = 0; e < 12; ++e) {
+    const auto& c = kLabelEdgeCorners[static_cast<std::size_t>(e)];
+    parent[static_cast<std::size_t>(e)] = e;
+    crossed[static_cast<std::size_t>(e)] =
+        labels[static_cast<std::size_t>(c[0])] != labels[static_cast<std::size_t>(c[1])];
+    any = any || crossed[static_cast<std::size_t>(e)];
+  }
+  if (!any) return out;
+  for (const auto& corners : kLabelFaceCorners) {
+    std::array<std::int32_t, 4> f{};
+    std::array<int, 4> edges{};
+    for (std::size_t k = 0; k < 4; ++k) {
+      f[k] = labels[static_cast<std::size_t>(corners[k])];
+      edges[k] = edgeOf(corners[k], corners[(k + 1) % 4]);
+    }
+    const int split = faceSplit(f);
+    if (split == 1) {  // around corner 0 (edges 3, 0) and corner 2 (edges 1, 2)
+      join(parent, edges[3], edges[0]);
+      join(parent, edges[1], edges[2]);
+    } else if (split == 2) {  // around corner 1 (edges 0, 1) and corner 3 (edges 2, 3)
+      join(parent, edges[0], edges[1]);
+      join(parent, edges[2], edges[3]);
+    } else {
+      int first = -1;
+      for (int e : edges) {
+        if (!crossed[static_cast<std::size_t>(e)]) continue;
+        if (first < 0) {
+          first = e;
+        } else {
+          join(parent, first, e);
+        }
+      }
+    }
+  }
+  // Roots are each group's lowest edge, so numbering roots in edge order numbers the groups so.
+  std::array<std::uint8_t, 12> copyOfRoot{};
+  copyOfRoot.fill(0xff);
+  for (int e = 0; e < 12; ++e) {
+    if (!crossed[static_cast<std::size_t>(e)]) continue;
+    const auto root = static_cast<std::size_t>(find(parent, e));
+    if (copyOfRoot[root] == 0xff) copyOfRoot[root] = out.count++;
+    out.edge[static_cast<std::size_t>(e)] = copyOfRoot[root];
+  }
+  return out;
+}
+
+void forEachPinch(const std::array<std::int32_t, 8>& labels, const CellGroups& groups,
+                  const std::function<void(std::int32_t, int)>& pinched) {
+  // Per label: its quads (crossed edges touching it), joined where they share an edge copy; each
+  // vertex copy should hold one group.
+  for (std::size_t c = 0; c < 8; ++c) {
+    const std::int32_t l = labels[c];
+    bool earlier = false;
+    for (std::size_t d = 0; d < c && !earlier; ++d) earlier = labels[d] == l;
+    if (earlier) continue;
+    auto touches = [&](int e) {
+      const auto& ends = kLabelEdgeCorners[static_cast<std::size_t>(e)];
+      return groups.edge[static_cast<std::size_t>(e)] != 0xff &&
+             (labels[static_cast<std::size_t>(ends[0])] == l || labels[static_cast<std::size_t>(ends[1])] == l);
+    };
+    std::array<int, 12> parent{};
+    for (int e = 0; e < 12; ++e) parent[static_cast<std::size_t>(e)] = e;
+    for (const auto& corners : kLabelFaceCorners) {
+      std::array<std::int32_t, 4> f{};
+      std::array<int, 4> edges{};
+      for (std::size_t k = 0; k < 4; ++k) {
+        f[k] = labels[static_cast<std::size_t>(corners[k])];
+        edges[k] = edgeOf(corners[k], corners[(k + 1) % 4]);
+      }
+      const int split = faceSplit(f);
+      std::array<std::array<int, 2>, 2> pairs{};
+      if (split == 1) {
+        pairs = {{{edges[3], edges[0]}, {edges[1], edges[2]}}};
+      } else if (split == 2) {
+        pairs = {{{edges[0], edges[1]}, {edges[2], edges[3]}}};
+      } else {  // one edge copy: the label's two quads in it (if any)
+        int a = -1;
+        for (int e : edges) {
+          if (!touches(e)) continue;
+          if (a < 0) {
+            a = e;
+          } else {
+            join(parent, a, e);
+          }
+        }
+        continue;
+      }
+      for (const auto& p : pairs) {
+        if (touches(p[0]) && touches(p[1])) join(parent, p[0], p[1]);
+      }
+    }
+    std::array<int, 4> fans{};
+    for (int e = 0; e < 12; ++e) {
+      if (touches(e) && find(parent, e) == e) ++fans[groups.edge[static_cast<std::size_t>(e)]];
+    }
+    for (int f : fans) {
+      if (f > 1) pinched(l, f - 1);
+    }
+  }
+}
+
+const CellGroups& twoLabelGroups(std::uint8_t mask) noexcept {
+  static const std::array<CellGroups, 256> table = makeTwoLabelTable();
+  return table[mask];
+}
+
+}  // namespace isoslab

@@ -1,0 +1,79 @@
+// The cells of a label complex (extract/label_extractor.h): how the surfaces of the labels at a
+// cell's eight corners meet at the cell's vertex, and where that vertex must be split so that
+// every label's surface stays a 2-manifold.
+//
+// The label complex is dual: each cell of the lattice (the cube between eight samples) holds a
+// vertex, and each lattice edge whose two samples differ gives the quad of the four cells around
+// it, which is the voxel face between those samples. The quads that meet at a cell's vertex are
+// those of its crossed edges. Where a cell face holds one label on a diagonal and other labels on
+// the other, four quads share the face's mesh edge; that edge is split in two, around the two
+// corners of one diagonal, so that the other diagonal's label passes through (it stays connected)
+// and every label has two quads on each copy. The face decides alone, so both cells that share it
+// agree. Then the vertex is split into one copy per group of crossed edges that share an edge
+// copy: each label's quads around a copy form one fan.
+//
+// Which diagonal connects: a label that fills one diagonal while two different labels fill the
+// other always does (no other split leaves every label with two quads per copy). When two labels
+// fill one diagonal each, the one that comes first in connection order does: the background (0),
+// then the smaller value. So two voxels of a label that touch only at an edge or a corner give
+// two closed surfaces, and the background around them stays one.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+
+namespace isoslab {
+
+/// Corner c of a cell is at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1). Edge e joins corners
+/// kLabelEdgeCorners[e]: edges 0-3 run along x (at (y, z) = (0,0), (1,0), (0,1), (1,1)), 4-7 along
+/// y (at (x, z) = (0,0), (1,0), (0,1), (1,1)) and 8-11 along z (at (x, y) = (0,0), (1,0), (0,1),
+/// (1,1)).
+inline constexpr std::array<std::array<int, 2>, 12> kLabelEdgeCorners{
+    {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3}, {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}}};
+
+/// The six faces (x = 0, x = 1, y = 0, y = 1, z = 0, z = 1), each as its corners in cyclic order;
+/// its edge k joins corners k and k + 1 (mod 4). A face shared by two cells lists the same points
+/// in the same order in both.
+inline constexpr std::array<std::array<int, 4>, 6> kLabelFaceCorners{
+    {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}}};
+
+/// The order in which labels connect across a split edge: the background (0) first, then by value.
+/// True if `a` connects before `b`.
+constexpr bool connectsBefore(std::int32_t a, std::int32_t b) noexcept {
+  if (a == 0 || b == 0) return a == 0 && b != 0;
+  return a < b;
+}
+
+/// The vertex copies of one cell.
+struct CellGroups {
+  /// Copies (0 for a cell whose eight labels are equal); at most 4.
+  std::uint8_t count = 0;
+  /// Per edge, its copy; 0xff where the edge is not crossed.
+  std::array<std::uint8_t, 12> edge{};
+};
+
+/// The copies of a cell with corner labels `labels` (kLabelEdgeCorners' numbering). Copies are
+/// numbered in the order of their lowest edge.
+CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept;
+
+/// groupCell for cells of exactly two labels, from a table: `mask` has bit c set where corner c
+/// holds the label that connects later (connectsBefore). The table is made by groupCell.
+const CellGroups& twoLabelGroups(std::uint8_t mask) noexcept;
+
+/// Where three or more labels meet at a cell, a label may keep two fans at one copy of the vertex:
+/// two labels on a face's diagonals with a third beyond (say 3 and 7 in a checkerboard under a
+/// layer of 0) pinch whichever of the two is split, since the third label's interfaces with both
+/// run through the point. A single point cannot be split there without new, zero-area triangles,
+/// so the label's surface keeps a pinched vertex (closed, and manifold at every edge). Calls
+/// `pinched(label, extraFans)` for each label that has more than one fan at a copy. Cells of two
+/// labels never pinch.
+void forEachPinch(const std::array<std::int32_t, 8>& labels, const CellGroups& groups,
+                  const std::function<void(std::int32_t label, int extraFans)>& pinched);
+
+/// Split edges of one face, from its four labels in cyclic order (kLabelFaceCorners): 0 when the
+/// face's mesh edge is one, else 1 when the copies go around corners 0 and 2 (so the labels at
+/// corners 1 and 3 pass through) and 2 when they go around corners 1 and 3.
+int faceSplit(const std::array<std::int32_t, 4>& face) noexcept;
+
+}  // namespace isoslab

@@ -1,0 +1,349 @@
+#include "extract/label_extractor.h"
+
+#include <algorithm>
+#include <bit>
+#include <limits>
+#include <new>
+
+#include "extract/label_cells.h"
+
+namespace isoslab {
+namespace {
+
+constexpr VertexId kUnsetId = std::numeric_limits<VertexId>::max();
+
+// A cell's top edges (kLabelEdgeCorners 2, 3, 6, 7) in the slots of the plane that the layer above
+// reads: slot = cell * 4 + k.
+constexpr std::array<int, 4> kTopEdges{2, 3, 6, 7};
+constexpr std::array<int, 12> kTopSlot{-1, -1, 0, 1, -1, -1, 2, 3, -1, -1, -1, -1};
+
+// Ids by slot, left uninitialised: a slot is read only for a crossed edge, whose cell wrote it in
+// the same pass (or, for the top plane, the layer before), so stale values are never read; pages
+// that no crossed cell touches are never mapped.
+class IdPlane {
+ public:
+  void allocate(std::size_t n) { ids_.reset(new VertexId[std::max<std::size_t>(1, n)]); }
+  VertexId& operator[](std::size_t k) noexcept { return ids_[k]; }
+  VertexId operator[](std::size_t k) const noexcept { return ids_[k]; }
+
+ private:
+  std::unique_ptr<VertexId[]> ids_;
+};
+
+// The cell walk of one cell layer (slab). Serves the sequential extractor (layers follow each
+// other and the top plane carries over) and the slab worker (a run's first layer names the
+// vertices of the layer below by their top-plane slot, for the stitcher).
+class LabelKernel {
+ public:
+  LabelKernel(const std::array<std::int64_t, 3>& padded, const LatticeFrame& frame)
+      : frame_(frame),
+        flip_(frame.flipsWinding()),
+        px_(padded[0]),
+        py_(padded[1]),
+        pz_(padded[2]),
+        cx_(padded[0] - 1),
+        cy_(padded[1] - 1) {}
+
+  const LatticeFrame& frame() const noexcept { return frame_; }
+  std::array<std::int64_t, 3> dims() const noexcept { return {px_, py_, pz_}; }
+  std::size_t sliceSlots() const noexcept { return static_cast<std::size_t>(cx_ * cy_) * 4; }
+  std::uint64_t vertexCount() const noexcept { return next_; }
+  void resetVertexCount() noexcept { next_ = 0; }
+
+  // The first and last x where a row of samples changes label (RowSpan::first, last).
+  void classifySlice(const float* slice, std::vector<RowSpan>& rows) const {
+    rows.resize(static_cast<std::size_t>(py_));
+    for (std::int64_t j = 0; j < py_; ++j) {
+      const float* r = slice + j * px_;
+      RowSpan span;
+      for (std::int64_t i = 1; i < px_; ++i) {
+        if (r[i] != r[i - 1]) {
+          span.first = i;
+          break;
+        }
+      }
+      if (span.first >= 0) {
+        for (std::int64_t i = px_ - 1; i >= 1; --i) {
+          if (r[i] != r[i - 1]) {
+            span.last = i;
+            break;
+          }
+        }
+      }
+      rows[static_cast<std::size_t>(j)] = span;
+    }
+  }
+
+  void extractSlab(const SlabView& slab, MeshChunk& out, std::vector<CacheSlot>* foreign) {
+    if (!allocated_) {
+      for (auto& r : row_) r.allocate(static_cast<std::size_t>(cx_) * 12);
+      for (auto& t : top_) t.allocate(sliceSlots());
+      allocated_ = true;
+    }
+    out_ = &out;
+    foreign_ = foreign;
+    z_ = slab.z;
+    lo_ = slab.slices[1];
+    hi_ = slab.slices[2];
+    for (int s = 0; s < 2; ++s) {
+      const RowSpan* given = slab.rows[static_cast<std::size_t>(s + 1)];
+      if (given == nullptr) {
+        classifySlice(s == 0 ? lo_ : hi_, scratch_[static_cast<std::size_t>(s)]);
+        given = scratch_[static_cast<std::size_t>(s)].data();
+      }
+      spans_[static_cast<std::size_t>(s)] = given;
+    }
+    topSet_.clear();
+    for (std::int64_t j = 0; j < cy_; ++j) walkRow(j);
+  }
+
+  // After a following layer: its top plane is the next layer's plane below.
+  void roll() noexcept { std::swap(top_[0], top_[1]); }
+
+  // After a standalone run: the last layer's top edges, by slot.
+  void takeTop(std::vector<std::pair<CacheSlot, LocalVertex>>& top) const {
+    top.clear();
+    top.reserve(topSet_.size());
+    for (std::size_t slot : topSet_)
+      top.emplace_back(CacheSlot{static_cast<std::int64_t>(slot)}, LocalVertex{top_[1][slot]});
+  }
+
+ private:
+  float at(const float* slice, std::int64_t i, std::int64_t j) const noexcept { return slice[j * px_ + i]; }
+
+  // The cells of row j whose eight samples may differ, from the four sample rows' spans.
+  void walkRow(std::int64_t j) {
+    const std::array<const float*, 4> rows{lo_ + j * px_, lo_ + (j + 1) * px_, hi_ + j * px_, hi_ + (j + 1) * px_};
+    const std::array<const RowSpan*, 4> spans{spans_[0] + j, spans_[0] + j + 1, spans_[1] + j, spans_[1] + j + 1};
+    // Cells [0, begin) lie in every row's uniform start, cells [end, cx) in every row's uniform end.
+    std::int64_t begin = cx_;
+    std::int64_t end = 0;
+    for (const RowSpan* s : spans) {
+      if (s->first < 0) continue;
+      begin = std::min(begin, s->first - 1);
+      end = std::max(end, s->last);
+    }
+    const float a0 = rows[0][0];
+    const bool startsEqual = rows[1][0] == a0 && rows[2][0] == a0 && rows[3][0] == a0;
+    const float b0 = rows[0][px_ - 1];
+    const bool endsEqual = rows[1][px_ - 1] == b0 && rows[2][px_ - 1] == b0 && rows[3][px_ - 1] == b0;
+    if (begin == cx_) {  // four uniform rows
+      if (startsEqual) return;
+      begin = 0;
+      end = cx_;
+    }
+    if (!startsEqual) begin = 0;
+    if (!endsEqual) end = cx_;
+    end = std::min(end, cx_);
+    VertexId* here = &row_[static_cast<std::size_t>(j & 1)][0];
+    const VertexId* below = &row_[static_cast<std::size_t>((j + 1) & 1)][0];
+    for (std::int64_t i = std::max<std::int64_t>(begin, 0); i < end; ++i) {
+      const float v = rows[0][i];
+      if (rows[0][i + 1] == v && rows[1][i] == v && rows[1][i + 1] == v && rows[2][i] == v && rows[2][i + 1] == v &&
+          rows[3][i] == v && rows[3][i + 1] == v) {
+        continue;
+      }
+      const std::array<std::int32_t, 8> labels{
+          static_cast<std::int32_t>(rows[0][i]), static_cast<std::int32_t>(rows[0][i + 1]),
+          static_cast<std::int32_t>(rows[1][i]), static_cast<std::int32_t>(rows[1][i + 1]),
+          static_cast<std::int32_t>(rows[2][i]), static_cast<std::int32_t>(rows[2][i + 1]),
+          static_cast<std::int32_t>(rows[3][i]), static_cast<std::int32_t>(rows[3][i + 1])};
+      cell(i, j, labels, here + i * 12, below);
+    }
+  }
+
+  static const CellGroups& groupsOf(const std::array<std::int32_t, 8>& labels, CellGroups& scratch) noexcept {
+    const std::int32_t a = labels[0];
+    std::int32_t b = a;
+    for (std::int32_t l : labels) {
+      if (l != a) {
+        b = l;
+        break;
+      }
+    }
+    std::uint8_t mask = 0;
+    const std::int32_t later = connectsBefore(a, b) ? b : a;
+    for (std::size_t c = 0; c < 8; ++c) {
+      if (labels[c] != a && labels[c] != b) {
+        scratch = groupCell(labels);
+        return scratch;
+      }
+      if (labels[c] == later) mask = static_cast<std::uint8_t>(mask | (1u << c));
+    }
+    return twoLabelGroups(mask);
+  }
+
+  void cell(std::int64_t i, std::int64_t j, const std::array<std::int32_t, 8>& labels, VertexId* ids,
+            const VertexId* below) {
+    CellGroups scratch;
+    const CellGroups& g = groupsOf(labels, scratch);
+    // The copies' vertices, at the cell's centre: the corner of the voxels' boxes.
+    const VertexId first = static_cast<VertexId>(next_);
+    const Vec3d p =
+        frame_.map(static_cast<double>(i) - 0.5, static_cast<double>(j) - 0.5, static_cast<double>(z_) - 0.5);
+    const Vec3f position{static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])};
+    std::uint8_t faces = 0;
+    if (i == 0) faces |= kFaceXMin;
+    if (i == cx_ - 1) faces |= kFaceXMax;
+    if (j == 0) faces |= kFaceYMin;
+    if (j == cy_ - 1) faces |= kFaceYMax;
+    if (z_ == 0) faces |= kFaceZMin;
+    if (z_ == pz_ - 2) faces |= kFaceZMax;
+    for (int c = 0; c < g.count; ++c) {
+      out_->positions.push_back(position);
+      out_->boundary.push_back(faces);
+    }
+    next_ += g.count;
+    if (g.count > 1) countSplits(labels, g);
+    const std::size_t cellSlot = static_cast<std::size_t>(j * cx_ + i) * 4;
+    for (std::size_t e = 0; e < 12; ++e) {
+      if (g.edge[e] == 0xff) continue;
+      const VertexId id = first + g.edge[e];
+      ids[e] = id;
+      if (kTopSlot[e] >= 0) {
+        const std::size_t slot = cellSlot + static_cast<std::size_t>(kTopSlot[e]);
+        top_[1][slot] = id;
+        topSet_.push_back(slot);
+      }
+    }
+    // The quads of the edges at the cell's lowest corner, whose other cells are done: the z edge
+    // (cells of this layer, rows j - 1 and j), the x and y edges on slice z (cells of this layer
+    // and the one below).
+    // Each is crossed only away from the padding, so i, j >= 1 where a cell to the left or behind
+    // is read.
+    const auto cellBelow = [&](std::int64_t ii) { return below + ii * 12; };  // cell (ii, j - 1)
+    if (g.edge[8] != 0xff) {
+      quad({cellBelow(i - 1)[11], cellBelow(i)[10], ids[8], (ids - 12)[9]}, labels[0], labels[4]);
+    }
+    if (g.edge[0] != 0xff) {
+      quad({lower(i, j - 1, 1), lower(i, j, 0), ids[0], cellBelow(i)[1]}, labels[0], labels[1]);
+    }
+    if (g.edge[4] != 0xff) {
+      quad({lower(i - 1, j, 3), (ids - 12)[5], ids[4], lower(i, j, 2)}, labels[0], labels[2]);
+    }
+  }
+
+  // The vertex of top edge k (0..3: edges 2, 3, 6, 7) of cell (i, j) of the layer below.
+  VertexId lower(std::int64_t i, std::int64_t j, int k) {
+    const std::size_t slot = static_cast<std::size_t>(j * cx_ + i) * 4 + static_cast<std::size_t>(k);
+    if (foreign_ == nullptr) return top_[0][slot];
+    const auto id = kForeignVertex | static_cast<VertexId>(foreign_->size());
+    foreign_->push_back(CacheSlot{static_cast<std::int64_t>(slot)});
+    return id;
+  }
+
+  // The quad v (counter-clockwise around the edge's direction) of the edge from a sample of label
+  // `a` to the next sample, of label `b`: a face of the later-connecting label's surface.
+  void quad(std::array<VertexId, 4> v, std::int32_t a, std::int32_t b) {
+    const bool backIsA = !connectsBefore(a, b);  // the back label's face points from it to the front
+    const LabelPair sides = backIsA ? LabelPair{b, a} : LabelPair{a, b};
+    if (backIsA == flip_) std::swap(v[1], v[3]);
+    out_->triangles.push_back({v[0], v[1], v[2]});
+    out_->triangles.push_back({v[0], v[2], v[3]});
+    out_->faceLabels.push_back(sides);
+    out_->faceLabels.push_back(sides);
+  }
+
+  // A label whose quads lie in several copies of the cell's vertex had its surface split there.
+  void countSplits(const std::array<std::int32_t, 8>& labels, const CellGroups& g) {
+    for (std::size_t c = 0; c < 8; ++c) {
+      const std::int32_t l = labels[c];
+      bool earlier = l == 0;
+      for (std::size_t d = 0; d < c && !earlier; ++d) earlier = labels[d] == l;
+      if (earlier) continue;
+      std::uint8_t in = 0;
+      for (std::size_t e = 0; e < 12; ++e) {
+        if (g.edge[e] == 0xff) continue;
+        const auto& ends = kLabelEdgeCorners[e];
+        if (labels[static_cast<std::size_t>(ends[0])] == l || labels[static_cast<std::size_t>(ends[1])] == l) {
+          in = static_cast<std::uint8_t>(in | (1u << g.edge[e]));
+        }
+      }
+      for (int k = std::popcount(in); k > 1; --k) out_->labelSplits.push_back(l);
+    }
+  }
+
+  LatticeFrame frame_;
+  bool flip_ = false;
+  std::int64_t px_ = 0, py_ = 0, pz_ = 0, cx_ = 0, cy_ = 0;
+  std::int64_t z_ = 0;
+  const float* lo_ = nullptr;
+  const float* hi_ = nullptr;
+  std::array<const RowSpan*, 2> spans_{};
+  std::array<std::vector<RowSpan>, 2> scratch_;
+  std::array<IdPlane, 2> row_;  // per cell of rows j and j - 1 (alternating): the id of each edge's copy
+  std::array<IdPlane, 2> top_;  // the top edges' ids: [0] the layer below, [1] this layer
+  std::vector<std::size_t> topSet_;
+  bool allocated_ = false;
+  MeshChunk* out_ = nullptr;
+  std::vector<CacheSlot>* foreign_ = nullptr;
+  std::uint64_t next_ = 0;
+};
+
+class LabelSlabWorker final : public SlabWorker {
+ public:
+  explicit LabelSlabWorker(const LabelKernel& like) : kernel_(like.dims(), like.frame()) {}
+
+  void extract(std::span<const SlabView> slabs, SlabPart& part,
+               const std::function<void(const SlabView&)>& before) override {
+    part.chunks.resize(slabs.size());
+    part.foreign.clear();
+    part.top.clear();
+    kernel_.resetVertexCount();
+    for (std::size_t k = 0; k < slabs.size(); ++k) {
+      MeshChunk& chunk = part.chunks[k];
+      chunk.clear();
+      chunk.slab = slabs[k].z;
+      chunk.firstVertex = 0;
+      if (before) before(slabs[k]);
+      kernel_.extractSlab(slabs[k], chunk, k == 0 ? &part.foreign : nullptr);
+      if (k + 1 < slabs.size()) kernel_.roll();
+    }
+    kernel_.takeTop(part.top);
+  }
+
+ private:
+  LabelKernel kernel_;
+};
+
+class LabelExtractor final : public Extractor {
+ public:
+  LabelExtractor(const std::array<std::int64_t, 3>& padded, const LatticeFrame& frame) : kernel_(padded, frame) {}
+
+  int slicesBelow() const noexcept override { return 0; }
+  int slicesAbove() const noexcept override { return 0; }
+  std::uint64_t vertexCount() const noexcept override { return kernel_.vertexCount(); }
+  bool cellVolumes() const noexcept override { return false; }
+  std::size_t sliceSlots() const noexcept override { return kernel_.sliceSlots(); }
+  void classifySlice(const float* slice, std::vector<RowSpan>& rows) const override {
+    kernel_.classifySlice(slice, rows);
+  }
+  std::unique_ptr<SlabWorker> makeWorker() const override { return std::make_unique<LabelSlabWorker>(kernel_); }
+  void extractSlab(const SlabView& slab, MeshChunk& out) override {
+    kernel_.extractSlab(slab, out, nullptr);
+    kernel_.roll();
+  }
+
+ private:
+  LabelKernel kernel_;
+};
+
+}  // namespace
+
+std::unique_ptr<Extractor> makeLabelExtractor(const VolumeInfo& info, const LatticeFrame& frame) {
+  std::array<std::int64_t, 3> padded = info.dims;
+  for (auto& d : padded) d += 2;
+  return std::make_unique<LabelExtractor>(padded, frame);
+}
+
+MeshHeader labelHeader(const VolumeInfo& info, const LatticeFrame& frame) {
+  MeshHeader header;
+  header.method = "labels";
+  header.space = frame.name();
+  header.volumeBounds = frame.bounds(info.dims, 0.5);
+  header.volumeFaces = frame.faces(info.dims, 0.5);
+  header.labels = true;
+  return header;
+}
+
+}  // namespace isoslab
