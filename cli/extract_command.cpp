@@ -85,13 +85,21 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
                    "histogram, one or two extra passes over it); or for CT bone (300 HU) or skin (-400 HU). Default: "
                    "the input's suggestion, for phantoms")
       ->transform(isoValue());
+  extract->add_option("--labels", args.labels,
+                      "Label map: one closed surface per label, sharing the interfaces between labels, in one pass. "
+                      "all, or values, ranges and names separated by commas (3,7-9,Hippocampus_L). Default for inputs "
+                      "that say they hold labels (NIfTI intent label) when --iso is not given");
+  extract->add_option("--label-table", args.labelTable,
+                      "Names and colours of the labels: a FreeSurfer LUT, a 3D Slicer .ctbl, an ITK-SNAP label "
+                      "description, or 'INDEX NAME' lines (mricron's .nii.txt)");
   extract->add_option("--method", args.method, fmt::format("{}", fmt::join(methodNames(), ", ")))
       ->transform(oneOf("method", methodNames()))
       ->capture_default_str();
   extract
       ->add_option("-o,--output", args.output,
                    "Output mesh: .ply (binary), .stl (binary), .obj, .glb (glTF 2.0, Draco-compressed chunks) or "
-                   ".drc (one Draco mesh)")
+                   ".drc (one Draco mesh). With labels: a pattern with {name} or {label} (a file per label, any "
+                   "format), or a .ply of the whole label complex (label_front and label_back per face)")
       ->required();
   extract->add_flag("--close-boundary", args.closeBoundary,
                     "Take the field as outside beyond the volume's faces, so that the surface is capped there "
@@ -256,6 +264,8 @@ ExtractSettings extractSettings(const ExtractArgs& args, RankGroup* ranks) {
     s.iso = parseIsoRequest(args.iso);
     if (!s.iso) throw UsageError(fmt::format("--iso: '{}' is not a number, auto, bone or skin", args.iso));
   }
+  if (!args.labels.empty()) s.labels = parseLabelRequest(args.labels);
+  s.labelTable = args.labelTable;
   const auto method = parseMethod(args.method);
   if (!method) {
     throw UsageError(
@@ -313,6 +323,14 @@ int runExtractCommand(const ExtractArgs& args, RankGroup* ranks) {
   const ExtractReport r = runExtract(extractSettings(args, ranks), observer);
   if (args.quiet || !primary) return 0;
   const MeshStats& s = r.stats;
+  if (r.labelRun) {
+    std::size_t closedLabels = 0;
+    for (const ExtractLabel& l : r.labels) closedLabels += l.stats.closed();
+    std::fprintf(stderr, "isoslab: labels: %zu surfaces (%zu closed), %llu triangles in the complex, %.2f s -> %s\n",
+                 r.labels.size(), closedLabels, static_cast<unsigned long long>(s.triangles), r.seconds.total,
+                 args.output.c_str());
+    return 0;
+  }
   const std::string how = args.iso.empty()         ? " (the input's suggestion)"
                           : r.isoSource == "value" ? ""
                                                    : fmt::format(" (--iso {})", args.iso);

@@ -22,7 +22,9 @@ namespace isoslab::cli {
 struct ExtractArgs {
   std::vector<std::string> inputs;
   std::string space = "physical";
-  std::string iso;  // a number, auto, bone or skin (checked by isoValue()); empty: the input's suggestion
+  std::string labels;      // all, or values, ranges and names (--labels)
+  std::string labelTable;  // --label-table
+  std::string iso;         // a number, auto, bone or skin (checked by isoValue()); empty: the input's suggestion
   std::string method = "mc";
   std::string output;
   bool normals = false;

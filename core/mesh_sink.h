@@ -63,6 +63,9 @@ struct MeshChunk {
   /// surface was split there (a point where its voxels touch only at an edge or a corner gets one
   /// vertex per sheet of its surface, so that every label's surface is a 2-manifold).
   std::vector<std::int32_t> labelSplits;
+  /// A label complex's chunks only: one entry per extra fan of a label at a vertex that could not
+  /// be split (extract/label_cells.h, forEachPinch), naming the label.
+  std::vector<std::int32_t> labelPinches;
 
   void clear() {
     positions.clear();
@@ -72,6 +75,7 @@ struct MeshChunk {
     cellVolume = 0;
     faceLabels.clear();
     labelSplits.clear();
+    labelPinches.clear();
   }
   VertexId endVertex() const noexcept { return firstVertex + static_cast<VertexId>(positions.size()); }
 };

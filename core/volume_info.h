@@ -36,6 +36,9 @@ struct VolumeInfo {
   std::optional<std::array<double, 2>> valueRange;
   /// An iso value the source suggests (phantoms do), used when the user gives none.
   std::optional<double> suggestedIso;
+  /// The input says it holds labels (NIfTI's NIFTI_INTENT_LABEL, label phantoms): extract takes
+  /// --labels all when neither --iso nor --labels is given.
+  bool labelMap = false;
   /// The analytic surface at suggestedIso, where there is one.
   std::optional<AnalyticSphere> sphere;
   /// The physical frame the coordinates are in: "physical" (unspecified), or "lps" (DICOM patient

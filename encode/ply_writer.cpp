@@ -26,7 +26,10 @@ std::string PlyWriter::header(std::uint64_t vertices, std::uint64_t faces, std::
   for (const std::string& line : metadataLines(meshHeader_)) head += "comment " + line + "\n";
   std::string tail = fmt::format("element vertex {}\nproperty float x\nproperty float y\nproperty float z\n", vertices);
   if (meshHeader_.normals) tail += "property float nx\nproperty float ny\nproperty float nz\n";
-  tail += fmt::format("element face {}\nproperty list uchar uint vertex_indices\nend_header\n", faces);
+  tail += fmt::format("element face {}\nproperty list uchar uint vertex_indices\n", faces);
+  // A label complex: each face's labels, in front (the side its normal points to) and behind.
+  if (meshHeader_.labels) tail += "property int label_front\nproperty int label_back\n";
+  tail += "end_header\n";
   // A comment line pads the header to exactly padTo bytes, so that it can be written last.
   std::string pad = "comment";
   if (padTo > 0) {
@@ -41,7 +44,7 @@ std::int64_t PlyWriter::binaryBytes(std::uint64_t vertices, std::uint64_t triang
   w.meshHeader_ = header;
   const auto headerBytes = static_cast<std::int64_t>(w.header(kMaxCount, kMaxCount, 0).size());
   return headerBytes + static_cast<std::int64_t>(vertices) * (header.normals ? 24 : 12) +
-         static_cast<std::int64_t>(triangles) * 13;
+         static_cast<std::int64_t>(triangles) * (header.labels ? 21 : 13);
 }
 
 void PlyWriter::begin(const MeshHeader& header) {
@@ -81,6 +84,10 @@ void PlyWriter::consume(const MeshChunk& chunk) {
     appendBytes(buffer_, t[0]);
     appendBytes(buffer_, t[1]);
     appendBytes(buffer_, t[2]);
+    if (meshHeader_.labels) {
+      appendBytes(buffer_, chunk.faceLabels[n][0]);
+      appendBytes(buffer_, chunk.faceLabels[n][1]);
+    }
   }
   faces_->write(buffer_.data(), buffer_.size());
   faceCount_ += chunk.triangles.size();

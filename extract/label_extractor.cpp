@@ -152,7 +152,10 @@ class LabelKernel {
     }
   }
 
-  static const CellGroups& groupsOf(const std::array<std::int32_t, 8>& labels, CellGroups& scratch) noexcept {
+  // The cell's copies; `several` tells a cell of three labels or more, which may pinch.
+  static const CellGroups& groupsOf(const std::array<std::int32_t, 8>& labels, CellGroups& scratch,
+                                    bool& several) noexcept {
+    several = false;
     const std::int32_t a = labels[0];
     std::int32_t b = a;
     for (std::int32_t l : labels) {
@@ -165,6 +168,7 @@ class LabelKernel {
     const std::int32_t later = connectsBefore(a, b) ? b : a;
     for (std::size_t c = 0; c < 8; ++c) {
       if (labels[c] != a && labels[c] != b) {
+        several = true;
         scratch = groupCell(labels);
         return scratch;
       }
@@ -176,7 +180,8 @@ class LabelKernel {
   void cell(std::int64_t i, std::int64_t j, const std::array<std::int32_t, 8>& labels, VertexId* ids,
             const VertexId* below) {
     CellGroups scratch;
-    const CellGroups& g = groupsOf(labels, scratch);
+    bool several = false;
+    const CellGroups& g = groupsOf(labels, scratch, several);
     // The copies' vertices, at the cell's centre: the corner of the voxels' boxes.
     const VertexId first = static_cast<VertexId>(next_);
     const Vec3d p =
@@ -195,6 +200,11 @@ class LabelKernel {
     }
     next_ += g.count;
     if (g.count > 1) countSplits(labels, g);
+    if (several) {
+      forEachPinch(labels, g, [this](std::int32_t label, int extra) {
+        for (int k = 0; k < extra; ++k) out_->labelPinches.push_back(label);
+      });
+    }
     const std::size_t cellSlot = static_cast<std::size_t>(j * cx_ + i) * 4;
     for (std::size_t e = 0; e < 12; ++e) {
       if (g.edge[e] == 0xff) continue;

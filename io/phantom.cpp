@@ -122,8 +122,27 @@ std::unique_ptr<PhantomSource> PhantomSource::open(const std::string& spec) {
     p->kind_ = Kind::kHead;
     allowed.insert({"seed", "noise"});
     defaultDims = {128, 128, 112};
+  } else if (name == "nested") {
+    p->kind_ = Kind::kNested;
+    allowed.insert({"r"});
+  } else if (name == "boxes") {
+    p->kind_ = Kind::kBoxes;
+    allowed.insert({"count"});
+  } else if (name == "checker") {
+    p->kind_ = Kind::kChecker;
+    allowed.insert({"b", "labels"});
+  } else if (name == "voxel") {
+    p->kind_ = Kind::kVoxel;
+    defaultDims = {5, 5, 5};
+  } else if (name == "touch") {
+    p->kind_ = Kind::kTouch;
+    allowed.insert({"at"});
+    defaultDims = {6, 6, 6};
   } else {
-    throw Error(fmt::format("{}: unknown phantom '{}' (known: sphere, box, torus, head)", spec, name));
+    throw Error(
+        fmt::format("{}: unknown phantom '{}' (known: sphere, box, torus, head, nested, boxes, checker, "
+                    "voxel, touch)",
+                    spec, name));
   }
   for (const auto& [k, v] : keys) {
     if (!allowed.contains(k)) {
@@ -215,6 +234,41 @@ std::unique_ptr<PhantomSource> PhantomSource::open(const std::string& spec) {
       info.valueRange = std::array<double, 2>{0.0, 100.0};
       break;
     }
+    case Kind::kNested:
+      p->radius_ = positive("r", std::floor(0.4 * minDim));
+      info.type = VoxelType::kU8;
+      info.labelMap = true;
+      break;
+    case Kind::kBoxes:
+      p->count_ = static_cast<std::int64_t>(positive("count", 3));
+      if (p->count_ > info.dims[0] || p->count_ > 255) {
+        throw Error(fmt::format("{}: key 'count' must be at most the x size and 255", spec));
+      }
+      info.type = VoxelType::kU8;
+      info.labelMap = true;
+      break;
+    case Kind::kChecker:
+      p->block_ = static_cast<std::int64_t>(positive("b", 4));
+      p->count_ = static_cast<std::int64_t>(positive("labels", 8));
+      if (p->count_ > 65535) throw Error(fmt::format("{}: key 'labels' must be at most 65535", spec));
+      info.type = VoxelType::kU16;
+      info.labelMap = true;
+      break;
+    case Kind::kVoxel:
+      info.type = VoxelType::kU8;
+      info.labelMap = true;
+      break;
+    case Kind::kTouch: {
+      const auto* at = get("at");
+      const std::string where = at != nullptr ? *at : "edge";
+      if (where != "face" && where != "edge" && where != "corner") {
+        throw Error(fmt::format("{}: key 'at' must be 'face', 'edge' or 'corner', got '{}'", spec, where));
+      }
+      p->count_ = where == "face" ? 1 : where == "edge" ? 2 : 3;  // axes along which the second voxel steps
+      info.type = VoxelType::kU8;
+      info.labelMap = true;
+      break;
+    }
     case Kind::kHead:
       info.type = VoxelType::kI16;
       info.suggestedIso = -400.0;
@@ -248,6 +302,31 @@ double PhantomSource::value(std::int64_t i, std::int64_t j, std::int64_t k) cons
       const double d = std::sqrt(ring * ring + z * z);
       if (binary_) return d <= radius_ ? 100.0 : 0.0;
       return 1000.0 - 10.0 * d;
+    }
+    case Kind::kNested: {
+      // Label 1 inside r/3, 2 out to 2r/3, 3 out to r: a ball and two shells.
+      const double d = std::sqrt(x * x + y * y + z * z);
+      return d <= radius_ / 3 ? 1.0 : d <= 2 * radius_ / 3 ? 2.0 : d <= radius_ ? 3.0 : 0.0;
+    }
+    case Kind::kBoxes: {
+      // `count` slabs along x, touching face to face, within the middle half of y and z.
+      const std::int64_t ny = info_.dims[1], nz = info_.dims[2];
+      if (j < ny / 4 || j >= ny - ny / 4 || k < nz / 4 || k >= nz - nz / 4) return 0.0;
+      return 1.0 + static_cast<double>(i * count_ / info_.dims[0]);
+    }
+    case Kind::kChecker: {
+      // Blocks of b voxels filling the volume, labelled 1 .. labels in turn.
+      const std::int64_t bx = (info_.dims[0] + block_ - 1) / block_, by = (info_.dims[1] + block_ - 1) / block_;
+      const std::int64_t n = i / block_ + bx * (j / block_ + by * (k / block_));
+      return 1.0 + static_cast<double>(n % count_);
+    }
+    case Kind::kVoxel:
+      return i == info_.dims[0] / 2 && j == info_.dims[1] / 2 && k == info_.dims[2] / 2 ? 1.0 : 0.0;
+    case Kind::kTouch: {
+      // Voxel c and voxel c + (1, 1, 0) (edge) or c + (1, 1, 1) (corner) or c + (1, 0, 0) (face).
+      const std::int64_t ci = info_.dims[0] / 2 - 1, cj = info_.dims[1] / 2 - 1, ck = info_.dims[2] / 2 - 1;
+      if (i == ci && j == cj && k == ck) return 1.0;
+      return i == ci + 1 && j == cj + (count_ >= 2 ? 1 : 0) && k == ck + (count_ >= 3 ? 1 : 0) ? 1.0 : 0.0;
     }
     case Kind::kBox:
       return (i >= lo_[0] && i <= hi_[0] && j >= lo_[1] && j <= hi_[1] && k >= lo_[2] && k <= hi_[2]) ? 100.0 : 0.0;

@@ -17,6 +17,15 @@
 //   head     a noisy CT-like head: air -1000, soft tissue about 40, skull bone about 700, brain
 //            about 35, in HU, as i16. seed (default 1), noise (standard deviation, default 20).
 //            Suggested iso -400 (skin); 300 gives bone.
+// Label maps (VolumeInfo::labelMap; background 0):
+//   nested   labels 1, 2, 3: a ball of radius r/3 and shells out to 2r/3 and r (r: 0.4 of the
+//            smallest edge), u8.
+//   boxes    count (default 3) boxes labelled 1 .. count side by side along x, touching face to
+//            face, in the middle half of y and z, u8.
+//   checker  blocks of b (default 4) voxels filling the volume, labelled 1 .. labels (default 8)
+//            in turn along x, then y, then z, u16.
+//   voxel    label 1 at the centre voxel (default n 5), u8.
+//   touch    two voxels of label 1 that touch at=face|edge|corner (default edge; n 6), u8.
 #pragma once
 
 #include <cstdint>
@@ -46,7 +55,7 @@ class PhantomSource final : public SliceSource {
   double value(std::int64_t i, std::int64_t j, std::int64_t k) const noexcept;
 
  private:
-  enum class Kind : std::uint8_t { kSphere, kBox, kTorus, kHead };
+  enum class Kind : std::uint8_t { kSphere, kBox, kTorus, kHead, kNested, kBoxes, kChecker, kVoxel, kTouch };
 
   PhantomSource() = default;
 
@@ -61,6 +70,8 @@ class PhantomSource final : public SliceSource {
   std::uint64_t seed_ = 1;
   double noise_ = 20;
   std::int64_t nextSlice_ = 0;
+  std::int64_t count_ = 0;  // boxes, checker labels; touch: the axes its second voxel steps along
+  std::int64_t block_ = 4;  // checker
 };
 
 }  // namespace isoslab

@@ -699,6 +699,7 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
   std::array<double, 8> pixdim{};
   int datatype = 0;
   int bitpix = 0;
+  int intent = 0;  // intent_code
   double voxOffset = 0, slope = 0, inter = 0;
   int qformCode = 0, sformCode = 0;
   double qb = 0, qc = 0, qd = 0;
@@ -709,6 +710,7 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
       dim[i] = get<std::int16_t>(h, 40 + 2 * i, swap);
       pixdim[i] = get<float>(h, 76 + 4 * i, swap);
     }
+    intent = get<std::int16_t>(h, 68, swap);
     datatype = get<std::int16_t>(h, 70, swap);
     bitpix = get<std::int16_t>(h, 72, swap);
     voxOffset = get<float>(h, 108, swap);
@@ -731,6 +733,7 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
       pixdim[i] = get<double>(h, 104 + 8 * i, swap);
     }
     voxOffset = static_cast<double>(get<std::int64_t>(h, 168, swap));
+    intent = get<std::int32_t>(h, 508, swap);
     slope = get<double>(h, 176, swap);
     inter = get<double>(h, 184, swap);
     qformCode = get<std::int32_t>(h, 344, swap);
@@ -746,6 +749,7 @@ std::unique_ptr<SliceSource> openNifti(const std::string& path, std::vector<std:
   VolumeInfo info;
   info.reader = version == 1 ? "nifti1" : "nifti2";
   info.source = path;
+  info.labelMap = intent == 1002;  // NIFTI_INTENT_LABEL
   VolumeFileLayout layout;
   layout.describedBy = "NIfTI header";
   const auto type = voxelTypeFromNifti(datatype);

@@ -286,6 +286,23 @@ ExtractReport runExtract(const ExtractSettings& settings, ExtractObserver& obser
   Reporting reporting(observer, wantsComponents ? 2 : 1);
 
   OpenedInput input = openInput(settings, primary ? &observer : nullptr, report);
+  // A label map: every selected label's surface, when asked or when the input says it holds labels.
+  if (settings.labels || (!settings.iso && input.source->info().labelMap)) {
+    const VolumeInfo labelInfo = input.source->info();
+    const int labelThreads = settings.threads > 0 ? settings.threads : defaultExtractThreads(ranks != nullptr);
+    CommitGroup outputs;
+    runLabelExtract(settings, observer, std::move(input), report, reporting.slabHook(0, "extract"), labelThreads,
+                    writerOptions(settings, labelInfo, labelThreads));
+    report.peakRssMib = peakRssMib();
+    if (!settings.reportPath.empty()) {
+      const auto spell = [&](const std::string& t) { return observer.spell(t); };
+      writeReportFile(settings.reportPath, extractReportText(report, settings.reportPath, spell) + "\n");
+    }
+    reporting.checkStop();
+    outputs.commit();
+    reporting.finished(labelInfo.dims[2] + 1);
+    return report;
+  }
   std::unique_ptr<SliceSource>& source = input.source;
   const IsoChoice isoChoice = chooseIsoValue(settings, input);
   if (!isoChoice.note.empty() && primary) observer.note(isoChoice.note);

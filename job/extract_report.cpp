@@ -103,7 +103,7 @@ std::string extractReportText(const ExtractReport& report, const std::string& wh
                       {"peak_vertices", s->peakVertices}};
   }
   if (report.decimation) r["decimation"] = decimationJson(*report.decimation);
-  r["components"] = Json::parse(report.componentsJson);
+  if (!report.componentsJson.empty()) r["components"] = Json::parse(report.componentsJson);
   if (!report.componentFilterJson.empty()) r["component_filter"] = Json::parse(report.componentFilterJson);
   if (!report.sphereJson.empty()) r["sphere"] = Json::parse(report.sphereJson);
   r["seconds"] = {{"read", report.seconds.read},
@@ -115,6 +115,36 @@ std::string extractReportText(const ExtractReport& report, const std::string& wh
   r["ring_bytes"] = report.ringBytes;
   r["peak_rss_mib"] = report.peakRssMib;
   r["output"] = outputJson(report);
+  if (report.labelRun) {
+    Json labels = Json::array();
+    for (const ExtractLabel& l : report.labels) {
+      Json j = {{"value", l.value},
+                {"name", l.name},
+                {"color", {l.color[0], l.color[1], l.color[2]}},
+                {"color_from", l.colorFromTable ? "table" : "default"},
+                {"layer", 0},
+                {"voxels", l.voxels},
+                {"voxel_volume", l.voxelVolume},
+                {"mesh_volume", l.stats.volume},
+                {"area", l.stats.area},
+                {"vertices", l.stats.vertices},
+                {"triangles", l.stats.triangles},
+                {"closed", l.stats.closed()},
+                {"oriented", l.stats.oriented()},
+                {"euler", l.stats.euler},
+                {"splits", l.splits},
+                {"pinches", l.pinches},
+                {"bounds", l.stats.bounds}};
+      if (!l.path.empty()) j["path"] = l.path;
+      labels.push_back(j);
+    }
+    r["labels"] = labels;
+    Json interfaces = Json::array();
+    for (const ExtractInterface& i : report.interfaces) {
+      interfaces.push_back({{"labels", {i.a, i.b}}, {"triangles", i.triangles}, {"area", i.area}});
+    }
+    r["label_interfaces"] = interfaces;
+  }
   return reportText(r, what);
 }
 

@@ -48,6 +48,27 @@ struct ExtractDecimation {
   DecimationReport result;
 };
 
+/// One label's surface (label runs).
+struct ExtractLabel {
+  std::int32_t value = 0;
+  std::string name;  // the table's, else the value
+  std::array<std::uint8_t, 3> color{};
+  bool colorFromTable = false;
+  std::int64_t voxels = 0;
+  double voxelVolume = 0;  // voxels times one voxel's volume, in output units
+  MeshStats stats;
+  std::uint64_t splits = 0;   // vertices split where its voxels touch at an edge or a corner
+  std::uint64_t pinches = 0;  // extra fans kept at a vertex where three labels meet
+  std::string path;           // its file, with a pattern output
+};
+
+/// Where two labels touch (label runs): the smaller value first.
+struct ExtractInterface {
+  std::int32_t a = 0, b = 0;
+  std::uint64_t triangles = 0;
+  double area = 0;
+};
+
 struct ExtractReport {
   std::vector<std::string> inputs;
   std::string reader;
@@ -105,6 +126,10 @@ struct ExtractReport {
     std::vector<std::pair<std::string, double>> details;  // the writer's own (MeshFileSink::details)
   };
   Output output;
+  /// Label runs: per selected label with a surface, ascending; the interfaces between labels.
+  std::vector<ExtractLabel> labels;
+  std::vector<ExtractInterface> interfaces;
+  bool labelRun = false;
 };
 
 /// The report as the JSON text of `isoslab extract --report` (two-space indent, no final newline).

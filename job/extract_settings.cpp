@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <filesystem>
 #include <iterator>
@@ -97,15 +99,60 @@ std::optional<OutputSpace> parseOutputSpace(std::string_view name) noexcept {
   return std::nullopt;
 }
 
+bool isOutputPattern(const std::string& path) noexcept {
+  return path.find("{name}") != std::string::npos || path.find("{label}") != std::string::npos ||
+         path.find("{iso}") != std::string::npos;
+}
+
+LabelRequest parseLabelRequest(const std::string& text) {
+  LabelRequest r;
+  if (text == "all") return r;
+  r.all = false;
+  auto whole = [](const std::string& t) -> std::optional<std::int32_t> {
+    if (t.empty()) return std::nullopt;
+    char* end = nullptr;
+    errno = 0;
+    const long long v = std::strtoll(t.c_str(), &end, 10);
+    if (end != t.c_str() + t.size() || errno != 0 || v < -16777216 || v > 16777216) return std::nullopt;
+    return static_cast<std::int32_t>(v);
+  };
+  std::size_t at = 0;
+  while (at <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', at), text.size());
+    const std::string item = text.substr(at, comma - at);
+    at = comma + 1;
+    require(!item.empty(), fmt::format("`labels` '{}' has an empty item (use all, or values, ranges and names "
+                                       "separated by commas)",
+                                       text));
+    if (const auto v = whole(item)) {
+      r.ranges.push_back({*v, *v});
+      continue;
+    }
+    // A range: the dash after the first character (so that "-4--2" reads as -4 to -2).
+    const std::size_t dash = item.find('-', 1);
+    if (dash != std::string::npos) {
+      const auto lo = whole(item.substr(0, dash));
+      const auto hi = whole(item.substr(dash + 1));
+      if (lo && hi) {
+        require(*lo <= *hi, fmt::format("`labels` range '{}' is reversed", item));
+        r.ranges.push_back({*lo, *hi});
+        continue;
+      }
+    }
+    r.names.push_back(item);
+  }
+  return r;
+}
+
 std::string settingsAsFlags(const std::string& text) {
   // The settings of SourceOptions, WriterOptions and ExtractSettings that have an option of the
   // same name (`output` is -o).
   static const char* const kSettings[] = {
-      "iso",        "series",          "strict",        "skip_bad",   "channel", "nifti_xform",
-      "raw_dims",   "raw_type",        "raw_endian",    "raw_offset", "spacing", "draco_level",
-      "quant_bits", "chunk_triangles", "roi",           "roi_space",  "smooth",  "pass_band",
-      "decimate",   "max_error",       "report",        "preview",    "threads", "max_memory",
-      "sphere",     "keep_largest",    "min_triangles", "min_volume", "seed",    "preview_size"};
+      "iso",      "series",       "strict",     "skip_bad",    "channel",      "nifti_xform",   "raw_dims",
+      "raw_type", "raw_endian",   "raw_offset", "spacing",     "draco_level",  "quant_bits",    "chunk_triangles",
+      "roi",      "roi_space",    "smooth",     "pass_band",   "decimate",     "max_error",     "report",
+      "preview",  "threads",      "max_memory", "sphere",      "keep_largest", "min_triangles", "min_volume",
+      "seed",     "preview_size", "labels",     "label_table", "method",       "normals",       "close_boundary"};
   std::string out;
   std::size_t at = 0;
   while (at < text.size()) {
@@ -152,6 +199,38 @@ void checkExtractSettings(const ExtractSettings& s) {
   if (s.smoothing.iterations != 0) {
     if (const std::string e = checkSmoothOptions(s.smoothing); !e.empty()) throw SettingError(e);
   }
+  if (s.labels) {
+    require(!s.iso, "`iso` and `labels` exclude each other: a run meshes an iso value or labels");
+    checkLabelSettings(s);
+  }
+}
+
+void checkLabelSettings(const ExtractSettings& s) {
+  // Until label surfaces are finished in the stream (the next issue), these are the iso-surface's.
+  const auto refuse = [](bool given, const char* name) {
+    require(!given, fmt::format("`{}` does not apply to label surfaces yet", name));
+  };
+  refuse(s.components.any(), s.components.keepLargest    ? "keep_largest"
+                             : s.components.minVolume    ? "min_volume"
+                             : s.components.minTriangles ? "min_triangles"
+                                                         : "seed");
+  refuse(s.smoothing.iterations != 0, "smooth");
+  refuse(s.decimate != 1.0, "decimate");
+  refuse(s.maxError != 0, "max_error");
+  refuse(s.normals, "normals");
+  refuse(!s.preview.path.empty(), "preview");
+  refuse(s.sphere.has_value(), "sphere");
+  refuse(s.method != Method::kMarchingCubes, "method");
+  const std::string ext = std::filesystem::path(s.output).extension().string();
+  std::string lower = ext;
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  require(isOutputPattern(s.output) || lower == ".ply",
+          fmt::format("`output` '{}' is one file: label surfaces go to a pattern such as 'labels/{{name}}.stl' (a file "
+                      "per label), or to a .ply of the whole label complex",
+                      s.output));
+  require(s.output.find("{iso}") == std::string::npos,
+          fmt::format("`output` '{}' holds {{iso}}, which label surfaces do not have (use {{name}} or {{label}})",
+                      s.output));
 }
 
 }  // namespace isoslab

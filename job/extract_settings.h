@@ -45,13 +45,29 @@ struct PreviewSettings {
   render::Rgb background{255, 255, 255};
 };
 
+/// Which labels of a label map to mesh (--labels): every one but the background, or a list of
+/// values, ranges and names (names need a label table or names in the file).
+struct LabelRequest {
+  bool all = true;
+  std::vector<std::array<std::int32_t, 2>> ranges;  // inclusive; a single value is [v, v]
+  std::vector<std::string> names;
+};
+
+/// "all", or a comma-separated list of values ("12"), ranges ("3-7", "-4--2") and names. Throws
+/// SettingError naming `labels` for an empty item or a range whose ends are reversed.
+LabelRequest parseLabelRequest(const std::string& text);
+
+/// Whether an output path is a pattern of one file per surface: it holds {name}, {label} or {iso}.
+bool isOutputPattern(const std::string& path) noexcept;
+
 struct ExtractSettings {
   /// One volume: DICOM folders or files, a raw file or pattern, any other reader's file, or a
   /// phantom spec ("phantom:head?n=64").
   std::vector<std::string> inputs;
   /// How to read them: DICOM series choice, raw layout, spacing for stacks, NIfTI transform.
   SourceOptions source;
-  /// The mesh: .ply, .stl, .obj, .glb or .drc, by extension. Required.
+  /// The mesh: .ply, .stl, .obj, .glb or .drc, by extension. Required. With labels, a pattern
+  /// (isOutputPattern) writes one file per label, and a .ply the whole label complex.
   std::string output;
   /// A JSON report of the run (extractReportText), written with the mesh; empty: none.
   std::string reportPath;
@@ -64,6 +80,11 @@ struct ExtractSettings {
   bool normals = false;
   /// The field is outside beyond the volume's faces: the surface is capped there, and closed.
   bool closeBoundary = false;
+  /// A label map: one surface per selected label, in one pass (extract/label_extractor.h). Empty:
+  /// an iso-surface, unless the input says it holds labels and `iso` is empty.
+  std::optional<LabelRequest> labels;
+  /// Names and colours of the labels (io/label_table.h); empty: the file's own, else none.
+  std::string labelTable;
   /// Measure the mesh against this sphere (output coordinates); phantom spheres are measured anyway.
   std::optional<Sphere> sphere;
 
@@ -120,5 +141,10 @@ std::string settingsAsFlags(const std::string& text);
 /// Throws SettingError naming the setting in backticks by its snake_case name (`threads`,
 /// `report`), as core/error.h describes. runExtract() calls it first.
 void checkExtractSettings(const ExtractSettings& settings);
+
+/// The checks of a label run: the settings that label surfaces do not take yet, and an output
+/// that is a pattern or a .ply. runExtract() calls it when settings.labels is set or the input
+/// turns out to be a label map.
+void checkLabelSettings(const ExtractSettings& settings);
 
 }  // namespace isoslab

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/volume_info.h"
+#include "encode/mesh_writer.h"
 #include "io/slice_source.h"
 #include "job/extract_job.h"
 #include "process/decimation.h"
@@ -52,6 +53,13 @@ std::array<double, 2> scanValueRange(SliceSource& source);
 
 /// A value of the float slices by its shortest decimal form (999.7, not 999.7000122070312).
 double asFloat(double value);
+
+/// The label run (job/label_job.cpp): opens nothing more than `input`, streams the label complex
+/// into each label's writer (a pattern output) or the complex's .ply, and fills `report`. The
+/// caller writes the report and commits.
+void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer, OpenedInput input,
+                     ExtractReport& report, const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads,
+                     const WriterOptions& writing);
 
 /// Writes `text` to `path` through an AtomicFile (committed with the run's CommitGroup).
 void writeReportFile(const std::string& path, const std::string& text);

@@ -1,0 +1,80 @@
+#include "io/label_source.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace isoslab {
+
+LabelSource::LabelSource(std::unique_ptr<SliceSource> inner, std::string what,
+                         std::optional<std::set<std::int32_t>> keep)
+    : inner_(std::move(inner)), what_(std::move(what)), keep_(std::move(keep)), dense_(65536 + 32768, 0) {
+  if (keep_) {
+    keepDense_.assign(dense_.size(), 0);
+    for (std::int32_t l : *keep_) {
+      if (l >= kDenseLow && l - kDenseLow < static_cast<std::int32_t>(dense_.size())) {
+        keepDense_[static_cast<std::size_t>(l - kDenseLow)] = 1;
+      }
+    }
+  }
+}
+
+void LabelSource::count(std::int32_t label, std::int64_t n) {
+  const std::int64_t k = std::int64_t{label} - kDenseLow;
+  if (k >= 0 && k < static_cast<std::int64_t>(dense_.size())) {
+    dense_[static_cast<std::size_t>(k)] += n;
+  } else {
+    sparse_[label] += n;
+  }
+}
+
+bool LabelSource::readSlice(std::span<float> slice) {
+  if (!inner_->readSlice(slice)) return false;
+  const std::int64_t nx = inner_->info().dims[0];
+  const auto voxels = static_cast<std::int64_t>(slice.size());
+  // Runs of equal values: a run is checked, counted and selected once.
+  std::int64_t i = 0;
+  while (i < voxels) {
+    const float v = slice[static_cast<std::size_t>(i)];
+    std::int64_t end = i + 1;
+    while (end < voxels && slice[static_cast<std::size_t>(end)] == v) ++end;
+    if (!(std::abs(v) <= kLargestLabel) || std::trunc(v) != v) {
+      const std::string value = std::isnan(v) ? "NaN" : fmt::format("{}", v);
+      const std::string why = std::abs(v) > kLargestLabel && std::isfinite(v)
+                                  ? "beyond the labels read exactly (whole numbers up to 16777216)"
+                                  : "which is not a label (a label map holds whole numbers)";
+      throw Error(fmt::format("{}: voxel ({}, {}, {}) holds {}, {}; for a scalar volume give --iso", what_, i % nx,
+                              i / nx, slice_, value, why));
+    }
+    const auto label = static_cast<std::int32_t>(v);
+    count(label, end - i);
+    if (keep_ && label != 0) {
+      const std::int64_t k = std::int64_t{label} - kDenseLow;
+      const bool kept = k >= 0 && k < static_cast<std::int64_t>(keepDense_.size())
+                            ? keepDense_[static_cast<std::size_t>(k)] != 0
+                            : keep_->count(label) != 0;
+      if (!kept) std::fill(slice.begin() + i, slice.begin() + end, 0.0f);
+    }
+    i = end;
+  }
+  ++slice_;
+  return true;
+}
+
+std::int64_t LabelSource::skipSlices(std::int64_t n) {
+  const std::int64_t skipped = inner_->skipSlices(n);
+  slice_ += skipped;
+  return skipped;
+}
+
+std::map<std::int32_t, std::int64_t> LabelSource::voxelCounts() const {
+  std::map<std::int32_t, std::int64_t> counts = sparse_;
+  for (std::size_t k = 0; k < dense_.size(); ++k) {
+    if (dense_[k] != 0) counts[static_cast<std::int32_t>(k) + kDenseLow] += dense_[k];
+  }
+  return counts;
+}
+
+}  // namespace isoslab

@@ -1,0 +1,179 @@
+#include "io/label_table.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace isoslab {
+namespace {
+
+std::optional<long long> wholeNumber(const std::string& s) {
+  if (s.empty()) return std::nullopt;
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(s.c_str(), &end, 10);
+  if (end != s.c_str() + s.size() || errno != 0) return std::nullopt;
+  return v;
+}
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+const LabelEntry* LabelTable::find(std::int32_t value) const noexcept {
+  for (const LabelEntry& e : entries) {
+    if (e.value == value) return &e;
+  }
+  return nullptr;
+}
+
+const LabelEntry* LabelTable::findName(const std::string& name) const noexcept {
+  for (const LabelEntry& e : entries) {
+    if (e.name == name) return &e;
+  }
+  const std::string wanted = lower(name);
+  for (const LabelEntry& e : entries) {
+    if (lower(e.name) == wanted) return &e;
+  }
+  return nullptr;
+}
+
+const LabelEntry* LabelTable::nearest(const std::string& name) const noexcept {
+  const LabelEntry* best = nullptr;
+  std::size_t bestDistance = 0;
+  const std::string wanted = lower(name);
+  for (const LabelEntry& e : entries) {
+    const std::size_t d = editDistance(wanted, lower(e.name));
+    if (best == nullptr || d < bestDistance) {
+      best = &e;
+      bestDistance = d;
+    }
+  }
+  return best;
+}
+
+LabelTable readLabelTable(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{}: cannot open the label table", path));
+  LabelTable table;
+  std::set<std::int32_t> seen;
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const auto hash = line.find('#');
+    const std::string body = line.substr(0, hash);
+    std::istringstream fields(body);
+    std::vector<std::string> tokens;
+    LabelEntry entry;
+    const auto quote = body.find('"');
+    if (quote != std::string::npos) {  // ITK-SNAP: IDX R G B A VIS MSH "LABEL"
+      const auto close = body.find('"', quote + 1);
+      if (close == std::string::npos) {
+        throw Error(fmt::format("{}:{}: the label's name has no closing quote", path, number));
+      }
+      entry.name = body.substr(quote + 1, close - quote - 1);
+      std::istringstream numbers(body.substr(0, quote));
+      for (std::string t; numbers >> t;) tokens.push_back(t);
+      if (tokens.size() < 4) {
+        throw Error(fmt::format("{}:{}: '{}' is not a label line (IDX R G B A VIS MSH \"LABEL\")", path, number, line));
+      }
+      tokens.insert(tokens.begin() + 1, entry.name);
+    } else {
+      for (std::string t; fields >> t;) tokens.push_back(t);
+      if (tokens.empty()) continue;
+      if (tokens.size() < 2) {
+        throw Error(fmt::format("{}:{}: '{}' has no name (INDEX NAME [R G B [A]])", path, number, line));
+      }
+      entry.name = tokens[1];
+    }
+    const auto value = wholeNumber(tokens[0]);
+    if (!value || std::abs(static_cast<double>(*value)) > 16777216.0) {
+      throw Error(
+          fmt::format("{}:{}: '{}' is not a label line: its first field is not a whole number", path, number, line));
+    }
+    entry.value = static_cast<std::int32_t>(*value);
+    // A colour when the three fields after the name are whole numbers (mricron's third field is a
+    // code, not a colour: one field only).
+    if (tokens.size() >= 5) {
+      std::array<std::uint8_t, 3> rgb{};
+      bool numbers = true;
+      for (std::size_t c = 0; c < 3 && numbers; ++c) {
+        const auto v = wholeNumber(tokens[2 + c]);
+        numbers = v.has_value();
+        if (numbers && (*v < 0 || *v > 255)) {
+          throw Error(fmt::format("{}:{}: colour component {} is outside 0..255", path, number, *v));
+        }
+        if (numbers) rgb[c] = static_cast<std::uint8_t>(*v);
+      }
+      if (numbers) entry.color = rgb;
+    }
+    if (!seen.insert(entry.value).second) {
+      throw Error(fmt::format("{}:{}: label {} is given twice", path, number, entry.value));
+    }
+    table.entries.push_back(std::move(entry));
+  }
+  if (in.bad()) throw Error(fmt::format("{}: cannot read the label table", path));
+  if (table.entries.empty()) throw Error(fmt::format("{}: the label table holds no label", path));
+  return table;
+}
+
+std::array<std::uint8_t, 3> defaultLabelColor(std::int32_t value) noexcept {
+  // Hue by the golden angle, saturation 0.6, value 0.9: neighbouring values differ.
+  const double h = std::fmod(static_cast<double>(value) * 137.50776405, 360.0) / 60.0;
+  const double hue = h < 0 ? h + 6 : h;
+  const double c = 0.9 * 0.6, x = c * (1 - std::abs(std::fmod(hue, 2.0) - 1)), m = 0.9 - c;
+  std::array<double, 3> rgb{};
+  switch (static_cast<int>(hue) % 6) {
+    case 0:
+      rgb = {c, x, 0};
+      break;
+    case 1:
+      rgb = {x, c, 0};
+      break;
+    case 2:
+      rgb = {0, c, x};
+      break;
+    case 3:
+      rgb = {0, x, c};
+      break;
+    case 4:
+      rgb = {x, 0, c};
+      break;
+    default:
+      rgb = {c, 0, x};
+      break;
+  }
+  std::array<std::uint8_t, 3> out{};
+  for (std::size_t k = 0; k < 3; ++k) out[k] = static_cast<std::uint8_t>(std::lround((rgb[k] + m) * 255));
+  return out;
+}
+
+}  // namespace isoslab

@@ -1,0 +1,83 @@
+// Splits a label complex (extract/label_extractor.h) into one mesh stream per label, as the
+// chunks pass: a label's surface is the complex's triangles with that label on a side, turned to
+// face out of it, over its own vertices numbered densely in order of first use. Each stream keeps
+// the streaming contract (core/mesh_sink.h). Measures the interfaces between labels meanwhile.
+//
+// Memory: per label, its sink and its part of the current chunk; per vertex of the last two
+// chunks, the labels that used it and its number in each.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "core/mesh_sink.h"
+
+namespace isoslab {
+
+class LabelSplitSink final : public MeshSink {
+ public:
+  /// The sink of a label's surface, asked when its first triangle arrives; nullptr drops the label.
+  /// The sink gets begin() with the complex's header (labels false, iso the label's value), its
+  /// chunks, and finish() at this sink's finish(), in label order.
+  using SinkFor = std::function<MeshSink*(std::int32_t label)>;
+
+  explicit LabelSplitSink(SinkFor sinkFor);
+
+  void begin(const MeshHeader& header) override;
+  void consume(const MeshChunk& chunk) override;
+  void finish() override;
+
+  struct Interface {
+    std::uint64_t triangles = 0;
+    double area = 0;
+  };
+  /// After finish(): per pair of labels (smaller first; 0 is the background and the volume's
+  /// outside), the triangles and area of the interface between them.
+  const std::map<std::pair<std::int32_t, std::int32_t>, Interface>& interfaces() const noexcept { return interfaces_; }
+  /// After finish(): per label, the splits and pinches the kernel reported (MeshChunk::labelSplits,
+  /// labelPinches).
+  const std::map<std::int32_t, std::uint64_t>& splits() const noexcept { return splits_; }
+  const std::map<std::int32_t, std::uint64_t>& pinches() const noexcept { return pinches_; }
+  /// The labels that had a surface, ascending.
+  std::vector<std::int32_t> labels() const;
+
+ private:
+  struct Stream {
+    std::int32_t label = 0;
+    MeshSink* sink = nullptr;
+    MeshChunk chunk;
+    VertexId next = 0;
+    bool touched = false;
+  };
+  // A label's number for a complex vertex of the window.
+  struct Use {
+    std::uint32_t stream = 0;
+    VertexId id = 0;
+    std::uint32_t next = 0;  // the next use of the same vertex, + 1 (0: none)
+  };
+  struct Window {
+    VertexId first = 0;
+    std::vector<std::uint32_t> head;  // per vertex: its first use, + 1 (0: none)
+    std::vector<Use> uses;
+  };
+
+  std::uint32_t streamOf(std::int32_t label);
+  VertexId idFor(std::uint32_t stream, VertexId v, const MeshChunk& chunk);
+
+  SinkFor sinkFor_;
+  MeshHeader header_;
+  std::vector<Stream> streams_;
+  std::unordered_map<std::int32_t, std::uint32_t> index_;  // label -> stream (kNoStream: dropped)
+  std::vector<std::uint32_t> touched_;
+  Window previous_, current_;
+  std::vector<Vec3f> previousPositions_;  // the previous chunk's
+  std::vector<std::uint8_t> previousBoundary_;
+  std::map<std::pair<std::int32_t, std::int32_t>, Interface> interfaces_;
+  std::map<std::int32_t, std::uint64_t> splits_, pinches_;
+};
+
+}  // namespace isoslab
