@@ -12,10 +12,18 @@ namespace {
 
 constexpr VertexId kUnsetId = std::numeric_limits<VertexId>::max();
 
-// A cell's top edges (kLabelEdgeCorners 2, 3, 6, 7) in the slots of the plane that the layer above
-// reads: slot = cell * 4 + k.
-constexpr std::array<int, 4> kTopEdges{2, 3, 6, 7};
+// What the layer above reads of a cell, in the slots of the top plane (slot = cell * kTopSlots +
+// k): its top edges' vertices (edges 2, 3, 6, 7: k = 0..3), then the vertices of its split faces
+// x = 0 (k = 4..7) and y = 0 (k = 8..11), by the position of an edge in the face.
+constexpr std::size_t kTopSlots = 12;
 constexpr std::array<int, 12> kTopSlot{-1, -1, 0, 1, -1, -1, 2, 3, -1, -1, -1, -1};
+
+// A cell's ids in a row buffer: its edges' copies (0..11), then the vertices of its split faces
+// x = 0, y = 0 and z = 0, by edge position (12 + 4 * face + position).
+constexpr std::size_t kRowIds = 24;
+
+// The faces a cell owns (kLabelFaceCorners 0: x = 0, 2: y = 0, 4: z = 0), in the order of kRowIds.
+constexpr std::array<int, 3> kOwnedFaces{0, 2, 4};
 
 // Ids by slot, left uninitialised: a slot is read only for a crossed edge, whose cell wrote it in
 // the same pass (or, for the top plane, the layer before), so stale values are never read; pages
@@ -46,7 +54,7 @@ class LabelKernel {
 
   const LatticeFrame& frame() const noexcept { return frame_; }
   std::array<std::int64_t, 3> dims() const noexcept { return {px_, py_, pz_}; }
-  std::size_t sliceSlots() const noexcept { return static_cast<std::size_t>(cx_ * cy_) * 4; }
+  std::size_t sliceSlots() const noexcept { return static_cast<std::size_t>(cx_ * cy_) * kTopSlots; }
   std::uint64_t vertexCount() const noexcept { return next_; }
   void resetVertexCount() noexcept { next_ = 0; }
 
@@ -76,13 +84,14 @@ class LabelKernel {
 
   void extractSlab(const SlabView& slab, MeshChunk& out, std::vector<CacheSlot>* foreign) {
     if (!allocated_) {
-      for (auto& r : row_) r.allocate(static_cast<std::size_t>(cx_) * 12);
+      for (auto& r : row_) r.allocate(static_cast<std::size_t>(cx_) * kRowIds);
       for (auto& t : top_) t.allocate(sliceSlots());
       allocated_ = true;
     }
     out_ = &out;
     foreign_ = foreign;
     z_ = slab.z;
+    below_ = slab.slices[0];
     lo_ = slab.slices[1];
     hi_ = slab.slices[2];
     for (int s = 0; s < 2; ++s) {
@@ -148,7 +157,7 @@ class LabelKernel {
           static_cast<std::int32_t>(rows[1][i]), static_cast<std::int32_t>(rows[1][i + 1]),
           static_cast<std::int32_t>(rows[2][i]), static_cast<std::int32_t>(rows[2][i + 1]),
           static_cast<std::int32_t>(rows[3][i]), static_cast<std::int32_t>(rows[3][i + 1])};
-      cell(i, j, labels, here + i * 12, below);
+      cell(i, j, labels, here + i * static_cast<std::int64_t>(kRowIds), below);
     }
   }
 
@@ -205,7 +214,7 @@ class LabelKernel {
         for (int k = 0; k < extra; ++k) out_->labelPinches.push_back(label);
       });
     }
-    const std::size_t cellSlot = static_cast<std::size_t>(j * cx_ + i) * 4;
+    const std::size_t cellSlot = static_cast<std::size_t>(j * cx_ + i) * kTopSlots;
     for (std::size_t e = 0; e < 12; ++e) {
       if (g.edge[e] == 0xff) continue;
       const VertexId id = first + g.edge[e];
@@ -216,26 +225,95 @@ class LabelKernel {
         topSet_.push_back(slot);
       }
     }
+    // Split faces: two vertices at the face's centre, one per copy of its mesh edge, so that the
+    // copies stay two edges even where both cells join them into one vertex copy.
+    for (std::size_t f = 0; f < 3; ++f) {
+      const int split = faceSplit(faceOf(labels, kOwnedFaces[f]));
+      if (split == 0) continue;
+      const std::array<double, 3> c{static_cast<double>(i) - (f == 0 ? 1.0 : 0.5),
+                                    static_cast<double>(j) - (f == 1 ? 1.0 : 0.5),
+                                    static_cast<double>(z_) - (f == 2 ? 1.0 : 0.5)};
+      const VertexId a = addVertex(c), b = addVertex(c);
+      // Copy a holds positions 3, 0 (split 1) or 0, 1 (split 2); copy b the other two.
+      const std::array<VertexId, 4> byPosition = split == 1 ? std::array{a, b, b, a} : std::array{a, a, b, b};
+      for (std::size_t k = 0; k < 4; ++k) {
+        ids[12 + 4 * f + k] = byPosition[k];
+        if (f < 2) {
+          const std::size_t slot = cellSlot + 4 + 4 * f + k;
+          top_[1][slot] = byPosition[k];
+          topSet_.push_back(slot);
+        }
+      }
+    }
     // The quads of the edges at the cell's lowest corner, whose other cells are done: the z edge
     // (cells of this layer, rows j - 1 and j), the x and y edges on slice z (cells of this layer
-    // and the one below).
-    // Each is crossed only away from the padding, so i, j >= 1 where a cell to the left or behind
-    // is read.
-    const auto cellBelow = [&](std::int64_t ii) { return below + ii * 12; };  // cell (ii, j - 1)
+    // and the one below). Each is crossed only away from the padding, so i, j >= 1 where a cell to
+    // the left or behind is read. Per quad: its four cells' vertices, counter-clockwise around the
+    // edge's direction, and the faces that its sides cross (owner cell, face, the edge's position).
+    const std::int64_t n = static_cast<std::int64_t>(kRowIds);
+    const auto cellBelow = [&](std::int64_t ii) { return below + ii * n; };  // cell (ii, j - 1)
+    const VertexId* left = ids - n;                                          // cell (i - 1, j)
     if (g.edge[8] != 0xff) {
-      quad({cellBelow(i - 1)[11], cellBelow(i)[10], ids[8], (ids - 12)[9]}, labels[0], labels[4]);
+      const std::array<VertexId, 4> v{cellBelow(i - 1)[11], cellBelow(i)[10], ids[8], left[9]};
+      const std::array<VertexId, 4> m{sideVertex(i, j - 1, 0, 0, 1, cellBelow(i)), sideVertex(i, j, 0, 1, 3, ids),
+                                      sideVertex(i, j, 0, 0, 3, ids), sideVertex(i - 1, j, 0, 1, 1, left)};
+      quad(v, m, {static_cast<double>(i) - 1, static_cast<double>(j) - 1, static_cast<double>(z_) - 0.5}, labels[0],
+           labels[4]);
     }
     if (g.edge[0] != 0xff) {
-      quad({lower(i, j - 1, 1), lower(i, j, 0), ids[0], cellBelow(i)[1]}, labels[0], labels[1]);
+      const std::array<VertexId, 4> v{lower(i, j - 1, 1), lower(i, j, 0), ids[0], cellBelow(i)[1]};
+      const std::array<VertexId, 4> m{sideVertex(i, j, -1, 1, 2, nullptr), sideVertex(i, j, 0, 2, 0, ids),
+                                      sideVertex(i, j, 0, 1, 0, ids), sideVertex(i, j - 1, 0, 2, 2, cellBelow(i))};
+      quad(v, m, {static_cast<double>(i) - 0.5, static_cast<double>(j) - 1, static_cast<double>(z_) - 1}, labels[0],
+           labels[1]);
     }
     if (g.edge[4] != 0xff) {
-      quad({lower(i - 1, j, 3), (ids - 12)[5], ids[4], lower(i, j, 2)}, labels[0], labels[2]);
+      const std::array<VertexId, 4> v{lower(i - 1, j, 3), left[5], ids[4], lower(i, j, 2)};
+      const std::array<VertexId, 4> m{sideVertex(i - 1, j, 0, 2, 1, left), sideVertex(i, j, 0, 0, 0, ids),
+                                      sideVertex(i, j, 0, 2, 3, ids), sideVertex(i, j, -1, 0, 2, nullptr)};
+      quad(v, m, {static_cast<double>(i) - 1, static_cast<double>(j) - 0.5, static_cast<double>(z_) - 1}, labels[0],
+           labels[2]);
     }
   }
 
-  // The vertex of top edge k (0..3: edges 2, 3, 6, 7) of cell (i, j) of the layer below.
+  // The labels of face kLabelFaceCorners[face] of a cell, in its cyclic order.
+  static std::array<std::int32_t, 4> faceOf(const std::array<std::int32_t, 8>& labels, int face) noexcept {
+    const auto& c = kLabelFaceCorners[static_cast<std::size_t>(face)];
+    return {labels[static_cast<std::size_t>(c[0])], labels[static_cast<std::size_t>(c[1])],
+            labels[static_cast<std::size_t>(c[2])], labels[static_cast<std::size_t>(c[3])]};
+  }
+
+  // The label of sample (i, j) of slice z + dz (dz -1, 0 or 1).
+  std::int32_t sample(std::int64_t i, std::int64_t j, int dz) const noexcept {
+    const float* s = dz < 0 ? below_ : dz == 0 ? lo_ : hi_;
+    return static_cast<std::int32_t>(s[j * px_ + i]);
+  }
+
+  // The vertex where a quad's side crosses owned face f (0: x = 0, 1: y = 0, 2: z = 0) of cell
+  // (ci, cj) of this layer (dz 0, its ids given) or the layer below (dz -1, from the top plane), at
+  // the edge's position k in the face; kUnsetId where the face is not split.
+  VertexId sideVertex(std::int64_t ci, std::int64_t cj, int dz, int f, int k, const VertexId* ownerIds) {
+    const auto& corners = kLabelFaceCorners[static_cast<std::size_t>(kOwnedFaces[static_cast<std::size_t>(f)])];
+    std::array<std::int32_t, 4> face{};
+    for (std::size_t c = 0; c < 4; ++c) {
+      const int corner = corners[c];
+      face[c] = sample(ci + (corner & 1), cj + ((corner >> 1) & 1), dz + (corner >> 2));
+    }
+    if (faceSplit(face) == 0) return kUnsetId;
+    if (dz == 0) return ownerIds[12 + 4 * f + k];
+    return lower(ci, cj, 4 + 4 * f + k);
+  }
+
+  VertexId addVertex(const std::array<double, 3>& lattice) {
+    const Vec3d p = frame_.map(lattice[0], lattice[1], lattice[2]);
+    out_->positions.push_back({static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])});
+    out_->boundary.push_back(0);
+    return static_cast<VertexId>(next_++);
+  }
+
+  // The vertex in slot k of cell (i, j) of the layer below (kTopSlots).
   VertexId lower(std::int64_t i, std::int64_t j, int k) {
-    const std::size_t slot = static_cast<std::size_t>(j * cx_ + i) * 4 + static_cast<std::size_t>(k);
+    const std::size_t slot = static_cast<std::size_t>(j * cx_ + i) * kTopSlots + static_cast<std::size_t>(k);
     if (foreign_ == nullptr) return top_[0][slot];
     const auto id = kForeignVertex | static_cast<VertexId>(foreign_->size());
     foreign_->push_back(CacheSlot{static_cast<std::int64_t>(slot)});
@@ -243,15 +321,35 @@ class LabelKernel {
   }
 
   // The quad v (counter-clockwise around the edge's direction) of the edge from a sample of label
-  // `a` to the next sample, of label `b`: a face of the later-connecting label's surface.
-  void quad(std::array<VertexId, 4> v, std::int32_t a, std::int32_t b) {
+  // `a` to the next sample, of label `b`: a face of the later-connecting label's surface. m[k] is
+  // the vertex on its side v[k] -> v[k + 1] where that side crosses a split face (kUnsetId: none);
+  // a quad with such vertices is fanned from a vertex of its own at `centre`.
+  void quad(const std::array<VertexId, 4>& v, const std::array<VertexId, 4>& m, const std::array<double, 3>& centre,
+            std::int32_t a, std::int32_t b) {
     const bool backIsA = !connectsBefore(a, b);  // the back label's face points from it to the front
     const LabelPair sides = backIsA ? LabelPair{b, a} : LabelPair{a, b};
-    if (backIsA == flip_) std::swap(v[1], v[3]);
-    out_->triangles.push_back({v[0], v[1], v[2]});
-    out_->triangles.push_back({v[0], v[2], v[3]});
-    out_->faceLabels.push_back(sides);
-    out_->faceLabels.push_back(sides);
+    const bool reverse = backIsA == flip_;
+    if (m[0] == kUnsetId && m[1] == kUnsetId && m[2] == kUnsetId && m[3] == kUnsetId) {
+      const VertexId second = reverse ? v[3] : v[1];
+      const VertexId fourth = reverse ? v[1] : v[3];
+      out_->triangles.push_back({v[0], second, v[2]});
+      out_->triangles.push_back({v[0], v[2], fourth});
+      out_->faceLabels.push_back(sides);
+      out_->faceLabels.push_back(sides);
+      return;
+    }
+    std::array<VertexId, 8> ring{};
+    std::size_t n = 0;
+    for (std::size_t k = 0; k < 4; ++k) {
+      ring[n++] = v[k];
+      if (m[k] != kUnsetId) ring[n++] = m[k];
+    }
+    if (reverse) std::reverse(ring.begin() + 1, ring.begin() + static_cast<std::ptrdiff_t>(n));
+    const VertexId c = addVertex(centre);
+    for (std::size_t k = 0; k < n; ++k) {
+      out_->triangles.push_back({c, ring[k], ring[(k + 1) % n]});
+      out_->faceLabels.push_back(sides);
+    }
   }
 
   // A label whose quads lie in several copies of the cell's vertex had its surface split there.
@@ -277,6 +375,7 @@ class LabelKernel {
   bool flip_ = false;
   std::int64_t px_ = 0, py_ = 0, pz_ = 0, cx_ = 0, cy_ = 0;
   std::int64_t z_ = 0;
+  const float* below_ = nullptr;  // slice z - 1 (the faces of the layer below)
   const float* lo_ = nullptr;
   const float* hi_ = nullptr;
   std::array<const RowSpan*, 2> spans_{};
@@ -320,7 +419,7 @@ class LabelExtractor final : public Extractor {
  public:
   LabelExtractor(const std::array<std::int64_t, 3>& padded, const LatticeFrame& frame) : kernel_(padded, frame) {}
 
-  int slicesBelow() const noexcept override { return 0; }
+  int slicesBelow() const noexcept override { return 1; }  // the split faces of the layer below
   int slicesAbove() const noexcept override { return 0; }
   std::uint64_t vertexCount() const noexcept override { return kernel_.vertexCount(); }
   bool cellVolumes() const noexcept override { return false; }

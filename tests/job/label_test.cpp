@@ -1,0 +1,380 @@
+// Label maps (issue 35): the label complex and its surfaces, against answers known by construction
+// and brute-force counts over the voxels.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <set>
+
+#include "encode/indexed_mesh.h"
+#include "encode/mesh_reader.h"
+#include "extract/label_extractor.h"
+#include "io/label_source.h"
+#include "io/pad_source.h"
+#include "job/extract_job.h"
+#include "process/label_surfaces.h"
+#include "stream/pipeline.h"
+#include "test_support.h"
+
+namespace isoslab {
+namespace {
+
+using testing::VectorSource;
+
+// A label volume and its brute-force facts.
+struct Labels {
+  std::array<std::int64_t, 3> dims{};
+  std::vector<float> values;
+  std::int32_t at(std::int64_t i, std::int64_t j, std::int64_t k) const {
+    if (i < 0 || j < 0 || k < 0 || i >= dims[0] || j >= dims[1] || k >= dims[2]) return 0;
+    return static_cast<std::int32_t>(values[static_cast<std::size_t>((k * dims[1] + j) * dims[0] + i)]);
+  }
+  // Voxel faces between different labels, per unordered pair (the outside is 0).
+  std::map<std::pair<std::int32_t, std::int32_t>, std::int64_t> faces() const {
+    std::map<std::pair<std::int32_t, std::int32_t>, std::int64_t> out;
+    for (std::int64_t k = -1; k < dims[2]; ++k) {
+      for (std::int64_t j = -1; j < dims[1]; ++j) {
+        for (std::int64_t i = -1; i < dims[0]; ++i) {
+          const std::int32_t a = at(i, j, k);
+          for (const auto& [b, inside] :
+               {std::pair{at(i + 1, j, k), j >= 0 && k >= 0}, std::pair{at(i, j + 1, k), i >= 0 && k >= 0},
+                std::pair{at(i, j, k + 1), i >= 0 && j >= 0}}) {
+            if (inside && a != b) ++out[std::minmax(a, b)];
+          }
+        }
+      }
+    }
+    return out;
+  }
+  std::map<std::int32_t, std::int64_t> counts() const {
+    std::map<std::int32_t, std::int64_t> out;
+    for (float v : values) ++out[static_cast<std::int32_t>(v)];
+    return out;
+  }
+};
+
+// The complex, whole, as the pipeline streams it.
+struct Complex {
+  std::vector<Vec3f> positions;
+  std::vector<Triangle> triangles;
+  std::vector<LabelPair> sides;
+  std::map<std::int32_t, std::uint64_t> splits, pinches;
+  std::vector<MeshChunk> chunks;
+};
+
+class ComplexSink final : public MeshSink {
+ public:
+  explicit ComplexSink(Complex& c) : c_(c) {}
+  void begin(const MeshHeader& h) override { EXPECT_TRUE(h.labels); }
+  void consume(const MeshChunk& chunk) override {
+    EXPECT_EQ(chunk.firstVertex, c_.positions.size());
+    EXPECT_EQ(chunk.faceLabels.size(), chunk.triangles.size());
+    c_.positions.insert(c_.positions.end(), chunk.positions.begin(), chunk.positions.end());
+    c_.triangles.insert(c_.triangles.end(), chunk.triangles.begin(), chunk.triangles.end());
+    c_.sides.insert(c_.sides.end(), chunk.faceLabels.begin(), chunk.faceLabels.end());
+    for (std::int32_t l : chunk.labelSplits) ++c_.splits[l];
+    for (std::int32_t l : chunk.labelPinches) ++c_.pinches[l];
+    c_.chunks.push_back(chunk);
+  }
+  void finish() override {}
+
+ private:
+  Complex& c_;
+};
+
+Complex extractComplex(const Labels& labels, int threads, VolumeInfo* infoOut = nullptr) {
+  auto volume = std::make_unique<VectorSource>(labels.dims, labels.values);
+  const VolumeInfo info = volume->info();
+  if (infoOut != nullptr) *infoOut = info;
+  auto checked = std::make_unique<LabelSource>(std::move(volume), "test", std::nullopt);
+  PadSource source(std::move(checked), 0.0f);
+  const LatticeFrame frame = LatticeFrame::physical(info);
+  auto extractor = makeLabelExtractor(info, frame);
+  Complex c;
+  ComplexSink sink(c);
+  PipelineOptions options;
+  options.threads = threads;
+  options.sequentialVoxels = 0;
+  options.runVoxels = 64;
+  runPipeline(source, *extractor, sink, labelHeader(info, frame), options);
+  return c;
+}
+
+// One label's surface out of the complex: the triangles with it on a side, facing out of it.
+std::vector<Triangle> surfaceOf(const Complex& c, std::int32_t label) {
+  std::vector<Triangle> out;
+  for (std::size_t t = 0; t < c.triangles.size(); ++t) {
+    const Triangle& tri = c.triangles[t];
+    if (c.sides[t][1] == label) out.push_back(tri);
+    if (c.sides[t][0] == label) out.push_back({tri[0], tri[2], tri[1]});
+  }
+  return out;
+}
+
+struct Topology {
+  std::int64_t unpairedEdges = 0;        // directed uses without their reverse
+  std::int64_t nonManifoldEdges = 0;     // edges used by more than two triangles
+  std::int64_t nonManifoldVertices = 0;  // vertices whose triangles form several fans
+  std::int64_t euler = 0;
+  double volume = 0;
+};
+
+Topology topology(const std::vector<Vec3f>& p, const std::vector<Triangle>& tris) {
+  Topology t;
+  std::map<std::pair<VertexId, VertexId>, int> directed;
+  std::map<VertexId, std::vector<std::pair<VertexId, VertexId>>> links;
+  std::set<VertexId> vertices;
+  for (const Triangle& tri : tris) {
+    for (int k = 0; k < 3; ++k) {
+      const VertexId a = tri[static_cast<std::size_t>(k)], b = tri[static_cast<std::size_t>((k + 1) % 3)],
+                     c = tri[static_cast<std::size_t>((k + 2) % 3)];
+      ++directed[{a, b}];
+      links[a].push_back({b, c});
+      vertices.insert(a);
+    }
+    const Vec3f &a = p[tri[0]], &b = p[tri[1]], &c = p[tri[2]];
+    t.volume +=
+        (double(a.x) * (double(b.y) * c.z - double(b.z) * c.y) - double(a.y) * (double(b.x) * c.z - double(b.z) * c.x) +
+         double(a.z) * (double(b.x) * c.y - double(b.y) * c.x)) /
+        6.0;
+  }
+  std::int64_t edges = 0;
+  for (const auto& [e, n] : directed) {
+    const auto back = directed.find({e.second, e.first});
+    const int m = back == directed.end() ? 0 : back->second;
+    if (n != m) t.unpairedEdges += std::abs(n - m);
+    if (e.first < e.second || m == 0) ++edges;
+    if (e.first < e.second && n + m > 2) ++t.nonManifoldEdges;
+  }
+  for (auto& [v, link] : links) {
+    // The link edges b -> c around v must form one cycle.
+    std::map<VertexId, VertexId> next;
+    bool simple = true;
+    for (const auto& [b, c] : link) simple = simple && next.emplace(b, c).second;
+    std::size_t steps = 0;
+    VertexId at = link.front().first;
+    do {
+      const auto it = next.find(at);
+      if (it == next.end()) break;
+      at = it->second;
+      ++steps;
+    } while (at != link.front().first && steps <= link.size());
+    if (!simple || steps != link.size()) ++t.nonManifoldVertices;
+  }
+  t.euler = static_cast<std::int64_t>(vertices.size()) - edges + static_cast<std::int64_t>(tris.size());
+  return t;
+}
+
+// The area of the complex's faces between two labels.
+double areaOf(const Complex& c, std::pair<std::int32_t, std::int32_t> pair) {
+  double area = 0;
+  for (std::size_t t = 0; t < c.triangles.size(); ++t) {
+    if (std::pair<std::int32_t, std::int32_t>(std::minmax(c.sides[t][0], c.sides[t][1])) != pair) continue;
+    const Vec3f &a = c.positions[c.triangles[t][0]], &b = c.positions[c.triangles[t][1]],
+                &d = c.positions[c.triangles[t][2]];
+    const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
+    const double vx = double(d.x) - a.x, vy = double(d.y) - a.y, vz = double(d.z) - a.z;
+    area += 0.5 * std::sqrt((uy * vz - uz * vy) * (uy * vz - uz * vy) + (uz * vx - ux * vz) * (uz * vx - ux * vz) +
+                            (ux * vy - uy * vx) * (ux * vy - uy * vx));
+  }
+  return area;
+}
+
+Labels randomLabels(std::array<std::int64_t, 3> dims, int labels, unsigned seed) {
+  std::mt19937 rng(seed);
+  Labels l;
+  l.dims = dims;
+  l.values.resize(static_cast<std::size_t>(dims[0] * dims[1] * dims[2]));
+  std::uniform_int_distribution<int> pick(0, labels - 1);
+  for (float& v : l.values) v = static_cast<float>(pick(rng));
+  return l;
+}
+
+TEST(LabelComplex, BinaryNoiseGivesClosedManifoldSurfacesOfExactVolume) {
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    const Labels l = randomLabels({11, 9, 10}, 2, seed);
+    const Complex c = extractComplex(l, 1);
+    const Topology t = topology(c.positions, surfaceOf(c, 1));
+    EXPECT_EQ(t.unpairedEdges, 0);
+    EXPECT_EQ(t.nonManifoldEdges, 0);
+    EXPECT_EQ(t.nonManifoldVertices, 0);
+    EXPECT_NEAR(t.volume, static_cast<double>(l.counts().at(1)), 1e-9);
+    // The voxel faces between the label and the rest (brute force), each of area 1.
+    EXPECT_NEAR(areaOf(c, {0, 1}), static_cast<double>(l.faces().at({0, 1})), 1e-9);
+    EXPECT_TRUE(c.pinches.empty());
+  }
+}
+
+TEST(LabelComplex, ManyLabelsShareEveryInterfaceAndAddUpToTheUnion) {
+  const Labels l = randomLabels({12, 10, 9}, 5, 7);
+  const Complex c = extractComplex(l, 1);
+  const auto faces = l.faces();
+  std::set<std::pair<std::int32_t, std::int32_t>> pairs;
+  for (const LabelPair& s : c.sides) {
+    pairs.insert(std::pair<std::int32_t, std::int32_t>(std::minmax(s[0], s[1])));
+    // The back label connects later: the background is always in front.
+    EXPECT_NE(s[1], 0);
+  }
+  EXPECT_EQ(pairs.size(), faces.size());
+  for (const auto& [pair, n] : faces) {
+    EXPECT_NEAR(areaOf(c, pair), static_cast<double>(n), 1e-9) << pair.first << "|" << pair.second;
+  }
+  double sum = 0;
+  for (std::int32_t label = 1; label < 5; ++label) {
+    const Topology t = topology(c.positions, surfaceOf(c, label));
+    EXPECT_EQ(t.unpairedEdges, 0) << label;
+    EXPECT_NEAR(t.volume, static_cast<double>(l.counts().at(label)), 1e-9) << label;
+    EXPECT_EQ(t.nonManifoldEdges, 0) << label;
+    sum += t.volume;
+  }
+  // The union of the labels, as one label: its surface encloses what the labels add up to.
+  Labels u = l;
+  for (float& v : u.values) v = v != 0 ? 1.0f : 0.0f;
+  const Complex uc = extractComplex(u, 1);
+  EXPECT_NEAR(topology(uc.positions, surfaceOf(uc, 1)).volume, sum, 1e-9);
+}
+
+TEST(LabelComplex, ThreadsGiveTheSameChunks) {
+  const Labels l = randomLabels({20, 17, 31}, 6, 3);
+  const Complex one = extractComplex(l, 1);
+  const Complex three = extractComplex(l, 3);
+  ASSERT_EQ(one.chunks.size(), three.chunks.size());
+  for (std::size_t k = 0; k < one.chunks.size(); ++k) {
+    EXPECT_EQ(one.chunks[k].positions, three.chunks[k].positions);
+    EXPECT_EQ(one.chunks[k].triangles, three.chunks[k].triangles);
+    EXPECT_EQ(one.chunks[k].faceLabels, three.chunks[k].faceLabels);
+    EXPECT_EQ(one.chunks[k].labelSplits, three.chunks[k].labelSplits);
+    EXPECT_EQ(one.chunks[k].labelPinches, three.chunks[k].labelPinches);
+  }
+}
+
+TEST(LabelComplex, ASingleVoxelIsACubeOfEightCorners) {
+  Labels l;
+  l.dims = {1, 1, 1};
+  l.values = {4};
+  VolumeInfo info;
+  const Complex c = extractComplex(l, 1, &info);
+  EXPECT_EQ(c.positions.size(), 8u);
+  EXPECT_EQ(c.triangles.size(), 12u);
+  const Topology t = topology(c.positions, surfaceOf(c, 4));
+  EXPECT_EQ(t.euler, 2);
+  EXPECT_DOUBLE_EQ(t.volume, 1.0);
+  for (const Vec3f& p : c.positions) {
+    EXPECT_EQ(std::abs(p.x), 0.5f);
+    EXPECT_EQ(std::abs(p.y), 0.5f);
+    EXPECT_EQ(std::abs(p.z), 0.5f);
+  }
+}
+
+// The job end to end on the label phantoms: per-label files and the report.
+struct LabelRun {
+  ExtractReport report;
+  std::map<std::int32_t, IndexedMesh> meshes;
+};
+
+LabelRun runLabels(const std::string& input, const std::string& dir, int threads = 1) {
+  ExtractSettings s;
+  s.inputs = {input};
+  s.output = dir + "/{label}.ply";
+  s.threads = threads;
+  LabelRun r;
+  r.report = runExtract(s);
+  for (const ExtractLabel& l : r.report.labels) r.meshes[l.value] = readMesh(l.path);
+  return r;
+}
+
+TEST(LabelPhantoms, EachSurfaceIsClosedManifoldOutwardWithItsEulerCharacteristic) {
+  const std::string dir = testing::tempDir();
+  struct Case {
+    const char* input;
+    std::map<std::int32_t, std::int64_t> euler;
+  };
+  const std::vector<Case> cases{
+      {"phantom:nested?n=30", {{1, 2}, {2, 4}, {3, 4}}},  // a ball and two shells (two spheres each)
+      {"phantom:boxes?n=24", {{1, 2}, {2, 2}, {3, 2}}},
+      {"phantom:voxel", {{1, 2}}},
+      {"phantom:touch?at=face", {{1, 2}}},    // one box of two voxels
+      {"phantom:touch?at=edge", {{1, 4}}},    // two cubes, split along their shared edge
+      {"phantom:touch?at=corner", {{1, 4}}},  // two cubes, split at their shared corner
+      {"phantom:checker?n=12&b=4&labels=27", {}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.input);
+    const LabelRun r = runLabels(c.input, dir);
+    ASSERT_FALSE(r.report.labels.empty());
+    for (const ExtractLabel& l : r.report.labels) {
+      const IndexedMesh& m = r.meshes.at(l.value);
+      const Topology t = topology(m.positions, m.triangles);
+      EXPECT_EQ(t.unpairedEdges, 0) << l.value;
+      EXPECT_EQ(t.nonManifoldEdges, 0) << l.value;
+      EXPECT_EQ(t.nonManifoldVertices, 0) << l.value;
+      EXPECT_NEAR(t.volume, l.voxelVolume, 1e-9 * l.voxelVolume) << l.value;  // positive: outward
+      EXPECT_EQ(l.stats.triangles, m.triangles.size());
+      EXPECT_TRUE(l.stats.closed());
+      EXPECT_EQ(l.pinches, 0u);
+      // 27 labels in 27 blocks: boxes.
+      const std::int64_t expected = c.euler.empty() ? 2 : c.euler.at(l.value);
+      EXPECT_EQ(t.euler, expected) << l.value;
+    }
+  }
+  // The splits: an edge touch duplicates the edge's two points, a corner touch its one point.
+  EXPECT_EQ(runLabels("phantom:touch?at=edge", dir).report.labels.at(0).splits, 2u);
+  EXPECT_EQ(runLabels("phantom:touch?at=corner", dir).report.labels.at(0).splits, 1u);
+  // Two cubes' 16 corners, the split face's two vertices (one per copy of the shared edge) and the
+  // centres of the four faces around that edge, which fan around them.
+  EXPECT_EQ(runLabels("phantom:touch?at=edge", dir).meshes.at(1).positions.size(), 22u);
+}
+
+TEST(LabelPhantoms, TouchingBoxesShareTheirFaceInOppositeOrientation) {
+  const std::string dir = testing::tempDir();
+  const LabelRun r = runLabels("phantom:boxes?n=24", dir, 2);
+  // Boxes 8 wide along x, 12 by 12 in y and z: two interfaces of 12 x 12 voxel faces.
+  ASSERT_EQ(r.report.interfaces.size(), 2u);
+  for (const ExtractInterface& i : r.report.interfaces) {
+    EXPECT_EQ(i.b, i.a + 1);
+    EXPECT_EQ(i.triangles, 2u * 144u);
+    EXPECT_DOUBLE_EQ(i.area, 144.0);
+  }
+  // Every triangle of box 1 on its face with box 2 is in box 2's surface, reversed.
+  const IndexedMesh& a = r.meshes.at(1);
+  const IndexedMesh& b = r.meshes.at(2);
+  auto key = [](const IndexedMesh& m, const Triangle& t, bool reversed) {
+    std::array<std::array<float, 3>, 3> p{};
+    for (int k = 0; k < 3; ++k) {
+      const Vec3f& v = m.positions[t[static_cast<std::size_t>(reversed ? (3 - k) % 3 : k)]];
+      p[static_cast<std::size_t>(k)] = {v.x, v.y, v.z};
+    }
+    std::rotate(p.begin(), std::min_element(p.begin(), p.end()), p.end());
+    return p;
+  };
+  std::set<std::array<std::array<float, 3>, 3>> inB;
+  for (const Triangle& t : b.triangles) inB.insert(key(b, t, false));
+  std::size_t shared = 0;
+  for (const Triangle& t : a.triangles) shared += inB.count(key(a, t, true));
+  EXPECT_EQ(shared, 2u * 144u);
+}
+
+TEST(LabelPhantoms, TheReportCountsVoxelsAndVolumes) {
+  const std::string dir = testing::tempDir();
+  const LabelRun r = runLabels("phantom:nested?n=30", dir);
+  Labels l;
+  l.dims = {30, 30, 30};
+  auto phantom = openSource("phantom:nested?n=30", {});
+  std::vector<float> slice;
+  while (readSliceInto(*phantom, slice)) l.values.insert(l.values.end(), slice.begin(), slice.end());
+  const auto counts = l.counts();
+  for (const ExtractLabel& label : r.report.labels) {
+    EXPECT_EQ(label.voxels, counts.at(label.value));
+    EXPECT_NEAR(label.stats.volume, static_cast<double>(label.voxels), 1e-9 * static_cast<double>(label.voxels));
+  }
+  const auto faces = l.faces();
+  for (const ExtractInterface& i : r.report.interfaces) {
+    EXPECT_NEAR(i.area, static_cast<double>(faces.at({i.a, i.b})), 1e-9);
+  }
+}
+
+}  // namespace
+}  // namespace isoslab
