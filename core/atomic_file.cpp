@@ -1,5 +1,8 @@
 #include "core/atomic_file.h"
 
+#include <algorithm>
+#include <memory>
+
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -257,12 +260,15 @@ void SpoolFile::read(void* data, std::size_t size) {
 
 void SpoolFile::copyTo(AtomicFile& out) {
   rewind();
-  std::vector<char> buf(1 << 20);
+  // At most 1 MiB, no more than the spool holds, and not zeroed: a run with a file per label copies
+  // many small spools.
+  const auto capacity = static_cast<std::size_t>(std::clamp<std::int64_t>(size_, 1, 1 << 20));
+  const std::unique_ptr<char[]> buf(new char[capacity]);
   while (read_ < size_) {
     const std::size_t want =
-        static_cast<std::size_t>(std::min<std::int64_t>(size_ - read_, static_cast<std::int64_t>(buf.size())));
-    read(buf.data(), want);
-    out.write(buf.data(), want);
+        static_cast<std::size_t>(std::min<std::int64_t>(size_ - read_, static_cast<std::int64_t>(capacity)));
+    read(buf.get(), want);
+    out.write(buf.get(), want);
   }
 }
 

@@ -12,6 +12,16 @@ constexpr int edgeOf(int a, int b) noexcept {
   return -1;
 }
 
+// Per face (kLabelFaceCorners), its edges in cyclic order: edge k joins corners k and k + 1.
+constexpr std::array<std::array<int, 4>, 6> makeFaceEdges() noexcept {
+  std::array<std::array<int, 4>, 6> out{};
+  for (std::size_t f = 0; f < 6; ++f) {
+    for (std::size_t k = 0; k < 4; ++k) out[f][k] = edgeOf(kLabelFaceCorners[f][k], kLabelFaceCorners[f][(k + 1) % 4]);
+  }
+  return out;
+}
+constexpr std::array<std::array<int, 4>, 6> kFaceEdges = makeFaceEdges();
+
 int find(std::array<int, 12>& parent, int e) noexcept {
   while (parent[static_cast<std::size_t>(e)] != e) {
     auto& p = parent[static_cast<std::size_t>(e)];
@@ -66,11 +76,10 @@ CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept {
   if (!any) return out;
   for (const auto& corners : kLabelFaceCorners) {
     std::array<std::int32_t, 4> f{};
-    std::array<int, 4> edges{};
     for (std::size_t k = 0; k < 4; ++k) {
       f[k] = labels[static_cast<std::size_t>(corners[k])];
-      edges[k] = edgeOf(corners[k], corners[(k + 1) % 4]);
     }
+    const auto& edges = kFaceEdges[static_cast<std::size_t>(&corners - kLabelFaceCorners.data())];
     const int split = faceSplit(f);
     if (split == 1) {  // around corner 0 (edges 3, 0) and corner 2 (edges 1, 2)
       join(parent, edges[3], edges[0]);
@@ -120,11 +129,10 @@ void forEachPinch(const std::array<std::int32_t, 8>& labels, const CellGroups& g
     for (int e = 0; e < 12; ++e) parent[static_cast<std::size_t>(e)] = e;
     for (const auto& corners : kLabelFaceCorners) {
       std::array<std::int32_t, 4> f{};
-      std::array<int, 4> edges{};
       for (std::size_t k = 0; k < 4; ++k) {
         f[k] = labels[static_cast<std::size_t>(corners[k])];
-        edges[k] = edgeOf(corners[k], corners[(k + 1) % 4]);
       }
+      const auto& edges = kFaceEdges[static_cast<std::size_t>(&corners - kLabelFaceCorners.data())];
       const int split = faceSplit(f);
       std::array<std::array<int, 2>, 2> pairs{};
       if (split == 1) {

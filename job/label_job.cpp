@@ -78,6 +78,21 @@ std::string expandPattern(const std::string& pattern, std::int32_t value, const 
   return out;
 }
 
+// Counts the complex's vertices and triangles.
+class ComplexCounter final : public MeshSink {
+ public:
+  void begin(const MeshHeader&) override {}
+  void consume(const MeshChunk& chunk) override {
+    stats_.vertices += chunk.positions.size();
+    stats_.triangles += chunk.triangles.size();
+  }
+  void finish() override {}
+  const MeshStats& stats() const noexcept { return stats_; }
+
+ private:
+  MeshStats stats_;
+};
+
 // One label's sinks: its writer (pattern outputs) and its measures.
 struct LabelChain {
   std::unique_ptr<MeshFileSink> writer;
@@ -132,7 +147,8 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
     chain.tee = std::make_unique<TeeSink>(sinks);
     return chain.tee.get();
   });
-  MeshStatsSink complexStats;
+  // The complex as a whole is counted, not measured: its measures are the labels'.
+  ComplexCounter complexStats;
   std::unique_ptr<MeshFileSink> complexWriter;
   std::vector<MeshSink*> heads{&split, &complexStats};
   if (!pattern) {
