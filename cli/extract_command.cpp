@@ -266,6 +266,8 @@ ExtractSettings extractSettings(const ExtractArgs& args, RankGroup* ranks) {
   }
   if (!args.labels.empty()) s.labels = parseLabelRequest(args.labels);
   s.labelTable = args.labelTable;
+  // The edges of every label are measured for the report; the summary line does without.
+  s.labelTopology = !args.report.empty();
   const auto method = parseMethod(args.method);
   if (!method) {
     throw UsageError(
@@ -326,8 +328,10 @@ int runExtractCommand(const ExtractArgs& args, RankGroup* ranks) {
   if (r.labelRun) {
     std::size_t closedLabels = 0;
     for (const ExtractLabel& l : r.labels) closedLabels += l.stats.closed();
-    std::fprintf(stderr, "isoslab: labels: %zu surfaces (%zu closed), %llu triangles in the complex, %.2f s -> %s\n",
-                 r.labels.size(), closedLabels, static_cast<unsigned long long>(s.triangles), r.seconds.total,
+    const std::string closed =
+        !r.labels.empty() && r.labels.front().topology ? fmt::format(" ({} closed)", closedLabels) : "";
+    std::fprintf(stderr, "isoslab: labels: %zu surfaces%s, %llu triangles in the complex, %.2f s -> %s\n",
+                 r.labels.size(), closed.c_str(), static_cast<unsigned long long>(s.triangles), r.seconds.total,
                  args.output.c_str());
     return 0;
   }

@@ -79,8 +79,10 @@ CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept {
     for (std::size_t k = 0; k < 4; ++k) {
       f[k] = labels[static_cast<std::size_t>(corners[k])];
     }
-    const auto& edges = kFaceEdges[static_cast<std::size_t>(&corners - kLabelFaceCorners.data())];
+    const auto face = static_cast<std::size_t>(&corners - kLabelFaceCorners.data());
+    const auto& edges = kFaceEdges[face];
     const int split = faceSplit(f);
+    out.faceSplits = static_cast<std::uint16_t>(out.faceSplits | (split << (2 * face)));
     if (split == 1) {  // around corner 0 (edges 3, 0) and corner 2 (edges 1, 2)
       join(parent, edges[3], edges[0]);
       join(parent, edges[1], edges[2]);

@@ -51,6 +51,10 @@ struct CellGroups {
   std::uint8_t count = 0;
   /// Per edge, its copy; 0xff where the edge is not crossed.
   std::array<std::uint8_t, 12> edge{};
+  /// Per face f (kLabelFaceCorners), faceSplit() of its labels in bits 2f and 2f + 1.
+  std::uint16_t faceSplits = 0;
+
+  int faceSplitOf(int face) const noexcept { return (faceSplits >> (2 * face)) & 3; }
 };
 
 /// The copies of a cell with corner labels `labels` (kLabelEdgeCorners' numbering). Copies are

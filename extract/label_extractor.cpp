@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstring>
 #include <limits>
 #include <new>
+#include <unordered_map>
+#include <vector>
 
 #include "extract/label_cells.h"
 
@@ -12,15 +15,17 @@ namespace {
 
 constexpr VertexId kUnsetId = std::numeric_limits<VertexId>::max();
 
-// What the layer above reads of a cell, in the slots of the top plane (slot = cell * kTopSlots +
+// What the layer above reads of a cell, in the slots of the top plane (slotOf(cell, k), below
 // k): its top edges' vertices (edges 2, 3, 6, 7: k = 0..3), then the vertices of its split faces
 // x = 0 (k = 4..7) and y = 0 (k = 8..11), by the position of an edge in the face.
 constexpr std::size_t kTopSlots = 12;
+// The top edges' slots come first (cell * 4 + k), the rarely used split faces' after all of them
+// (cells * 4 + cell * 8 + k - 4), so that the plane the layer above reads most is small.
 constexpr std::array<int, 12> kTopSlot{-1, -1, 0, 1, -1, -1, 2, 3, -1, -1, -1, -1};
 
 // A cell's ids in a row buffer: its edges' copies (0..11), then the vertices of its split faces
 // x = 0, y = 0 and z = 0, by edge position (12 + 4 * face + position).
-constexpr std::size_t kRowIds = 24;
+constexpr std::size_t kRowIds = 25;  // and at 24, the split faces it owns: bit f of kOwnedFaces
 
 // The faces a cell owns (kLabelFaceCorners 0: x = 0, 2: y = 0, 4: z = 0), in the order of kRowIds.
 constexpr std::array<int, 3> kOwnedFaces{0, 2, 4};
@@ -55,6 +60,9 @@ class LabelKernel {
   const LatticeFrame& frame() const noexcept { return frame_; }
   std::array<std::int64_t, 3> dims() const noexcept { return {px_, py_, pz_}; }
   std::size_t sliceSlots() const noexcept { return static_cast<std::size_t>(cx_ * cy_) * kTopSlots; }
+  std::size_t slotOf(std::size_t cell, std::size_t k) const noexcept {
+    return k < 4 ? cell * 4 + k : static_cast<std::size_t>(cx_ * cy_) * 4 + cell * 8 + (k - 4);
+  }
   std::uint64_t vertexCount() const noexcept { return next_; }
   void resetVertexCount() noexcept { next_ = 0; }
 
@@ -146,12 +154,39 @@ class LabelKernel {
     end = std::min(end, cx_);
     VertexId* here = &row_[static_cast<std::size_t>(j & 1)][0];
     const VertexId* below = &row_[static_cast<std::size_t>((j + 1) & 1)][0];
-    for (std::int64_t i = std::max<std::int64_t>(begin, 0); i < end; ++i) {
-      const float v = rows[0][i];
-      if (rows[0][i + 1] == v && rows[1][i] == v && rows[1][i + 1] == v && rows[2][i] == v && rows[2][i + 1] == v &&
-          rows[3][i] == v && rows[3][i + 1] == v) {
+    begin = std::max<std::int64_t>(begin, 0);
+    if (begin >= end) return;
+    // Which cells are crossed, in one branch-free pass the compiler vectorises: a sample column is
+    // uniform when its four samples agree, a cell when both its columns are and they agree.
+    const auto n = static_cast<std::size_t>(end - begin + 1);
+    column_.resize(n + 8);
+    const float* r0 = rows[0] + begin;
+    const float* r1 = rows[1] + begin;
+    const float* r2 = rows[2] + begin;
+    const float* r3 = rows[3] + begin;
+    std::uint8_t* col = column_.data();
+    for (std::size_t k = 0; k < n; ++k) {
+      col[k] = static_cast<std::uint8_t>((r0[k] != r1[k]) | (r0[k] != r2[k]) | (r0[k] != r3[k]));
+    }
+    for (std::size_t k = 0; k + 1 < n; ++k) {
+      col[k] = static_cast<std::uint8_t>(col[k] | col[k + 1] | (r0[k] != r0[k + 1]));
+    }
+    col[n - 1] = 0;
+    for (std::size_t k = n; k < n + 8; ++k) col[k] = 0;
+    for (std::size_t k = 0; k + 1 < n;) {
+      // Eight uniform cells at a time.
+      std::uint64_t word;
+      std::memcpy(&word, col + k, sizeof word);
+      if (word == 0) {
+        k += 8;
         continue;
       }
+      if (col[k] == 0) {
+        ++k;
+        continue;
+      }
+      const std::int64_t i = begin + static_cast<std::int64_t>(k);
+      ++k;
       const std::array<std::int32_t, 8> labels{
           static_cast<std::int32_t>(rows[0][i]), static_cast<std::int32_t>(rows[0][i + 1]),
           static_cast<std::int32_t>(rows[1][i]), static_cast<std::int32_t>(rows[1][i + 1]),
@@ -161,10 +196,16 @@ class LabelKernel {
     }
   }
 
-  // The cell's copies; `several` tells a cell of three labels or more, which may pinch.
-  static const CellGroups& groupsOf(const std::array<std::int32_t, 8>& labels, CellGroups& scratch,
-                                    bool& several) noexcept {
-    several = false;
+  // A cell of three labels or more, by the ranks of its corners' labels in connection order (3
+  // bits a corner): its copies and its pinches, by rank. Such cells are few, and their patterns
+  // fewer.
+  struct ManyLabelCell {
+    CellGroups groups;
+    std::vector<std::pair<std::uint8_t, int>> pinches;  // (rank, extra fans)
+  };
+
+  // The cell's copies; cells of three labels or more also report their pinches.
+  const CellGroups& groupsOf(const std::array<std::int32_t, 8>& labels) {
     const std::int32_t a = labels[0];
     std::int32_t b = a;
     for (std::int32_t l : labels) {
@@ -176,21 +217,46 @@ class LabelKernel {
     std::uint8_t mask = 0;
     const std::int32_t later = connectsBefore(a, b) ? b : a;
     for (std::size_t c = 0; c < 8; ++c) {
-      if (labels[c] != a && labels[c] != b) {
-        several = true;
-        scratch = groupCell(labels);
-        return scratch;
-      }
+      if (labels[c] != a && labels[c] != b) return manyLabels(labels);
       if (labels[c] == later) mask = static_cast<std::uint8_t>(mask | (1u << c));
     }
     return twoLabelGroups(mask);
   }
 
+  const CellGroups& manyLabels(const std::array<std::int32_t, 8>& labels) {
+    std::array<std::int32_t, 8> distinct = labels;
+    std::sort(distinct.begin(), distinct.end(), connectsBefore);
+    const auto end = std::unique(distinct.begin(), distinct.end());
+    std::uint32_t key = 0;
+    std::array<std::int32_t, 8> ranked{};
+    for (std::size_t c = 0; c < 8; ++c) {
+      const auto rank = static_cast<std::uint32_t>(std::lower_bound(distinct.begin(), end, labels[c], connectsBefore) -
+                                                   distinct.begin());
+      key |= rank << (3 * c);
+      ranked[c] = static_cast<std::int32_t>(rank);
+    }
+    auto [it, fresh] = manyLabelCells_.try_emplace(key);
+    ManyLabelCell& cell = it->second;
+    if (fresh) {
+      // Ranks keep the connection order (0 stays the background's rank only when 0 is there, and
+      // the rule only compares labels), so the pattern's copies are the cell's.
+      std::array<std::int32_t, 8> pattern{};
+      const bool background = distinct.front() == 0;
+      for (std::size_t c = 0; c < 8; ++c) pattern[c] = background ? ranked[c] : ranked[c] + 1;
+      cell.groups = groupCell(pattern);
+      forEachPinch(pattern, cell.groups, [&](std::int32_t label, int extra) {
+        cell.pinches.emplace_back(static_cast<std::uint8_t>(background ? label : label - 1), extra);
+      });
+    }
+    for (const auto& [rank, extra] : cell.pinches) {
+      for (int k = 0; k < extra; ++k) out_->labelPinches.push_back(distinct[rank]);
+    }
+    return cell.groups;
+  }
+
   void cell(std::int64_t i, std::int64_t j, const std::array<std::int32_t, 8>& labels, VertexId* ids,
             const VertexId* below) {
-    CellGroups scratch;
-    bool several = false;
-    const CellGroups& g = groupsOf(labels, scratch, several);
+    const CellGroups& g = groupsOf(labels);
     // The copies' vertices, at the cell's centre: the corner of the voxels' boxes.
     const VertexId first = static_cast<VertexId>(next_);
     const Vec3d p =
@@ -209,27 +275,24 @@ class LabelKernel {
     }
     next_ += g.count;
     if (g.count > 1) countSplits(labels, g);
-    if (several) {
-      forEachPinch(labels, g, [this](std::int32_t label, int extra) {
-        for (int k = 0; k < extra; ++k) out_->labelPinches.push_back(label);
-      });
-    }
-    const std::size_t cellSlot = static_cast<std::size_t>(j * cx_ + i) * kTopSlots;
+    const auto cellIndex = static_cast<std::size_t>(j * cx_ + i);
     for (std::size_t e = 0; e < 12; ++e) {
       if (g.edge[e] == 0xff) continue;
       const VertexId id = first + g.edge[e];
       ids[e] = id;
       if (kTopSlot[e] >= 0) {
-        const std::size_t slot = cellSlot + static_cast<std::size_t>(kTopSlot[e]);
+        const std::size_t slot = slotOf(cellIndex, static_cast<std::size_t>(kTopSlot[e]));
         top_[1][slot] = id;
         topSet_.push_back(slot);
       }
     }
     // Split faces: two vertices at the face's centre, one per copy of its mesh edge, so that the
     // copies stay two edges even where both cells join them into one vertex copy.
+    VertexId owned = 0;
     for (std::size_t f = 0; f < 3; ++f) {
-      const int split = faceSplit(faceOf(labels, kOwnedFaces[f]));
+      const int split = g.faceSplitOf(kOwnedFaces[f]);
       if (split == 0) continue;
+      owned |= VertexId{1} << f;
       const std::array<double, 3> c{static_cast<double>(i) - (f == 0 ? 1.0 : 0.5),
                                     static_cast<double>(j) - (f == 1 ? 1.0 : 0.5),
                                     static_cast<double>(z_) - (f == 2 ? 1.0 : 0.5)};
@@ -239,12 +302,13 @@ class LabelKernel {
       for (std::size_t k = 0; k < 4; ++k) {
         ids[12 + 4 * f + k] = byPosition[k];
         if (f < 2) {
-          const std::size_t slot = cellSlot + 4 + 4 * f + k;
+          const std::size_t slot = slotOf(cellIndex, 4 + 4 * f + k);
           top_[1][slot] = byPosition[k];
           topSet_.push_back(slot);
         }
       }
     }
+    ids[24] = owned;
     // The quads of the edges at the cell's lowest corner, whose other cells are done: the z edge
     // (cells of this layer, rows j - 1 and j), the x and y edges on slice z (cells of this layer
     // and the one below). Each is crossed only away from the padding, so i, j >= 1 where a cell to
@@ -293,6 +357,7 @@ class LabelKernel {
   // (ci, cj) of this layer (dz 0, its ids given) or the layer below (dz -1, from the top plane), at
   // the edge's position k in the face; kUnsetId where the face is not split.
   VertexId sideVertex(std::int64_t ci, std::int64_t cj, int dz, int f, int k, const VertexId* ownerIds) {
+    if (dz == 0) return ((ownerIds[24] >> f) & 1) != 0 ? ownerIds[12 + 4 * f + k] : kUnsetId;
     const auto& corners = kLabelFaceCorners[static_cast<std::size_t>(kOwnedFaces[static_cast<std::size_t>(f)])];
     std::array<std::int32_t, 4> face{};
     for (std::size_t c = 0; c < 4; ++c) {
@@ -300,7 +365,6 @@ class LabelKernel {
       face[c] = sample(ci + (corner & 1), cj + ((corner >> 1) & 1), dz + (corner >> 2));
     }
     if (faceSplit(face) == 0) return kUnsetId;
-    if (dz == 0) return ownerIds[12 + 4 * f + k];
     return lower(ci, cj, 4 + 4 * f + k);
   }
 
@@ -313,7 +377,7 @@ class LabelKernel {
 
   // The vertex in slot k of cell (i, j) of the layer below (kTopSlots).
   VertexId lower(std::int64_t i, std::int64_t j, int k) {
-    const std::size_t slot = static_cast<std::size_t>(j * cx_ + i) * kTopSlots + static_cast<std::size_t>(k);
+    const std::size_t slot = slotOf(static_cast<std::size_t>(j * cx_ + i), static_cast<std::size_t>(k));
     if (foreign_ == nullptr) return top_[0][slot];
     const auto id = kForeignVertex | static_cast<VertexId>(foreign_->size());
     foreign_->push_back(CacheSlot{static_cast<std::int64_t>(slot)});
@@ -380,9 +444,11 @@ class LabelKernel {
   const float* hi_ = nullptr;
   std::array<const RowSpan*, 2> spans_{};
   std::array<std::vector<RowSpan>, 2> scratch_;
-  std::array<IdPlane, 2> row_;  // per cell of rows j and j - 1 (alternating): the id of each edge's copy
-  std::array<IdPlane, 2> top_;  // the top edges' ids: [0] the layer below, [1] this layer
+  std::vector<std::uint8_t> column_;  // per cell of a row: crossed
+  std::array<IdPlane, 2> row_;        // per cell of rows j and j - 1 (alternating): the id of each edge's copy
+  std::array<IdPlane, 2> top_;        // the top edges' ids: [0] the layer below, [1] this layer
   std::vector<std::size_t> topSet_;
+  std::unordered_map<std::uint32_t, ManyLabelCell> manyLabelCells_;
   bool allocated_ = false;
   MeshChunk* out_ = nullptr;
   std::vector<CacheSlot>* foreign_ = nullptr;

@@ -128,13 +128,17 @@ std::string extractReportText(const ExtractReport& report, const std::string& wh
                 {"mesh_volume", l.stats.volume},
                 {"area", l.stats.area},
                 {"vertices", l.stats.vertices},
-                {"triangles", l.stats.triangles},
-                {"closed", l.stats.closed()},
-                {"oriented", l.stats.oriented()},
-                {"euler", l.stats.euler},
-                {"splits", l.splits},
-                {"pinches", l.pinches},
-                {"bounds", l.stats.bounds}};
+                {"triangles", l.stats.triangles}};
+      if (l.topology) {
+        j["closed"] = l.stats.closed();
+        j["oriented"] = l.stats.oriented();
+        j["boundary_edges"] = l.stats.boundaryEdges;
+        j["nonmanifold_edges"] = l.stats.nonManifoldEdges;
+        j["euler"] = l.stats.euler;
+      }
+      j["splits"] = l.splits;
+      j["pinches"] = l.pinches;
+      j["bounds"] = l.stats.bounds;
       if (!l.path.empty()) j["path"] = l.path;
       labels.push_back(j);
     }

@@ -55,8 +55,9 @@ struct ExtractLabel {
   std::array<std::uint8_t, 3> color{};
   bool colorFromTable = false;
   std::int64_t voxels = 0;
-  double voxelVolume = 0;  // voxels times one voxel's volume, in output units
-  MeshStats stats;
+  double voxelVolume = 0;     // voxels times one voxel's volume, in output units
+  MeshStats stats;            // edges and euler only with topology
+  bool topology = false;      // ExtractSettings::labelTopology
   std::uint64_t splits = 0;   // vertices split where its voxels touch at an edge or a corner
   std::uint64_t pinches = 0;  // extra fans kept at a vertex where three labels meet
   std::string path;           // its file, with a pattern output

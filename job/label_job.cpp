@@ -133,7 +133,8 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
   };
   LabelSplitSink split([&](std::int32_t label) -> MeshSink* {
     LabelChain& chain = chains[label];
-    std::vector<MeshSink*> sinks{&chain.stats};
+    std::vector<MeshSink*> sinks;
+    if (settings.labelTopology) sinks.push_back(&chain.stats);
     if (pattern) {
       chain.path = expandPattern(settings.output, label, nameOf(label));
       const auto [it, fresh] = paths.emplace(chain.path, label);
@@ -176,6 +177,7 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
   if (run.valueRange) report.valueRange = std::array{asFloat((*run.valueRange)[0]), asFloat((*run.valueRange)[1])};
   const auto counts = counter->voxelCounts();
   const double voxelVolume = frame.cellVolume();
+  const auto measures = split.measures();
   for (auto& [value, chain] : chains) {
     ExtractLabel l;
     l.value = value;
@@ -186,7 +188,14 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
     const auto n = counts.find(value);
     l.voxels = n != counts.end() ? n->second : 0;
     l.voxelVolume = static_cast<double>(l.voxels) * voxelVolume;
-    l.stats = chain.stats.stats();
+    l.topology = settings.labelTopology;
+    if (l.topology) l.stats = chain.stats.stats();
+    const LabelSplitSink::Measures& m = measures.at(value);
+    l.stats.vertices = m.vertices;
+    l.stats.triangles = m.triangles;
+    l.stats.area = m.area;
+    l.stats.volume = m.volume;
+    l.stats.bounds = m.bounds;
     if (const auto s = split.splits().find(value); s != split.splits().end()) l.splits = s->second;
     if (const auto p = split.pinches().find(value); p != split.pinches().end()) l.pinches = p->second;
     l.path = chain.path;

@@ -8,11 +8,16 @@ namespace isoslab {
 namespace {
 constexpr std::uint32_t kNoStream = std::numeric_limits<std::uint32_t>::max();
 
-double area(const Vec3f& a, const Vec3f& b, const Vec3f& c) noexcept {
+// A triangle's area and its signed volume term (the tetrahedron to the origin), in double.
+std::pair<double, double> measure(const Vec3f& a, const Vec3f& b, const Vec3f& c) noexcept {
   const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
   const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
   const double nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
-  return 0.5 * std::sqrt(nx * nx + ny * ny + nz * nz);
+  const double volume =
+      (double(a.x) * (double(b.y) * c.z - double(b.z) * c.y) - double(a.y) * (double(b.x) * c.z - double(b.z) * c.x) +
+       double(a.z) * (double(b.x) * c.y - double(b.y) * c.x)) /
+      6.0;
+  return {0.5 * std::sqrt(nx * nx + ny * ny + nz * nz), volume};
 }
 }  // namespace
 
@@ -54,7 +59,15 @@ VertexId LabelSplitSink::idFor(std::uint32_t stream, VertexId v, const MeshChunk
   w.uses.push_back(Use{stream, id, 0});
   // The position from the window's chunk: the current one, or the previous (kept in previous_).
   const bool here = v >= chunk.firstVertex;
-  s.chunk.positions.push_back(here ? chunk.positions[v - chunk.firstVertex] : previousPositions_[v - previous_.first]);
+  const Vec3f& p = here ? chunk.positions[v - chunk.firstVertex] : previousPositions_[v - previous_.first];
+  s.chunk.positions.push_back(p);
+  Measures& m = s.measures;
+  const std::array<double, 3> c{p.x, p.y, p.z};
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (m.vertices == 0 || c[a] < m.bounds[a]) m.bounds[a] = c[a];
+    if (m.vertices == 0 || c[a] > m.bounds[a + 3]) m.bounds[a + 3] = c[a];
+  }
+  ++m.vertices;
   s.chunk.boundary.push_back(here ? chunk.boundary[v - chunk.firstVertex] : previousBoundary_[v - previous_.first]);
   return id;
 }
@@ -79,8 +92,9 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
     const auto position = [&](VertexId v) -> const Vec3f& {
       return v >= chunk.firstVertex ? chunk.positions[v - chunk.firstVertex] : previousPositions_[v - previous_.first];
     };
+    const auto [area, volume] = measure(position(tri[0]), position(tri[1]), position(tri[2]));
     ++lastInterface->triangles;
-    lastInterface->area += area(position(tri[0]), position(tri[1]), position(tri[2]));
+    lastInterface->area += area;
     for (int side = 0; side < 2; ++side) {
       const std::int32_t label = sides[static_cast<std::size_t>(side)];
       if (label == 0) continue;
@@ -99,6 +113,9 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
       const VertexId c = idFor(k, tri[2], chunk);
       // The back label's face as it is; the front label's reversed.
       s.chunk.triangles.push_back(side == 1 ? Triangle{a, b, c} : Triangle{a, c, b});
+      ++s.measures.triangles;
+      s.measures.area += area;
+      s.measures.volume += side == 1 ? volume : -volume;
     }
   }
   std::sort(touched_.begin(), touched_.end());
@@ -117,6 +134,12 @@ void LabelSplitSink::finish() {
   for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
   std::sort(order.begin(), order.end(), [&](auto a, auto b) { return streams_[a].label < streams_[b].label; });
   for (std::uint32_t k : order) streams_[k].sink->finish();
+}
+
+std::map<std::int32_t, LabelSplitSink::Measures> LabelSplitSink::measures() const {
+  std::map<std::int32_t, Measures> out;
+  for (const Stream& s : streams_) out[s.label] = s.measures;
+  return out;
 }
 
 std::vector<std::int32_t> LabelSplitSink::labels() const {

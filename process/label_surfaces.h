@@ -7,6 +7,7 @@
 // chunks, the labels that used it and its number in each.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -42,6 +43,18 @@ class LabelSplitSink final : public MeshSink {
   /// labelPinches).
   const std::map<std::int32_t, std::uint64_t>& splits() const noexcept { return splits_; }
   const std::map<std::int32_t, std::uint64_t>& pinches() const noexcept { return pinches_; }
+  /// Per label, measured as the triangles pass (in double, from the float positions): its
+  /// surface's vertices, triangles, area, enclosed volume (divergence theorem, outward faces) and
+  /// bounds (xmin ymin zmin xmax ymax zmax).
+  struct Measures {
+    std::uint64_t vertices = 0;
+    std::uint64_t triangles = 0;
+    double area = 0;
+    double volume = 0;
+    std::array<double, 6> bounds{};
+  };
+  /// After finish(), by label.
+  std::map<std::int32_t, Measures> measures() const;
   /// The labels that had a surface, ascending.
   std::vector<std::int32_t> labels() const;
 
@@ -52,6 +65,7 @@ class LabelSplitSink final : public MeshSink {
     MeshChunk chunk;
     VertexId next = 0;
     bool touched = false;
+    Measures measures;
   };
   // A label's number for a complex vertex of the window.
   struct Use {
