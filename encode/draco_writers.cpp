@@ -96,6 +96,84 @@ GlbDracoWriter::GlbDracoWriter(std::string path, const WriterOptions& options)
     throw Error(fmt::format("`chunk_triangles`: {} must be positive", options.chunkTriangles));
 }
 
+GlbDracoWriter::GlbDracoWriter(std::string path, const WriterOptions& options, GlbScene& scene, std::string name,
+                               std::array<std::uint8_t, 3> color)
+    : GlbDracoWriter(std::move(path), options) {
+  scene_ = &scene;
+  sceneName_ = std::move(name);
+  sceneColor_ = color;
+}
+
+GlbScene::GlbScene(std::string path, const WriterOptions& options) : path_(std::move(path)), options_(options) {}
+GlbScene::~GlbScene() = default;
+
+void GlbScene::begin(const MeshHeader& header) {
+  header_ = header;
+  AtomicFile probe(path_);  // fail early on an unwritable destination
+  spool_ = std::make_unique<SpoolFile>(folderOf(path_), path_);
+}
+
+std::size_t GlbScene::addAccessor(nlohmann::ordered_json accessor) {
+  accessors_.push_back(std::move(accessor));
+  return accessors_.size() - 1;
+}
+
+std::size_t GlbScene::addView(nlohmann::ordered_json view) {
+  views_.push_back(std::move(view));
+  return views_.size() - 1;
+}
+
+std::int64_t GlbScene::write(const nlohmann::ordered_json& extras) {
+  const bool any = !meshes_.empty();
+  nlohmann::ordered_json gltf = gltfDocument(header_, options_, false, extras);
+  gltf["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+  gltf["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+  if (any) {
+    nlohmann::ordered_json nodes = nlohmann::ordered_json::array();
+    nlohmann::ordered_json meshes = nlohmann::ordered_json::array();
+    nlohmann::ordered_json materials = nlohmann::ordered_json::array();
+    nlohmann::ordered_json children = nlohmann::ordered_json::array();
+    const std::size_t first = options_.gltfFrame ? 1 : 0;
+    for (std::size_t k = 0; k < meshes_.size(); ++k) {
+      Mesh& m = meshes_[k];
+      for (auto& p : m.primitives) p["material"] = k;
+      meshes.push_back({{"name", m.name}, {"primitives", m.primitives}});
+      nodes.push_back({{"mesh", k}, {"name", m.name}, {"extras", m.extras}});
+      children.push_back(first + k);
+      // glTF's base colour is linear: the sRGB colour decoded.
+      nlohmann::ordered_json rgba = nlohmann::ordered_json::array();
+      for (std::uint8_t c : m.color) {
+        const double v = c / 255.0;
+        rgba.push_back(v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
+      }
+      rgba.push_back(1.0);
+      materials.push_back({{"name", m.name},
+                           {"pbrMetallicRoughness", {{"baseColorFactor", rgba}, {"metallicFactor", 0.0},
+                                                     {"roughnessFactor", 0.6}}},
+                           {"doubleSided", false}});
+    }
+    if (options_.gltfFrame) {
+      const std::string tag = header_.space == "lps" || header_.space == "physical" ? "LPS" : header_.space;
+      const nlohmann::ordered_json root = {{"name", fmt::format("{} to glTF", header_.space == "ras" ? "RAS" : tag)},
+                                           {"matrix", gltfFrameMatrix(header_.space)},
+                                           {"children", children}};
+      nodes.insert(nodes.begin(), root);
+      gltf["scenes"] = {{{"nodes", {0}}}};
+    } else {
+      gltf["scenes"] = {{{"nodes", children}}};
+    }
+    gltf["nodes"] = nodes;
+    gltf["meshes"] = meshes;
+    gltf["materials"] = materials;
+    gltf["accessors"] = accessors_;
+    gltf["bufferViews"] = views_;
+    gltf["buffers"] = {{{"byteLength", spool_->size()}}};
+  }
+  const std::int64_t bytes = writeGlbFile(path_, gltf, {spool_.get()});
+  spool_.reset();
+  return bytes;
+}
+
 namespace {
 
 // The vertices that Draco's Edgebreaker coder splits into several points: those whose triangles in
@@ -135,9 +213,14 @@ GlbDracoWriter::~GlbDracoWriter() = default;
 void GlbDracoWriter::begin(const MeshHeader& header) {
   header_ = header;
   settings_ = dracoSettingsFor(header.volumeBounds, options_);
+  if (scene_ != nullptr) {
+    spool_ = &scene_->spool();
+    return;
+  }
   // Fail early on an unwritable destination, before any work.
   AtomicFile probe(path_);
-  spool_ = std::make_unique<SpoolFile>(folderOf(path_), path_);
+  ownSpool_ = std::make_unique<SpoolFile>(folderOf(path_), path_);
+  spool_ = ownSpool_.get();
 }
 
 VertexId GlbDracoWriter::localVertex(VertexId id) {
@@ -386,6 +469,10 @@ void GlbDracoWriter::finish() {
   flush(std::move(current_));
   current_ = IndexedMesh{};
   while (!encoding_.empty()) spoolOldest();
+  if (scene_ != nullptr) {
+    addToScene();
+    return;
+  }
   const bool hasMesh = !primitives_.empty();
   nlohmann::ordered_json extras = {{"quantization_bits", settings_.quantBits},
                                    {"quantization_step", settings_.range / (std::ldexp(1.0, settings_.quantBits) - 1)},
@@ -435,8 +522,43 @@ void GlbDracoWriter::finish() {
     gltf["bufferViews"] = views;
     gltf["buffers"] = {{{"byteLength", spool_->size()}}};
   }
-  bytes_ = writeGlbFile(path_, gltf, {spool_.get()});
-  spool_.reset();
+  bytes_ = writeGlbFile(path_, gltf, {spool_});
+  ownSpool_.reset();
+  spool_ = nullptr;
+}
+
+void GlbDracoWriter::addToScene() {
+  GlbScene::Mesh mesh;
+  mesh.name = sceneName_;
+  mesh.color = sceneColor_;
+  for (const Primitive& p : primitives_) {
+    nlohmann::ordered_json attributes;
+    nlohmann::ordered_json dracoAttributes;
+    attributes["POSITION"] = scene_->addAccessor({{"componentType", 5126},
+                                                  {"count", p.points},
+                                                  {"type", "VEC3"},
+                                                  {"min", {p.min[0], p.min[1], p.min[2]}},
+                                                  {"max", {p.max[0], p.max[1], p.max[2]}}});
+    dracoAttributes["POSITION"] = p.ids.position;
+    if (p.ids.normal >= 0) {
+      attributes["NORMAL"] = scene_->addAccessor({{"componentType", 5126}, {"count", p.points}, {"type", "VEC3"}});
+      dracoAttributes["NORMAL"] = p.ids.normal;
+    }
+    if (p.ids.seam >= 0) {
+      attributes[kSeamAttribute] = scene_->addAccessor({{"componentType", 5123}, {"count", p.points}, {"type", "VEC2"}});
+      dracoAttributes[kSeamAttribute] = p.ids.seam;
+    }
+    const std::size_t indices =
+        scene_->addAccessor({{"componentType", 5125}, {"count", 3 * p.triangles}, {"type", "SCALAR"}});
+    const std::size_t view = scene_->addView({{"buffer", 0}, {"byteOffset", p.offset}, {"byteLength", p.length}});
+    mesh.primitives.push_back(
+        {{"attributes", attributes},
+         {"indices", indices},
+         {"mode", 4},
+         {"extensions", {{"KHR_draco_mesh_compression", {{"bufferView", view}, {"attributes", dracoAttributes}}}}}});
+  }
+  scene_->addMesh(std::move(mesh));
+  spool_ = nullptr;
 }
 
 std::vector<std::pair<std::string, double>> GlbDracoWriter::details() const {

@@ -224,10 +224,12 @@ void checkLabelSettings(const ExtractSettings& s) {
   const std::string ext = std::filesystem::path(s.output).extension().string();
   std::string lower = ext;
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  require(isOutputPattern(s.output) || lower == ".ply",
+  require(isOutputPattern(s.output) || lower == ".ply" || lower == ".glb",
           fmt::format("`output` '{}' is one file: label surfaces go to a pattern such as 'labels/{{name}}.stl' (a file "
-                      "per label), or to a .ply of the whole label complex",
+                      "per label), a .glb (a mesh per label) or a .ply of the whole label complex",
                       s.output));
+  require(isOutputPattern(s.output) || lower != ".glb" || s.draco,
+          "`draco` off: a .glb of label surfaces is written with Draco chunks only (use a pattern for plain .glb files)");
   require(s.output.find("{iso}") == std::string::npos,
           fmt::format("`output` '{}' holds {{iso}}, which label surfaces do not have (use {{name}} or {{label}})",
                       s.output));

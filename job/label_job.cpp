@@ -4,6 +4,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <optional>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -11,6 +14,7 @@
 
 #include "core/error.h"
 #include "core/interrupt.h"
+#include "encode/draco_writers.h"
 #include "encode/mesh_writer.h"
 #include "encode/ply_writer.h"
 #include "extract/label_extractor.h"
@@ -125,11 +129,25 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
   const MeshHeader header = labelHeader(info, frame);
 
   const bool pattern = isOutputPattern(settings.output);
+  std::string extension = std::filesystem::path(settings.output).extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  // A .glb: one mesh per label in one file, its chunks encoded as they close.
+  std::optional<GlbScene> scene;
+  WriterOptions labelWriting = writing;
+  if (!pattern && extension == ".glb") {
+    labelWriting.encodeThreads = 0;
+    scene.emplace(settings.output, labelWriting);
+    scene->begin(header);
+  }
   std::map<std::int32_t, LabelChain> chains;
   std::map<std::string, std::int32_t> paths;
   const auto nameOf = [&](std::int32_t value) {
     const LabelEntry* e = table ? table->find(value) : nullptr;
     return e != nullptr ? e->name : std::to_string(value);
+  };
+  const auto colorOf = [&](std::int32_t value) {
+    const LabelEntry* e = table ? table->find(value) : nullptr;
+    return e != nullptr && e->color ? *e->color : defaultLabelColor(value);
   };
   LabelSplitSink split([&](std::int32_t label) -> MeshSink* {
     LabelChain& chain = chains[label];
@@ -144,6 +162,10 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
       }
       chain.writer = makeMeshWriter(chain.path, writing);
       sinks.insert(sinks.begin(), chain.writer.get());
+    } else if (scene) {
+      chain.writer = std::make_unique<GlbDracoWriter>(settings.output, labelWriting, *scene, nameOf(label),
+                                                      colorOf(label));
+      sinks.insert(sinks.begin(), chain.writer.get());
     }
     chain.tee = std::make_unique<TeeSink>(sinks);
     return chain.tee.get();
@@ -152,7 +174,7 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
   ComplexCounter complexStats;
   std::unique_ptr<MeshFileSink> complexWriter;
   std::vector<MeshSink*> heads{&split, &complexStats};
-  if (!pattern) {
+  if (!pattern && !scene) {
     complexWriter = makeMeshWriter(settings.output, writing);
     heads.insert(heads.begin(), complexWriter.get());
   }
@@ -184,7 +206,7 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
     l.name = nameOf(value);
     const LabelEntry* e = table ? table->find(value) : nullptr;
     l.colorFromTable = e != nullptr && e->color.has_value();
-    l.color = l.colorFromTable ? *e->color : defaultLabelColor(value);
+    l.color = colorOf(value);
     const auto n = counts.find(value);
     l.voxels = n != counts.end() ? n->second : 0;
     l.voxelVolume = static_cast<double>(l.voxels) * voxelVolume;
@@ -228,7 +250,17 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
   report.seconds.write = run.writeSeconds;
   report.seconds.total = run.totalSeconds;
   report.ringBytes = run.ringBytes;
-  if (complexWriter) {
+  if (scene) {
+    // Each label's node carries its value and measures.
+    for (std::size_t k = 0; k < report.labels.size() && k < scene->meshes().size(); ++k) {
+      const ExtractLabel& l = report.labels[k];
+      scene->meshes()[k].extras = {{"label", l.value},    {"voxels", l.voxels},
+                                   {"voxel_volume", l.voxelVolume}, {"mesh_volume", l.stats.volume},
+                                   {"area", l.stats.area}, {"triangles", l.stats.triangles}};
+    }
+    report.output.path = settings.output;
+    report.output.bytes = scene->write({{"labels", report.labels.size()}});
+  } else if (complexWriter) {
     report.output.path = settings.output;
     report.output.bytes = complexWriter->bytes();
     report.output.details = complexWriter->details();

@@ -150,12 +150,11 @@ function primitiveData(gltf, bin, primitive) {
 // with that key; an unmarked vertex (0) is the previous primitive's unmarked vertex at the same
 // position when each primitive has exactly one there; 1 is never welded by position; points of
 // one primitive that carry one key >= 2 are one vertex.
-function weld(gltf, bin) {
+function weld(gltf, bin, primitives = gltf.meshes.flatMap((m) => m.primitives)) {
   let vertices = 0;
   const triangles = [];
   let previousKeys = new Map();
   let previousUnmarked = new Map();
-  const primitives = gltf.meshes.flatMap((m) => m.primitives);
   primitives.forEach((primitive, p) => {
     const { positions, keys, indices } = primitiveData(gltf, bin, primitive);
     const count = positions.length / 3;
@@ -213,7 +212,10 @@ function weld(gltf, bin) {
 }
 
 const { json: gltfJson, bin } = glbChunks(bytes);
-const welded = weld(gltfJson, bin);
+// Several meshes (label surfaces): each welded on its own, as its chunks' seams are its own.
+const several = (gltfJson.meshes ?? []).length > 1;
+const welded = several ? null : weld(gltfJson, bin);
+const meshes = several ? gltfJson.meshes.map((m) => ({ name: m.name, welded: weld(gltfJson, bin, m.primitives) })) : null;
 
 const loader = new GLTFLoader();
 loader.setDRACOLoader(new NodeDracoLoader());
@@ -227,6 +229,15 @@ gltf.scene.traverse((o) => {
   }
 });
 const box = new Box3().setFromObject(gltf.scene);
+// Per named node of a mesh, as three.js shows it: its colour (sRGB hex) and triangles.
+const nodes = {};
+gltf.scene.traverse((o) => {
+  if (!o.isMesh) return;
+  // A mesh of several primitives is a Group (the node) of one Mesh per primitive.
+  const name = o.parent?.isGroup ? o.parent.name : o.name;
+  const entry = nodes[name] ?? (nodes[name] = { color: o.material.color.getHexString(), triangles: 0 });
+  entry.triangles += o.geometry.index ? o.geometry.index.count / 3 : o.geometry.attributes.position.count / 3;
+});
 console.log(JSON.stringify({
   errors: report.issues.numErrors,
   warnings: report.issues.numWarnings,
@@ -237,4 +248,6 @@ console.log(JSON.stringify({
   max: box.isEmpty() ? null : box.max.toArray(),
   extras: gltf.asset.extras ?? null,
   welded,
+  meshes,
+  nodes,
 }));
