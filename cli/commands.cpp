@@ -17,6 +17,7 @@
 #include "encode/mesh_reader.h"
 #include "encode/mesh_writer.h"
 #include "io/dicom_series.h"
+#include "io/label_source.h"
 #include "io/open_source.h"
 #include "io/phantom.h"
 #include "io/volume_formats.h"
@@ -90,6 +91,20 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw, std::siz
     std::printf("input      %s\n", inputs.front().c_str());
     printGeometry(source->info());
     std::optional<ValueHistogram> histogram;
+    if (source->info().labelMap && histogramBins == 0) {
+      // A label map: its labels counted as its slices stream past (the background 0 not counted).
+      LabelSource labels(std::move(source), inputs.front(), std::nullopt);
+      std::vector<float> slice;
+      while (readSliceInto(labels, slice)) {
+      }
+      const auto counts = labels.voxelCounts();
+      const std::size_t n = counts.size() - (counts.count(0) != 0 ? 1 : 0);
+      std::printf("range      %d .. %d\n", counts.empty() ? 0 : counts.begin()->first,
+                  counts.empty() ? 0 : counts.rbegin()->first);
+      std::printf("labels     %zu (a label map: extract meshes every label, or those --labels names)\n", n);
+      for (const std::string& w : labels.warnings()) std::printf("warning    %s\n", withFlags(w).c_str());
+      return 0;
+    }
     if (histogramBins > 0)
       histogram = streamHistogram(*source, histogramBins, [&] { return openSource(inputs, options); });
     const auto range = !histogram              ? scanValueRange(*source)

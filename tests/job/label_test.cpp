@@ -9,6 +9,8 @@
 #include <random>
 #include <set>
 
+#include <nlohmann/json.hpp>
+
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_reader.h"
 #include "extract/label_extractor.h"
@@ -373,6 +375,111 @@ TEST(LabelPhantoms, TheReportCountsVoxelsAndVolumes) {
   const auto faces = l.faces();
   for (const ExtractInterface& i : r.report.interfaces) {
     EXPECT_NEAR(i.area, static_cast<double>(faces.at({i.a, i.b})), 1e-9);
+  }
+}
+
+}  // namespace
+}  // namespace isoslab
+
+namespace isoslab {
+namespace {
+
+std::string writeText(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
+  const std::string dir = testing::tempDir();
+  const std::string table = writeText(dir + "/t.txt", "# a table\n1 Liver 200 80 60\n2 Spleen 120 60 200\n");
+  struct Case {
+    std::string args;
+    int exit;
+    std::string message;
+  };
+  const std::vector<Case> cases{
+      {"'phantom:voxel' --labels Liver -o " + dir + "/{name}.ply", 2,
+       "isoslab: error: --labels names 'Liver', but no label table gives names (--label-table)\n"},
+      {"'phantom:voxel' --labels Livr,2 --label-table " + table + " -o " + dir + "/{name}.ply", 2,
+       "isoslab: error: --labels names 'Livr', which " + table + " does not hold; the nearest is 'Liver' (1)\n"},
+      {"'phantom:voxel' --label-table " + writeText(dir + "/bad.txt", "1 Liver\nLiver 2\n") + " -o " + dir +
+           "/{name}.ply",
+       1,
+       "isoslab: error: " + dir + "/bad.txt:2: 'Liver 2' is not a label line: its first field is not a whole number\n"},
+      {"'phantom:voxel' --labels 3-1 -o " + dir + "/{name}.ply", 2,
+       "isoslab: error: --labels range '3-1' is reversed\n"},
+      {"'phantom:voxel' --labels all --smooth 5 -o " + dir + "/{name}.ply", 2,
+       "isoslab: error: --smooth does not apply to label surfaces yet\n"},
+      {"'phantom:voxel' --labels all -o " + dir + "/one.stl", 2,
+       "isoslab: error: -o '" + dir +
+           "/one.stl' is one file: label surfaces go to a pattern such as 'labels/{name}.stl' (a file per label), "
+           "a .glb (a mesh per label) or a .ply of the whole label complex\n"},
+      {"'phantom:voxel' --labels all --iso 3 -o " + dir + "/{name}.ply", 2,
+       "isoslab: error: --iso and --labels exclude each other: a run meshes an iso value or labels\n"},
+      {"'phantom:sphere?n=4' --labels all -o " + dir + "/{name}.ply", 1,
+       "isoslab: error: phantom:sphere?n=4: voxel (0, 0, 0) holds 974.0192, which is not a label (a label map holds "
+       "whole numbers); for a scalar volume give --iso\n"},
+  };
+  for (const Case& c : cases) {
+    const auto r = testing::runCli("extract " + c.args + " -q");
+    EXPECT_EQ(r.exitCode, c.exit) << c.args;
+    EXPECT_EQ(r.err, c.message) << c.args;
+    EXPECT_EQ(testing::fileCount(dir), 2) << c.args;  // the two tables only
+  }
+  // Two labels whose names give one file: the run stops and leaves none of its files.
+  const std::string clash = writeText(dir + "/clash.txt", "1 a/b\n2 a_b\n");
+  const auto r =
+      testing::runCli("extract 'phantom:boxes?n=12&count=2' --label-table " + clash + " -o " + dir + "/{name}.ply -q");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_EQ(r.err,
+            "isoslab: error: -o pattern '" + dir + "/{name}.ply' gives '" + dir + "/a_b.ply' to labels 1 and 2\n");
+  EXPECT_EQ(testing::fileCount(dir), 3);
+}
+
+TEST(LabelCli, AbsentLabelsWarnAndInfoSaysLabelMap) {
+  const std::string dir = testing::tempDir();
+  const auto r = testing::runCli("extract 'phantom:voxel' --labels 1,7 -o " + dir + "/{label}.ply");
+  EXPECT_EQ(r.exitCode, 0);
+  EXPECT_NE(r.err.find("warning: label 7 ('7') is not in the volume\n"), std::string::npos) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/1.ply"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/7.ply"));
+  // A label map needs neither --iso nor --labels.
+  const auto implicit = testing::runCli("extract 'phantom:nested?n=20' -o " + dir + "/n{label}.ply -q");
+  EXPECT_EQ(implicit.exitCode, 0) << implicit.err;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/n3.ply"));
+  const auto info = testing::runCli("info 'phantom:nested?n=20'");
+  EXPECT_NE(info.out.find("labels     3 (a label map"), std::string::npos) << info.out;
+}
+
+TEST(LabelCli, TheGlbHasANamedColouredNodePerLabelForThreeJs) {
+  const std::string npm = ISOSLAB_NPM_DIR;
+  if (const std::string why = testing::gltfClientsMissing(npm); !why.empty()) GTEST_SKIP() << why;
+  const std::string dir = testing::tempDir();
+  // A 3D Slicer colour table: INDEX NAME R G B A.
+  const std::string table =
+      writeText(dir + "/c.ctbl",
+                "# Color table file\n0 Background 0 0 0 0\n1 Core 230 40 40 255\n2 Middle 40 200 60 "
+                "255\n3 Outer 50 80 220 255\n");
+  const auto r = testing::runCli("extract 'phantom:nested?n=24' --label-table " + table + " -o " + dir +
+                                 "/n.glb --report " + dir + "/r.json -q");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const std::string cmd = "node " + npm + "/gltf_check.mjs " + dir + "/n.glb > " + dir + "/client.json 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << testing::slurp(dir + "/client.json");
+  const auto client = nlohmann::json::parse(testing::slurp(dir + "/client.json"));
+  const auto report = nlohmann::json::parse(testing::slurp(dir + "/r.json"));
+  EXPECT_EQ(client["errors"], 0);
+  EXPECT_EQ(client["warnings"], 0);
+  const std::map<std::string, std::string> colours{{"Core", "e62828"}, {"Middle", "28c83c"}, {"Outer", "3250dc"}};
+  ASSERT_EQ(client["nodes"].size(), 3u);
+  for (const auto& label : report["labels"]) {
+    const std::string name = label["name"];
+    EXPECT_EQ(client["nodes"][name]["color"], colours.at(name));
+    EXPECT_EQ(client["nodes"][name]["triangles"], label["triangles"]);
+  }
+  // Each label's chunks weld into its closed surface.
+  for (const auto& mesh : client["meshes"]) {
+    EXPECT_EQ(mesh["welded"]["boundaryEdges"], 0) << mesh["name"];
+    EXPECT_EQ(mesh["welded"]["nonmanifoldEdges"], 0) << mesh["name"];
   }
 }
 
