@@ -96,6 +96,23 @@ CLI::Validator finiteNumber() {
 CLI::Validator isoValue() {
   return CLI::Validator(
       [](std::string& value) -> std::string {
+        if (value.find(',') != std::string::npos) {
+          // Several values: numbers or names, one surface each.
+          std::string out;
+          for (std::size_t at = 0; at <= value.size();) {
+            const std::size_t comma = std::min(value.find(',', at), value.size());
+            const std::string item = value.substr(at, comma - at);
+            const auto request = parseIsoRequest(item);
+            if (!request || request->kind == IsoRequest::Kind::kAuto) {
+              return fmt::format("'{}' in '{}' is not a number, bone or skin (a list takes no auto)", item, value);
+            }
+            const double v = request->kind == IsoRequest::Kind::kNamed ? request->named.hounsfield : request->value;
+            out += (out.empty() ? "" : ",") + fmt::format("{}", v);
+            at = comma + 1;
+          }
+          value = out;
+          return {};
+        }
         if (const auto request = parseIsoRequest(value)) {
           if (request->kind == IsoRequest::Kind::kAuto) value = "auto";
           if (request->kind == IsoRequest::Kind::kNamed) value = request->named.name;

@@ -260,7 +260,13 @@ ExtractSettings extractSettings(const ExtractArgs& args, RankGroup* ranks) {
   s.output = args.output;
   s.reportPath = args.report;
   s.space = parseOutputSpace(args.space).value_or(OutputSpace::kPhysical);
-  if (!args.iso.empty()) {
+  if (args.iso.find(',') != std::string::npos) {
+    for (std::size_t at = 0; at <= args.iso.size();) {
+      const std::size_t comma = std::min(args.iso.find(',', at), args.iso.size());
+      s.isos.push_back(std::strtod(args.iso.substr(at, comma - at).c_str(), nullptr));  // checked by isoValue()
+      at = comma + 1;
+    }
+  } else if (!args.iso.empty()) {
     s.iso = parseIsoRequest(args.iso);
     if (!s.iso) throw UsageError(fmt::format("--iso: '{}' is not a number, auto, bone or skin", args.iso));
   }
@@ -330,9 +336,9 @@ int runExtractCommand(const ExtractArgs& args, RankGroup* ranks) {
     for (const ExtractLabel& l : r.labels) closedLabels += l.stats.closed();
     const std::string closed =
         !r.labels.empty() && r.labels.front().topology ? fmt::format(" ({} closed)", closedLabels) : "";
-    std::fprintf(stderr, "isoslab: labels: %zu surfaces%s, %llu triangles in the complex, %.2f s -> %s\n",
-                 r.labels.size(), closed.c_str(), static_cast<unsigned long long>(s.triangles), r.seconds.total,
-                 args.output.c_str());
+    std::fprintf(stderr, "isoslab: %s: %zu surfaces%s, %llu triangles in all, %.2f s -> %s\n",
+                 r.isoSource == "values" ? (r.method + " at " + args.iso).c_str() : "labels", r.labels.size(),
+                 closed.c_str(), static_cast<unsigned long long>(s.triangles), r.seconds.total, args.output.c_str());
     return 0;
   }
   const std::string how = args.iso.empty()         ? " (the input's suggestion)"

@@ -4,6 +4,7 @@
 // The program parses its options and calls the library: extract runs the job of job/extract_job.h.
 #include <fmt/format.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <time.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -120,6 +121,13 @@ int main(int argc, char** argv) {
 #endif
   // A file-size limit then fails the write with EFBIG, reported like any write error.
   ::signal(SIGXFSZ, SIG_IGN);
+  // A pattern output of label surfaces keeps two descriptors a label open until the run commits
+  // (the file and its spool): an atlas of 1000 labels passes the usual soft limit of 1024, so the
+  // soft limit goes up to the hard one, as far as the system allows.
+  if (struct rlimit files{}; ::getrlimit(RLIMIT_NOFILE, &files) == 0 && files.rlim_cur < files.rlim_max) {
+    files.rlim_cur = files.rlim_max;
+    ::setrlimit(RLIMIT_NOFILE, &files);
+  }
   for (const int stop : {SIGINT, SIGTERM, SIGHUP}) {
     struct sigaction action {};
     action.sa_handler = onStopSignal;

@@ -39,6 +39,14 @@ struct VolumeInfo {
   /// The input says it holds labels (NIfTI's NIFTI_INTENT_LABEL, label phantoms): extract takes
   /// --labels all when neither --iso nor --labels is given.
   bool labelMap = false;
+  /// Labels that the file names (3D Slicer's .seg.nrrd): value, name, sRGB colour, layer.
+  struct Label {
+    std::int32_t value = 0;
+    std::string name;
+    std::optional<std::array<std::uint8_t, 3>> color;
+    int layer = 0;
+  };
+  std::vector<Label> labels;
   /// The analytic surface at suggestedIso, where there is one.
   std::optional<AnalyticSphere> sphere;
   /// The physical frame the coordinates are in: "physical" (unspecified), or "lps" (DICOM patient

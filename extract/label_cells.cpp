@@ -1,5 +1,8 @@
 #include "extract/label_cells.h"
 
+#include <algorithm>
+#include <bit>
+
 namespace isoslab {
 namespace {
 
@@ -164,6 +167,92 @@ void forEachPinch(const std::array<std::int32_t, 8>& labels, const CellGroups& g
     for (int f : fans) {
       if (f > 1) pinched(l, f - 1);
     }
+  }
+}
+
+void appendSplits(const std::array<std::int32_t, 8>& labels, const CellGroups& g, std::vector<std::int32_t>& splits) {
+  for (std::size_t c = 0; c < 8; ++c) {
+    const std::int32_t l = labels[c];
+    bool earlier = l == 0;
+    for (std::size_t d = 0; d < c && !earlier; ++d) earlier = labels[d] == l;
+    if (earlier) continue;
+    std::uint8_t in = 0;
+    for (std::size_t e = 0; e < 12; ++e) {
+      if (g.edge[e] == 0xff) continue;
+      const auto& ends = kLabelEdgeCorners[e];
+      if (labels[static_cast<std::size_t>(ends[0])] == l || labels[static_cast<std::size_t>(ends[1])] == l) {
+        in = static_cast<std::uint8_t>(in | (1u << g.edge[e]));
+      }
+    }
+    for (int k = std::popcount(in); k > 1; --k) splits.push_back(l);
+  }
+}
+
+const CellGroups& LabelCellCache::groups(const std::array<std::int32_t, 8>& labels,
+                                         std::vector<std::int32_t>& pinches) {
+  const std::int32_t a = labels[0];
+  std::int32_t b = a;
+  for (std::int32_t l : labels) {
+    if (l != a) {
+      b = l;
+      break;
+    }
+  }
+  std::uint8_t mask = 0;
+  const std::int32_t later = connectsBefore(a, b) ? b : a;
+  for (std::size_t c = 0; c < 8; ++c) {
+    if (labels[c] != a && labels[c] != b) return manyLabels(labels, pinches);
+    if (labels[c] == later) mask = static_cast<std::uint8_t>(mask | (1u << c));
+  }
+  return twoLabelGroups(mask);
+}
+
+const CellGroups& LabelCellCache::manyLabels(const std::array<std::int32_t, 8>& labels,
+                                             std::vector<std::int32_t>& pinches) {
+  std::array<std::int32_t, 8> distinct = labels;
+  std::sort(distinct.begin(), distinct.end(), connectsBefore);
+  const auto end = std::unique(distinct.begin(), distinct.end());
+  std::uint32_t key = 0;
+  std::array<std::int32_t, 8> ranked{};
+  for (std::size_t c = 0; c < 8; ++c) {
+    const auto rank = static_cast<std::uint32_t>(std::lower_bound(distinct.begin(), end, labels[c], connectsBefore) -
+                                                 distinct.begin());
+    key |= rank << (3 * c);
+    ranked[c] = static_cast<std::int32_t>(rank);
+  }
+  auto [it, fresh] = patterns_.try_emplace(key);
+  Pattern& cell = it->second;
+  if (fresh) {
+    // Ranks keep the connection order (0 stays the background's rank only when 0 is there, and the
+    // rule only compares labels), so the pattern's copies are the cell's.
+    std::array<std::int32_t, 8> pattern{};
+    const bool background = distinct.front() == 0;
+    for (std::size_t c = 0; c < 8; ++c) pattern[c] = background ? ranked[c] : ranked[c] + 1;
+    cell.groups = groupCell(pattern);
+    forEachPinch(pattern, cell.groups, [&](std::int32_t label, int extra) {
+      cell.pinches.emplace_back(static_cast<std::uint8_t>(background ? label : label - 1), extra);
+    });
+  }
+  for (const auto& [rank, extra] : cell.pinches) {
+    for (int k = 0; k < extra; ++k) pinches.push_back(distinct[rank]);
+  }
+  return cell.groups;
+}
+
+void classifyLabelRows(const float* slice, std::int64_t nx, std::int64_t ny, std::vector<RowSpan>& rows) {
+  rows.resize(static_cast<std::size_t>(ny));
+  for (std::int64_t j = 0; j < ny; ++j) {
+    const float* r = slice + j * nx;
+    RowSpan span;
+    std::int64_t i = 1;
+    while (i < nx && r[i] == r[i - 1]) ++i;
+    if (i < nx) {
+      span.first = i;
+      std::int64_t k = nx - 1;
+      while (r[k] == r[k - 1]) --k;
+      span.last = k;
+    }
+    rows[static_cast<std::size_t>(j)] = span;
   }
 }
 

@@ -22,6 +22,11 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "extract/slab_view.h"
 
 namespace isoslab {
 
@@ -74,6 +79,33 @@ const CellGroups& twoLabelGroups(std::uint8_t mask) noexcept;
 /// labels never pinch.
 void forEachPinch(const std::array<std::int32_t, 8>& labels, const CellGroups& groups,
                   const std::function<void(std::int32_t label, int extraFans)>& pinched);
+
+/// Appends to `splits` each label (not 0) whose quads lie in several copies of the cell's vertex,
+/// once per extra copy: its surface was split there.
+void appendSplits(const std::array<std::int32_t, 8>& labels, const CellGroups& groups,
+                  std::vector<std::int32_t>& splits);
+
+/// The copies of cells, fast: a table for cells of two labels; for cells of three labels or more
+/// (few, and their patterns fewer), a cache by the ranks of their labels in connection order (3
+/// bits a corner), which also keeps their pinches.
+class LabelCellCache {
+ public:
+  /// The copies of a crossed cell; appends its pinches (forEachPinch) to `pinches`, a label per
+  /// extra fan.
+  const CellGroups& groups(const std::array<std::int32_t, 8>& labels, std::vector<std::int32_t>& pinches);
+
+ private:
+  struct Pattern {
+    CellGroups groups;
+    std::vector<std::pair<std::uint8_t, int>> pinches;  // (rank, extra fans)
+  };
+  const CellGroups& manyLabels(const std::array<std::int32_t, 8>& labels, std::vector<std::int32_t>& pinches);
+  std::unordered_map<std::uint32_t, Pattern> patterns_;
+};
+
+/// The row spans of a slice of labels (RowSpan::first and last: the first and last x >= 1 where a
+/// row changes label; -1 when it does not), for `nx` by `ny` samples.
+void classifyLabelRows(const float* slice, std::int64_t nx, std::int64_t ny, std::vector<RowSpan>& rows);
 
 /// Split edges of one face, from its four labels in cyclic order (kLabelFaceCorners): 0 when the
 /// face's mesh edge is one, else 1 when the copies go around corners 0 and 2 (so the labels at

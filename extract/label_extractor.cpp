@@ -66,29 +66,7 @@ class LabelKernel {
   std::uint64_t vertexCount() const noexcept { return next_; }
   void resetVertexCount() noexcept { next_ = 0; }
 
-  // The first and last x where a row of samples changes label (RowSpan::first, last).
-  void classifySlice(const float* slice, std::vector<RowSpan>& rows) const {
-    rows.resize(static_cast<std::size_t>(py_));
-    for (std::int64_t j = 0; j < py_; ++j) {
-      const float* r = slice + j * px_;
-      RowSpan span;
-      for (std::int64_t i = 1; i < px_; ++i) {
-        if (r[i] != r[i - 1]) {
-          span.first = i;
-          break;
-        }
-      }
-      if (span.first >= 0) {
-        for (std::int64_t i = px_ - 1; i >= 1; --i) {
-          if (r[i] != r[i - 1]) {
-            span.last = i;
-            break;
-          }
-        }
-      }
-      rows[static_cast<std::size_t>(j)] = span;
-    }
-  }
+  void classifySlice(const float* slice, std::vector<RowSpan>& rows) const { classifyLabelRows(slice, px_, py_, rows); }
 
   void extractSlab(const SlabView& slab, MeshChunk& out, std::vector<CacheSlot>* foreign) {
     if (!allocated_) {
@@ -126,8 +104,6 @@ class LabelKernel {
   }
 
  private:
-  float at(const float* slice, std::int64_t i, std::int64_t j) const noexcept { return slice[j * px_ + i]; }
-
   // The cells of row j whose eight samples may differ, from the four sample rows' spans.
   void walkRow(std::int64_t j) {
     const std::array<const float*, 4> rows{lo_ + j * px_, lo_ + (j + 1) * px_, hi_ + j * px_, hi_ + (j + 1) * px_};
@@ -196,67 +172,9 @@ class LabelKernel {
     }
   }
 
-  // A cell of three labels or more, by the ranks of its corners' labels in connection order (3
-  // bits a corner): its copies and its pinches, by rank. Such cells are few, and their patterns
-  // fewer.
-  struct ManyLabelCell {
-    CellGroups groups;
-    std::vector<std::pair<std::uint8_t, int>> pinches;  // (rank, extra fans)
-  };
-
-  // The cell's copies; cells of three labels or more also report their pinches.
-  const CellGroups& groupsOf(const std::array<std::int32_t, 8>& labels) {
-    const std::int32_t a = labels[0];
-    std::int32_t b = a;
-    for (std::int32_t l : labels) {
-      if (l != a) {
-        b = l;
-        break;
-      }
-    }
-    std::uint8_t mask = 0;
-    const std::int32_t later = connectsBefore(a, b) ? b : a;
-    for (std::size_t c = 0; c < 8; ++c) {
-      if (labels[c] != a && labels[c] != b) return manyLabels(labels);
-      if (labels[c] == later) mask = static_cast<std::uint8_t>(mask | (1u << c));
-    }
-    return twoLabelGroups(mask);
-  }
-
-  const CellGroups& manyLabels(const std::array<std::int32_t, 8>& labels) {
-    std::array<std::int32_t, 8> distinct = labels;
-    std::sort(distinct.begin(), distinct.end(), connectsBefore);
-    const auto end = std::unique(distinct.begin(), distinct.end());
-    std::uint32_t key = 0;
-    std::array<std::int32_t, 8> ranked{};
-    for (std::size_t c = 0; c < 8; ++c) {
-      const auto rank = static_cast<std::uint32_t>(std::lower_bound(distinct.begin(), end, labels[c], connectsBefore) -
-                                                   distinct.begin());
-      key |= rank << (3 * c);
-      ranked[c] = static_cast<std::int32_t>(rank);
-    }
-    auto [it, fresh] = manyLabelCells_.try_emplace(key);
-    ManyLabelCell& cell = it->second;
-    if (fresh) {
-      // Ranks keep the connection order (0 stays the background's rank only when 0 is there, and
-      // the rule only compares labels), so the pattern's copies are the cell's.
-      std::array<std::int32_t, 8> pattern{};
-      const bool background = distinct.front() == 0;
-      for (std::size_t c = 0; c < 8; ++c) pattern[c] = background ? ranked[c] : ranked[c] + 1;
-      cell.groups = groupCell(pattern);
-      forEachPinch(pattern, cell.groups, [&](std::int32_t label, int extra) {
-        cell.pinches.emplace_back(static_cast<std::uint8_t>(background ? label : label - 1), extra);
-      });
-    }
-    for (const auto& [rank, extra] : cell.pinches) {
-      for (int k = 0; k < extra; ++k) out_->labelPinches.push_back(distinct[rank]);
-    }
-    return cell.groups;
-  }
-
   void cell(std::int64_t i, std::int64_t j, const std::array<std::int32_t, 8>& labels, VertexId* ids,
             const VertexId* below) {
-    const CellGroups& g = groupsOf(labels);
+    const CellGroups& g = cells_.groups(labels, out_->labelPinches);
     // The copies' vertices, at the cell's centre: the corner of the voxels' boxes.
     const VertexId first = static_cast<VertexId>(next_);
     const Vec3d p =
@@ -274,7 +192,7 @@ class LabelKernel {
       out_->boundary.push_back(faces);
     }
     next_ += g.count;
-    if (g.count > 1) countSplits(labels, g);
+    if (g.count > 1) appendSplits(labels, g, out_->labelSplits);
     const auto cellIndex = static_cast<std::size_t>(j * cx_ + i);
     for (std::size_t e = 0; e < 12; ++e) {
       if (g.edge[e] == 0xff) continue;
@@ -309,11 +227,16 @@ class LabelKernel {
       }
     }
     ids[24] = owned;
-    // The quads of the edges at the cell's lowest corner, whose other cells are done: the z edge
-    // (cells of this layer, rows j - 1 and j), the x and y edges on slice z (cells of this layer
-    // and the one below). Each is crossed only away from the padding, so i, j >= 1 where a cell to
-    // the left or behind is read. Per quad: its four cells' vertices, counter-clockwise around the
-    // edge's direction, and the faces that its sides cross (owner cell, face, the edge's position).
+    emitQuads(i, j, labels, g, ids, below);
+  }
+
+  // The quads of the edges at the cell's lowest corner, whose other cells are done: the z edge
+  // (cells of this layer, rows j - 1 and j), the x and y edges on slice z (cells of this layer
+  // and the one below). Each is crossed only away from the padding, so i, j >= 1 where a cell to
+  // the left or behind is read. Per quad: its four cells' vertices, counter-clockwise around the
+  // edge's direction, and the faces that its sides cross (owner cell, face, the edge's position).
+  void emitQuads(std::int64_t i, std::int64_t j, const std::array<std::int32_t, 8>& labels, const CellGroups& g,
+                 VertexId* ids, const VertexId* below) {
     const std::int64_t n = static_cast<std::int64_t>(kRowIds);
     const auto cellBelow = [&](std::int64_t ii) { return below + ii * n; };  // cell (ii, j - 1)
     const VertexId* left = ids - n;                                          // cell (i - 1, j)
@@ -416,25 +339,6 @@ class LabelKernel {
     }
   }
 
-  // A label whose quads lie in several copies of the cell's vertex had its surface split there.
-  void countSplits(const std::array<std::int32_t, 8>& labels, const CellGroups& g) {
-    for (std::size_t c = 0; c < 8; ++c) {
-      const std::int32_t l = labels[c];
-      bool earlier = l == 0;
-      for (std::size_t d = 0; d < c && !earlier; ++d) earlier = labels[d] == l;
-      if (earlier) continue;
-      std::uint8_t in = 0;
-      for (std::size_t e = 0; e < 12; ++e) {
-        if (g.edge[e] == 0xff) continue;
-        const auto& ends = kLabelEdgeCorners[e];
-        if (labels[static_cast<std::size_t>(ends[0])] == l || labels[static_cast<std::size_t>(ends[1])] == l) {
-          in = static_cast<std::uint8_t>(in | (1u << g.edge[e]));
-        }
-      }
-      for (int k = std::popcount(in); k > 1; --k) out_->labelSplits.push_back(l);
-    }
-  }
-
   LatticeFrame frame_;
   bool flip_ = false;
   std::int64_t px_ = 0, py_ = 0, pz_ = 0, cx_ = 0, cy_ = 0;
@@ -448,7 +352,7 @@ class LabelKernel {
   std::array<IdPlane, 2> row_;        // per cell of rows j and j - 1 (alternating): the id of each edge's copy
   std::array<IdPlane, 2> top_;        // the top edges' ids: [0] the layer below, [1] this layer
   std::vector<std::size_t> topSet_;
-  std::unordered_map<std::uint32_t, ManyLabelCell> manyLabelCells_;
+  LabelCellCache cells_;
   bool allocated_ = false;
   MeshChunk* out_ = nullptr;
   std::vector<CacheSlot>* foreign_ = nullptr;

@@ -298,6 +298,7 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
   if (!headerLine(in, line, path, false, used, 0) || line.rfind("NRRD000", 0) != 0)
     throw Error(fmt::format("{}: not a NRRD file (no NRRD000x magic)", path));
   std::map<std::string, std::string> fields;
+  std::map<std::string, std::string> keyValues;  // key:=value pairs (Slicer's segment metadata)
   std::vector<std::string> listed;
   bool list = false;
   while (headerLine(in, line, path, list, used, listed.size())) {
@@ -308,8 +309,12 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
     }
     if (line.empty()) break;  // attached data follows
     if (line[0] == '#') continue;
+    if (const auto pair = line.find(":="); pair != std::string::npos) {
+      keyValues[line.substr(0, pair)] = line.substr(pair + 2);
+      continue;
+    }
     const auto colon = line.find(": ");
-    if (colon == std::string::npos) continue;  // key:=value pairs and junk
+    if (colon == std::string::npos) continue;  // junk
     const std::string key = lower(trim(line.substr(0, colon)));
     const std::string value = trim(line.substr(colon + 2));
     fields[key] = value;
@@ -355,6 +360,41 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
   for (std::size_t a = 0; a < 3; ++a)
     info.dims[a] =
         wholeNumber(path, fmt::format("NRRD sizes: axis {}", first + a), sizes[first + a], 1, limits::kMaxAxisPoints);
+  // 3D Slicer's segmentation: SegmentN_Name, _Color (three numbers 0..1), _LabelValue, _Layer;
+  // a 4-D file holds one layer per component.
+  for (int n = 0; keyValues.count(fmt::format("Segment{}_LabelValue", n)) != 0; ++n) {
+    VolumeInfo::Label label;
+    const std::string key = fmt::format("Segment{}_", n);
+    const auto value = numbersIn(path, key + "LabelValue", keyValues[key + "LabelValue"]);
+    label.value =
+        static_cast<std::int32_t>(wholeNumber(path, key + "LabelValue", value.empty() ? -1.0 : value[0], 1, 16777216));
+    label.name = keyValues.count(key + "Name") != 0 ? keyValues[key + "Name"] : std::to_string(label.value);
+    if (keyValues.count(key + "Color") != 0) {
+      const auto c = numbersIn(path, key + "Color", keyValues[key + "Color"]);
+      if (c.size() == 3 && std::all_of(c.begin(), c.end(), [](double x) { return x >= 0 && x <= 1; })) {
+        label.color = std::array<std::uint8_t, 3>{static_cast<std::uint8_t>(std::lround(c[0] * 255)),
+                                                  static_cast<std::uint8_t>(std::lround(c[1] * 255)),
+                                                  static_cast<std::uint8_t>(std::lround(c[2] * 255))};
+      }
+    }
+    if (keyValues.count(key + "Layer") != 0) {
+      const auto layer = numbersIn(path, key + "Layer", keyValues[key + "Layer"]);
+      label.layer = static_cast<int>(wholeNumber(path, key + "Layer", layer.empty() ? -1.0 : layer[0], 0, 65535));
+    }
+    info.labels.push_back(std::move(label));
+  }
+  if (!info.labels.empty()) {
+    info.labelMap = true;
+    if (components > 1 && channel < 0) {
+      throw Error(
+          fmt::format("{}: {} segmentation layers (segments of different layers may overlap); a run meshes "
+                      "one: choose it with `channel` 0..{}",
+                      path, components, components - 1));
+    }
+    // The segments of the layer read.
+    const int layer = components > 1 ? channel : 0;
+    std::erase_if(info.labels, [&](const VolumeInfo::Label& l) { return l.layer != layer; });
+  }
   pickComponent(layout, components, channel, path);
   const std::string encoding = lower(fields.count("encoding") ? fields["encoding"] : "raw");
   if (encoding == "gzip" || encoding == "gz") {

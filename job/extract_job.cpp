@@ -250,6 +250,31 @@ void agreeAtTheEnd(RankGroup& ranks) {
 
 }  // namespace
 
+int defaultExtractThreads(bool ranked);
+
+namespace {
+
+// The labels of a label map, or several iso values, in one pass (job/label_job.cpp), with the
+// report written and everything committed together.
+void runSurfaceSet(const ExtractSettings& settings, ExtractObserver& observer, OpenedInput input, Reporting& reporting,
+                   RankGroup* ranks, ExtractReport& report) {
+  const VolumeInfo info = input.source->info();
+  const int threads = settings.threads > 0 ? settings.threads : defaultExtractThreads(ranks != nullptr);
+  CommitGroup outputs;
+  runLabelExtract(settings, observer, std::move(input), report, reporting.slabHook(0, "extract"), threads,
+                  writerOptions(settings, info, threads));
+  report.peakRssMib = peakRssMib();
+  if (!settings.reportPath.empty()) {
+    const auto spell = [&](const std::string& t) { return observer.spell(t); };
+    writeReportFile(settings.reportPath, extractReportText(report, settings.reportPath, spell) + "\n");
+  }
+  reporting.checkStop();
+  outputs.commit();
+  reporting.finished(info.dims[2] + 1);
+}
+
+}  // namespace
+
 int defaultExtractThreads(bool ranked) {
   // The cores this process may run on (mpirun binds ranks to cores or sockets).
   const unsigned machine = std::clamp(std::thread::hardware_concurrency(), 1u, 1024u);
@@ -275,8 +300,7 @@ ExtractReport runExtract(const ExtractSettings& settings) {
 
 ExtractReport runExtract(const ExtractSettings& settings, ExtractObserver& observer) {
   checkExtractSettings(settings);
-  // Under mpirun every rank runs this function with the same settings; rank 0 alone writes the
-  // outputs and reports, and the others extract their slabs for it (runPipeline).
+  // Under mpirun every rank runs this; rank 0 alone writes and reports (runPipeline).
   RankGroup* ranks = settings.ranks != nullptr && settings.ranks->size() > 1 ? settings.ranks : nullptr;
   const bool primary = ranks == nullptr || ranks->rank() == 0;
   ExtractReport report;
@@ -284,23 +308,10 @@ ExtractReport runExtract(const ExtractSettings& settings, ExtractObserver& obser
   report.ranks = ranks != nullptr ? ranks->size() : 1;
   const bool wantsComponents = settings.components.any();
   Reporting reporting(observer, wantsComponents ? 2 : 1);
-
   OpenedInput input = openInput(settings, primary ? &observer : nullptr, report);
-  // A label map: every selected label's surface, when asked or when the input says it holds labels.
-  if (settings.labels || (!settings.iso && input.source->info().labelMap)) {
-    const VolumeInfo labelInfo = input.source->info();
-    const int labelThreads = settings.threads > 0 ? settings.threads : defaultExtractThreads(ranks != nullptr);
-    CommitGroup outputs;
-    runLabelExtract(settings, observer, std::move(input), report, reporting.slabHook(0, "extract"), labelThreads,
-                    writerOptions(settings, labelInfo, labelThreads));
-    report.peakRssMib = peakRssMib();
-    if (!settings.reportPath.empty()) {
-      const auto spell = [&](const std::string& t) { return observer.spell(t); };
-      writeReportFile(settings.reportPath, extractReportText(report, settings.reportPath, spell) + "\n");
-    }
-    reporting.checkStop();
-    outputs.commit();
-    reporting.finished(labelInfo.dims[2] + 1);
+  // Labels (asked, or the input says it holds them), or several iso values: a surface set.
+  if (settings.labels || !settings.isos.empty() || (!settings.iso && input.source->info().labelMap)) {
+    runSurfaceSet(settings, observer, std::move(input), reporting, ranks, report);
     return report;
   }
   std::unique_ptr<SliceSource>& source = input.source;
@@ -323,8 +334,8 @@ ExtractReport runExtract(const ExtractSettings& settings, ExtractObserver& obser
   const ExtractOptions options = extractOptions(settings, iso, sphere.has_value());
   auto extractor = makeExtractor(options, info, frame);
   const MeshHeader header = extractionHeader(options, info, frame, *extractor);
-  // The caps need the field beyond the faces: one NaN point around the volume (the header, frame
-  // and value range stay the volume's own).
+  // The caps need the field beyond the faces: one NaN point around the volume (header, frame and
+  // value range stay the volume's own).
   if (settings.closeBoundary) source = std::make_unique<PadSource>(std::move(source));
   PipelineOptions pipelineOptions = pipelineOptionsOf(settings, ranks, threads);
 

@@ -52,6 +52,42 @@ Json outputJson(const ExtractReport& report) {
   return output;
 }
 
+// A label run's surfaces and the interfaces between them.
+void addLabelsJson(Json& r, const ExtractReport& report) {
+  Json labels = Json::array();
+  for (const ExtractLabel& l : report.labels) {
+    Json j = {{"value", l.value}, {"name", l.name}};
+    if (l.iso) j["iso"] = *l.iso;
+    j.update(Json{{"color", {l.color[0], l.color[1], l.color[2]}},
+                  {"color_from", l.colorFromTable ? "table" : "default"},
+                  {"layer", l.layer},
+                  {"voxels", l.voxels},
+                  {"voxel_volume", l.voxelVolume},
+                  {"mesh_volume", l.stats.volume},
+                  {"area", l.stats.area},
+                  {"vertices", l.stats.vertices},
+                  {"triangles", l.stats.triangles}});
+    if (l.topology) {
+      j["closed"] = l.stats.closed();
+      j["oriented"] = l.stats.oriented();
+      j["boundary_edges"] = l.stats.boundaryEdges;
+      j["nonmanifold_edges"] = l.stats.nonManifoldEdges;
+      j["euler"] = l.stats.euler;
+    }
+    j["splits"] = l.splits;
+    j["pinches"] = l.pinches;
+    j["bounds"] = l.stats.bounds;
+    if (!l.path.empty()) j["path"] = l.path;
+    labels.push_back(j);
+  }
+  r["labels"] = labels;
+  Json interfaces = Json::array();
+  for (const ExtractInterface& i : report.interfaces) {
+    interfaces.push_back({{"labels", {i.a, i.b}}, {"triangles", i.triangles}, {"area", i.area}});
+  }
+  r["label_interfaces"] = interfaces;
+}
+
 }  // namespace
 
 std::string extractReportText(const ExtractReport& report, const std::string& what,
@@ -115,40 +151,7 @@ std::string extractReportText(const ExtractReport& report, const std::string& wh
   r["ring_bytes"] = report.ringBytes;
   r["peak_rss_mib"] = report.peakRssMib;
   r["output"] = outputJson(report);
-  if (report.labelRun) {
-    Json labels = Json::array();
-    for (const ExtractLabel& l : report.labels) {
-      Json j = {{"value", l.value},
-                {"name", l.name},
-                {"color", {l.color[0], l.color[1], l.color[2]}},
-                {"color_from", l.colorFromTable ? "table" : "default"},
-                {"layer", 0},
-                {"voxels", l.voxels},
-                {"voxel_volume", l.voxelVolume},
-                {"mesh_volume", l.stats.volume},
-                {"area", l.stats.area},
-                {"vertices", l.stats.vertices},
-                {"triangles", l.stats.triangles}};
-      if (l.topology) {
-        j["closed"] = l.stats.closed();
-        j["oriented"] = l.stats.oriented();
-        j["boundary_edges"] = l.stats.boundaryEdges;
-        j["nonmanifold_edges"] = l.stats.nonManifoldEdges;
-        j["euler"] = l.stats.euler;
-      }
-      j["splits"] = l.splits;
-      j["pinches"] = l.pinches;
-      j["bounds"] = l.stats.bounds;
-      if (!l.path.empty()) j["path"] = l.path;
-      labels.push_back(j);
-    }
-    r["labels"] = labels;
-    Json interfaces = Json::array();
-    for (const ExtractInterface& i : report.interfaces) {
-      interfaces.push_back({{"labels", {i.a, i.b}}, {"triangles", i.triangles}, {"area", i.area}});
-    }
-    r["label_interfaces"] = interfaces;
-  }
+  if (report.labelRun) addLabelsJson(r, report);
   return reportText(r, what);
 }
 

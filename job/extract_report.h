@@ -51,9 +51,11 @@ struct ExtractDecimation {
 /// One label's surface (label runs).
 struct ExtractLabel {
   std::int32_t value = 0;
-  std::string name;  // the table's, else the value
+  std::string name;           // the table's, else the value
+  std::optional<double> iso;  // several iso values: this surface's (value is its place, from 1)
   std::array<std::uint8_t, 3> color{};
   bool colorFromTable = false;
+  int layer = 0;  // a .seg.nrrd's layer
   std::int64_t voxels = 0;
   double voxelVolume = 0;     // voxels times one voxel's volume, in output units
   MeshStats stats;            // edges and euler only with topology

@@ -200,15 +200,24 @@ void checkExtractSettings(const ExtractSettings& s) {
     if (const std::string e = checkSmoothOptions(s.smoothing); !e.empty()) throw SettingError(e);
   }
   if (s.labels) {
-    require(!s.iso, "`iso` and `labels` exclude each other: a run meshes an iso value or labels");
+    require(!s.iso && s.isos.empty(), "`iso` and `labels` exclude each other: a run meshes an iso value or labels");
+    checkLabelSettings(s);
+  }
+  if (!s.isos.empty()) {
+    require(s.isos.size() >= 2 && !s.iso, "`iso` takes one value, or a list of two or more");
+    for (double v : s.isos) require(std::isfinite(v), "`iso` values must be finite numbers");
+    std::vector<double> sorted = s.isos;
+    std::sort(sorted.begin(), sorted.end());
+    require(std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end(), "`iso` lists a value twice");
     checkLabelSettings(s);
   }
 }
 
 void checkLabelSettings(const ExtractSettings& s) {
   // Until label surfaces are finished in the stream (the next issue), these are the iso-surface's.
-  const auto refuse = [](bool given, const char* name) {
-    require(!given, fmt::format("`{}` does not apply to label surfaces yet", name));
+  const char* what = s.isos.empty() ? "label surfaces" : "several iso values in one pass";
+  const auto refuse = [what](bool given, const char* name) {
+    require(!given, fmt::format("`{}` does not apply to {} yet", name, what));
   };
   refuse(s.components.any(), s.components.keepLargest    ? "keep_largest"
                              : s.components.minVolume    ? "min_volume"
@@ -220,7 +229,8 @@ void checkLabelSettings(const ExtractSettings& s) {
   refuse(s.normals, "normals");
   refuse(!s.preview.path.empty(), "preview");
   refuse(s.sphere.has_value(), "sphere");
-  refuse(s.method != Method::kMarchingCubes, "method");
+  if (s.isos.empty()) refuse(s.method != Method::kMarchingCubes, "method");
+  if (s.isos.empty()) refuse(s.closeBoundary, "close_boundary");
   const std::string ext = std::filesystem::path(s.output).extension().string();
   std::string lower = ext;
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -228,11 +238,14 @@ void checkLabelSettings(const ExtractSettings& s) {
           fmt::format("`output` '{}' is one file: label surfaces go to a pattern such as 'labels/{{name}}.stl' (a file "
                       "per label), a .glb (a mesh per label) or a .ply of the whole label complex",
                       s.output));
-  require(isOutputPattern(s.output) || lower != ".glb" || s.draco,
-          "`draco` off: a .glb of label surfaces is written with Draco chunks only (use a pattern for plain .glb files)");
-  require(s.output.find("{iso}") == std::string::npos,
-          fmt::format("`output` '{}' holds {{iso}}, which label surfaces do not have (use {{name}} or {{label}})",
-                      s.output));
+  require(
+      isOutputPattern(s.output) || lower != ".glb" || s.draco,
+      "`draco` off: a .glb of label surfaces is written with Draco chunks only (use a pattern for plain .glb files)");
+  if (s.isos.empty()) {
+    require(s.output.find("{iso}") == std::string::npos,
+            fmt::format("`output` '{}' holds {{iso}}, which label surfaces do not have (use {{name}} or {{label}})",
+                        s.output));
+  }
 }
 
 }  // namespace isoslab

@@ -75,6 +75,9 @@ struct ExtractSettings {
   OutputSpace space = OutputSpace::kPhysical;
   /// A number, Otsu's threshold ("auto") or a named CT value; empty: the input's suggestion (phantoms).
   std::optional<IsoRequest> iso;
+  /// Several values (two or more; `iso` then empty): one surface each, from one read of the input,
+  /// written as label surfaces are (a pattern with {iso}, a .glb of a mesh per value, or a .ply).
+  std::vector<double> isos;
   Method method = Method::kMarchingCubes;
   /// Vertex normals from the field's gradient.
   bool normals = false;

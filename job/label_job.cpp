@@ -5,11 +5,11 @@
 
 #include <algorithm>
 #include <cctype>
-#include <filesystem>
-#include <optional>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 
 #include "core/error.h"
@@ -18,6 +18,7 @@
 #include "encode/mesh_writer.h"
 #include "encode/ply_writer.h"
 #include "extract/label_extractor.h"
+#include "extract/multi_iso_extractor.h"
 #include "io/label_source.h"
 #include "io/label_table.h"
 #include "io/pad_source.h"
@@ -66,12 +67,16 @@ std::string fileSafe(const std::string& name) {
   return out;
 }
 
-std::string expandPattern(const std::string& pattern, std::int32_t value, const std::string& name) {
+std::string expandPattern(const std::string& pattern, std::int32_t value, const std::string& name,
+                          const std::string& iso) {
   std::string out;
   for (std::size_t at = 0; at < pattern.size();) {
     if (pattern.compare(at, 6, "{name}") == 0) {
       out += fileSafe(name);
       at += 6;
+    } else if (pattern.compare(at, 5, "{iso}") == 0) {
+      out += fileSafe(iso);
+      at += 5;
     } else if (pattern.compare(at, 7, "{label}") == 0) {
       out += std::to_string(value);
       at += 7;
@@ -105,112 +110,182 @@ struct LabelChain {
   std::string path;
 };
 
-}  // namespace
+// One run of a surface set: the labels of a label map, or several iso values of a field.
+class SurfaceSetRun {
+ public:
+  SurfaceSetRun(const ExtractSettings& settings, ExtractReport& report, const WriterOptions& writing)
+      : settings_(settings), report_(report), writing_(writing), isoSet_(!settings.isos.empty()) {}
 
-void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer, OpenedInput input,
-                     ExtractReport& report, const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads,
-                     const WriterOptions& writing) {
-  checkLabelSettings(settings);
-  if (settings.ranks != nullptr && settings.ranks->size() > 1) {
-    throw SettingError("label surfaces under mpirun are not supported yet: run one process");
+  // Names and colours (the table given, else the file's own), the selection, then the source,
+  // extractor and header of the stream.
+  void open(OpenedInput input, int& threads) {
+    info_ = input.source->info();
+    std::string tableName = settings_.labelTable;
+    if (!settings_.labelTable.empty()) {
+      table_ = readLabelTable(settings_.labelTable);
+    } else if (!info_.labels.empty()) {
+      table_.emplace();
+      for (const VolumeInfo::Label& l : info_.labels) table_->entries.push_back(LabelEntry{l.value, l.name, l.color});
+      tableName = info_.source;
+    }
+    request_ = settings_.labels.value_or(LabelRequest{});
+    keep_ = selectedLabels(request_, table_ ? &*table_ : nullptr, tableName);
+    frame_ = LatticeFrame::forSpace(info_, std::string(outputSpaceName(settings_.space)));
+    if (isoSet_) {
+      // The field as it is (padded with NaN for --close-boundary); each value's surface a "label"
+      // from 1, extracted in turn slab by slab (extract/multi_iso_extractor.h), so on one thread.
+      ExtractOptions o;
+      o.method = settings_.method;
+      o.closeBoundary = settings_.closeBoundary;
+      o.cellVolumes = false;
+      extractor_ = makeMultiIsoExtractor(o, settings_.isos, info_, frame_);
+      header_ = extractionHeader(o, info_, frame_, *extractor_);
+      header_.labels = true;
+      source_ = std::move(input.source);
+      if (settings_.closeBoundary) source_ = std::make_unique<PadSource>(std::move(source_));
+      threads = 1;
+    } else {
+      // Labels: checked and counted, padded with background.
+      const std::string what = settings_.inputs.empty() ? info_.source : settings_.inputs.front();
+      auto labels = std::make_unique<LabelSource>(std::move(input.source), what, keep_);
+      counter_ = labels.get();
+      source_ = std::make_unique<PadSource>(std::move(labels), 0.0f);
+      extractor_ = makeLabelExtractor(info_, frame_);
+      header_ = labelHeader(info_, frame_);
+    }
   }
-  report.labelRun = true;
-  std::optional<LabelTable> table;
-  if (!settings.labelTable.empty()) table = readLabelTable(settings.labelTable);
-  const LabelRequest request = settings.labels.value_or(LabelRequest{});
-  const auto keep = selectedLabels(request, table ? &*table : nullptr, settings.labelTable);
-  const VolumeInfo info = input.source->info();
-  const std::string what = settings.inputs.empty() ? info.source : settings.inputs.front();
-  auto labelSource = std::make_unique<LabelSource>(std::move(input.source), what, keep);
-  LabelSource* counter = labelSource.get();
-  std::unique_ptr<SliceSource> source = std::make_unique<PadSource>(std::move(labelSource), 0.0f);
-  const LatticeFrame frame = LatticeFrame::forSpace(info, std::string(outputSpaceName(settings.space)));
-  auto extractor = makeLabelExtractor(info, frame);
-  const MeshHeader header = labelHeader(info, frame);
 
-  const bool pattern = isOutputPattern(settings.output);
-  std::string extension = std::filesystem::path(settings.output).extension().string();
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  // A .glb: one mesh per label in one file, its chunks encoded as they close.
-  std::optional<GlbScene> scene;
-  WriterOptions labelWriting = writing;
-  if (!pattern && extension == ".glb") {
-    labelWriting.encodeThreads = 0;
-    scene.emplace(settings.output, labelWriting);
-    scene->begin(header);
+  PipelineResult run(const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads) {
+    pattern_ = isOutputPattern(settings_.output);
+    std::string extension = std::filesystem::path(settings_.output).extension().string();
+    for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    // A .glb: one mesh per label in one file, its chunks encoded as they close.
+    labelWriting_ = writing_;
+    if (!pattern_ && extension == ".glb") {
+      labelWriting_.encodeThreads = 0;
+      scene_.emplace(settings_.output, labelWriting_);
+      scene_->begin(header_);
+    }
+    split_.emplace([this](std::int32_t label) { return sinkFor(label); });
+    // The complex as a whole is counted, not measured: its measures are the labels'.
+    std::vector<MeshSink*> heads{&*split_, &complexStats_};
+    if (!pattern_ && !scene_) {
+      complexWriter_ = makeMeshWriter(settings_.output, writing_);
+      heads.insert(heads.begin(), complexWriter_.get());
+    }
+    TeeSink tee(heads);
+    PipelineOptions options;
+    options.threads = threads;
+    options.maxThreadBytes = (static_cast<std::size_t>(settings_.maxMemoryMiB) << 20) / 2;
+    if (settings_.sequentialVoxels >= 0) options.sequentialVoxels = settings_.sequentialVoxels;
+    options.onSlab = onSlab;
+    return runPipeline(*source_, *extractor_, tee, header_, options);
   }
-  std::map<std::int32_t, LabelChain> chains;
-  std::map<std::string, std::int32_t> paths;
-  const auto nameOf = [&](std::int32_t value) {
-    const LabelEntry* e = table ? table->find(value) : nullptr;
+
+  // The report: the complex as a whole, each label, the interfaces and the warnings.
+  void describe(const PipelineResult& run, ExtractObserver& observer) {
+    report_.stats = complexStats_.stats();
+    report_.method = isoSet_ ? header_.method : "labels";
+    report_.isoSource = isoSet_ ? "values" : "labels";
+    report_.reader = info_.reader;
+    report_.dims = info_.dims;
+    report_.spacing = info_.spacing;
+    report_.volumeBounds = header_.volumeBounds;
+    report_.voxelType = std::string(voxelTypeName(info_.type));
+    report_.space = header_.space;
+    if (run.valueRange) report_.valueRange = std::array{asFloat((*run.valueRange)[0]), asFloat((*run.valueRange)[1])};
+    const auto counts = counter_ != nullptr ? counter_->voxelCounts() : std::map<std::int32_t, std::int64_t>{};
+    const auto measures = split_->measures();
+    for (auto& [value, chain] : chains_) report_.labels.push_back(describeLabel(value, chain, counts, measures));
+    for (const auto& [pair, face] : split_->interfaces()) {
+      if (pair.first == 0) continue;  // a label's boundary with the background is in its own area
+      report_.interfaces.push_back(ExtractInterface{pair.first, pair.second, face.triangles, face.area});
+    }
+    warnAbsent(counts);
+    for (std::string& w : source_->warnings()) report_.warnings.push_back(std::move(w));
+    for (std::size_t n = report_.openingWarnings; n < report_.warnings.size(); ++n) {
+      observer.warning(report_.warnings[n]);
+    }
+    report_.seconds.read = run.readSeconds;
+    report_.seconds.extract = run.extractSeconds;
+    report_.seconds.write = run.writeSeconds;
+    report_.seconds.total = run.totalSeconds;
+    report_.ringBytes = run.ringBytes;
+  }
+
+  // The .glb is written last, with each label's node carrying its value and measures.
+  void finishOutputs() {
+    report_.output.path = settings_.output;
+    if (scene_) {
+      for (std::size_t k = 0; k < report_.labels.size() && k < scene_->meshes().size(); ++k) {
+        const ExtractLabel& l = report_.labels[k];
+        scene_->meshes()[k].extras = {{"label", l.value},
+                                      {"voxels", l.voxels},
+                                      {"voxel_volume", l.voxelVolume},
+                                      {"mesh_volume", l.stats.volume},
+                                      {"area", l.stats.area},
+                                      {"triangles", l.stats.triangles}};
+      }
+      report_.output.bytes = scene_->write({{"labels", report_.labels.size()}});
+    } else if (complexWriter_) {
+      report_.output.bytes = complexWriter_->bytes();
+      report_.output.details = complexWriter_->details();
+    } else {
+      for (const auto& [value, chain] : chains_) report_.output.bytes += chain.writer->bytes();
+    }
+    report_.output.binaryPlyBytes = PlyWriter::binaryBytes(report_.stats.vertices, report_.stats.triangles, header_);
+  }
+
+ private:
+  std::string nameOf(std::int32_t value) const {
+    if (isoSet_) return fmt::format("{}", settings_.isos[static_cast<std::size_t>(value - 1)]);
+    const LabelEntry* e = table_ ? table_->find(value) : nullptr;
     return e != nullptr ? e->name : std::to_string(value);
-  };
-  const auto colorOf = [&](std::int32_t value) {
-    const LabelEntry* e = table ? table->find(value) : nullptr;
+  }
+  std::array<std::uint8_t, 3> colorOf(std::int32_t value) const {
+    const LabelEntry* e = table_ ? table_->find(value) : nullptr;
     return e != nullptr && e->color ? *e->color : defaultLabelColor(value);
-  };
-  LabelSplitSink split([&](std::int32_t label) -> MeshSink* {
-    LabelChain& chain = chains[label];
+  }
+
+  // A label's sinks, when its first triangle arrives: its writer (a pattern's file or the .glb's
+  // mesh) and, for the report, its edge measures.
+  MeshSink* sinkFor(std::int32_t label) {
+    LabelChain& chain = chains_[label];
     std::vector<MeshSink*> sinks;
-    if (settings.labelTopology) sinks.push_back(&chain.stats);
-    if (pattern) {
-      chain.path = expandPattern(settings.output, label, nameOf(label));
-      const auto [it, fresh] = paths.emplace(chain.path, label);
+    if (settings_.labelTopology) sinks.push_back(&chain.stats);
+    if (pattern_) {
+      chain.path = expandPattern(settings_.output, label, nameOf(label), isoSet_ ? nameOf(label) : "");
+      const auto [it, fresh] = paths_.emplace(chain.path, label);
       if (!fresh) {
-        throw SettingError(fmt::format("`output` pattern '{}' gives '{}' to labels {} and {}", settings.output,
+        throw SettingError(fmt::format("`output` pattern '{}' gives '{}' to labels {} and {}", settings_.output,
                                        chain.path, it->second, label));
       }
-      chain.writer = makeMeshWriter(chain.path, writing);
-      sinks.insert(sinks.begin(), chain.writer.get());
-    } else if (scene) {
-      chain.writer = std::make_unique<GlbDracoWriter>(settings.output, labelWriting, *scene, nameOf(label),
-                                                      colorOf(label));
-      sinks.insert(sinks.begin(), chain.writer.get());
+      chain.writer = makeMeshWriter(chain.path, writing_);
+    } else if (scene_) {
+      chain.writer =
+          std::make_unique<GlbDracoWriter>(settings_.output, labelWriting_, *scene_, nameOf(label), colorOf(label));
     }
+    if (chain.writer) sinks.insert(sinks.begin(), chain.writer.get());
     chain.tee = std::make_unique<TeeSink>(sinks);
     return chain.tee.get();
-  });
-  // The complex as a whole is counted, not measured: its measures are the labels'.
-  ComplexCounter complexStats;
-  std::unique_ptr<MeshFileSink> complexWriter;
-  std::vector<MeshSink*> heads{&split, &complexStats};
-  if (!pattern && !scene) {
-    complexWriter = makeMeshWriter(settings.output, writing);
-    heads.insert(heads.begin(), complexWriter.get());
   }
-  TeeSink tee(heads);
-  PipelineOptions options;
-  options.threads = threads;
-  options.maxThreadBytes = (static_cast<std::size_t>(settings.maxMemoryMiB) << 20) / 2;
-  if (settings.sequentialVoxels >= 0) options.sequentialVoxels = settings.sequentialVoxels;
-  options.onSlab = onSlab;
-  const PipelineResult run = runPipeline(*source, *extractor, tee, header, options);
 
-  // The report: the complex as a whole, each label, and the interfaces.
-  report.stats = complexStats.stats();
-  report.method = "labels";
-  report.isoSource = "labels";
-  report.reader = info.reader;
-  report.dims = info.dims;
-  report.spacing = info.spacing;
-  report.volumeBounds = header.volumeBounds;
-  report.voxelType = std::string(voxelTypeName(info.type));
-  report.space = header.space;
-  if (run.valueRange) report.valueRange = std::array{asFloat((*run.valueRange)[0]), asFloat((*run.valueRange)[1])};
-  const auto counts = counter->voxelCounts();
-  const double voxelVolume = frame.cellVolume();
-  const auto measures = split.measures();
-  for (auto& [value, chain] : chains) {
+  ExtractLabel describeLabel(std::int32_t value, LabelChain& chain, const std::map<std::int32_t, std::int64_t>& counts,
+                             const std::map<std::int32_t, LabelSplitSink::Measures>& measures) const {
     ExtractLabel l;
     l.value = value;
     l.name = nameOf(value);
-    const LabelEntry* e = table ? table->find(value) : nullptr;
+    if (isoSet_) l.iso = settings_.isos[static_cast<std::size_t>(value - 1)];
+    const LabelEntry* e = table_ ? table_->find(value) : nullptr;
     l.colorFromTable = e != nullptr && e->color.has_value();
     l.color = colorOf(value);
+    for (const VolumeInfo::Label& named : info_.labels) {
+      if (named.value == value) l.layer = named.layer;
+    }
     const auto n = counts.find(value);
     l.voxels = n != counts.end() ? n->second : 0;
-    l.voxelVolume = static_cast<double>(l.voxels) * voxelVolume;
-    l.topology = settings.labelTopology;
+    l.voxelVolume = static_cast<double>(l.voxels) * frame_.cellVolume();
+    l.topology = settings_.labelTopology;
     if (l.topology) l.stats = chain.stats.stats();
     const LabelSplitSink::Measures& m = measures.at(value);
     l.stats.vertices = m.vertices;
@@ -218,57 +293,72 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
     l.stats.area = m.area;
     l.stats.volume = m.volume;
     l.stats.bounds = m.bounds;
-    if (const auto s = split.splits().find(value); s != split.splits().end()) l.splits = s->second;
-    if (const auto p = split.pinches().find(value); p != split.pinches().end()) l.pinches = p->second;
+    if (const auto s = split_->splits().find(value); s != split_->splits().end()) l.splits = s->second;
+    if (const auto p = split_->pinches().find(value); p != split_->pinches().end()) l.pinches = p->second;
     l.path = chain.path;
-    report.labels.push_back(std::move(l));
+    return l;
   }
-  for (const auto& [pair, face] : split.interfaces()) {
-    if (pair.first == 0) continue;  // a label's boundary with the background is in its own area
-    report.interfaces.push_back(ExtractInterface{pair.first, pair.second, face.triangles, face.area});
-  }
+
   // Requested labels that the volume lacks: one warning each, or one for many.
-  if (keep) {
-    std::vector<std::int32_t> absent;
-    for (std::int32_t value : *keep) {
-      if (counts.count(value) == 0) absent.push_back(value);
-    }
-    if (absent.size() <= 8) {
-      for (std::int32_t value : absent) {
-        report.warnings.push_back(fmt::format("label {} ('{}') is not in the volume", value, nameOf(value)));
+  void warnAbsent(const std::map<std::int32_t, std::int64_t>& counts) {
+    if (keep_) {
+      std::vector<std::int32_t> absent;
+      for (std::int32_t value : *keep_) {
+        if (counts.count(value) == 0) absent.push_back(value);
       }
-    } else {
-      report.warnings.push_back(fmt::format("{} of the {} requested labels are not in the volume (the first: {})",
-                                            absent.size(), keep->size(), absent.front()));
+      if (absent.size() <= 8) {
+        for (std::int32_t value : absent) {
+          report_.warnings.push_back(fmt::format("label {} ('{}') is not in the volume", value, nameOf(value)));
+        }
+      } else {
+        report_.warnings.push_back(fmt::format("{} of the {} requested labels are not in the volume (the first: {})",
+                                               absent.size(), keep_->size(), absent.front()));
+      }
+    }
+    if (chains_.empty()) {
+      report_.warnings.push_back(isoSet_ ? "no value's surface crosses the volume: nothing was written"
+                                         : "no selected label is in the volume: nothing was written");
     }
   }
-  if (chains.empty()) report.warnings.push_back("no selected label is in the volume: nothing was written");
-  for (std::string& w : source->warnings()) report.warnings.push_back(std::move(w));
-  for (std::size_t n = report.openingWarnings; n < report.warnings.size(); ++n) observer.warning(report.warnings[n]);
-  report.seconds.read = run.readSeconds;
-  report.seconds.extract = run.extractSeconds;
-  report.seconds.write = run.writeSeconds;
-  report.seconds.total = run.totalSeconds;
-  report.ringBytes = run.ringBytes;
-  if (scene) {
-    // Each label's node carries its value and measures.
-    for (std::size_t k = 0; k < report.labels.size() && k < scene->meshes().size(); ++k) {
-      const ExtractLabel& l = report.labels[k];
-      scene->meshes()[k].extras = {{"label", l.value},    {"voxels", l.voxels},
-                                   {"voxel_volume", l.voxelVolume}, {"mesh_volume", l.stats.volume},
-                                   {"area", l.stats.area}, {"triangles", l.stats.triangles}};
-    }
-    report.output.path = settings.output;
-    report.output.bytes = scene->write({{"labels", report.labels.size()}});
-  } else if (complexWriter) {
-    report.output.path = settings.output;
-    report.output.bytes = complexWriter->bytes();
-    report.output.details = complexWriter->details();
-  } else {
-    report.output.path = settings.output;
-    for (const auto& [value, chain] : chains) report.output.bytes += chain.writer->bytes();
+
+  const ExtractSettings& settings_;
+  ExtractReport& report_;
+  WriterOptions writing_;
+  WriterOptions labelWriting_;
+  const bool isoSet_;
+  VolumeInfo info_;
+  std::optional<LabelTable> table_;
+  LabelRequest request_;
+  std::optional<std::set<std::int32_t>> keep_;
+  LatticeFrame frame_;
+  LabelSource* counter_ = nullptr;
+  std::unique_ptr<SliceSource> source_;
+  std::unique_ptr<Extractor> extractor_;
+  MeshHeader header_;
+  bool pattern_ = false;
+  std::optional<GlbScene> scene_;
+  std::map<std::int32_t, LabelChain> chains_;  // before split_: the split's sinks outlive it
+  std::map<std::string, std::int32_t> paths_;
+  std::optional<LabelSplitSink> split_;
+  ComplexCounter complexStats_;
+  std::unique_ptr<MeshFileSink> complexWriter_;
+};
+
+}  // namespace
+
+void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer, OpenedInput input,
+                     ExtractReport& report, const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads,
+                     const WriterOptions& writing) {
+  checkLabelSettings(settings);
+  if (settings.ranks != nullptr && settings.ranks->size() > 1) {
+    throw SettingError("label surfaces and iso lists under mpirun are not supported yet: run one process");
   }
-  report.output.binaryPlyBytes = PlyWriter::binaryBytes(report.stats.vertices, report.stats.triangles, header);
+  report.labelRun = true;
+  SurfaceSetRun run(settings, report, writing);
+  run.open(std::move(input), threads);
+  const PipelineResult result = run.run(onSlab, threads);
+  run.describe(result, observer);
+  run.finishOutputs();
 }
 
 }  // namespace isoslab

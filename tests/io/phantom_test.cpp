@@ -62,7 +62,9 @@ TEST(Phantom, NoiseIsDeterministicAndIndependentOfReadingOrder) {
 }
 
 TEST(Phantom, BadSpecsNameTheProblem) {
-  EXPECT_EQ(errorOf("phantom:blob"), "phantom:blob: unknown phantom 'blob' (known: sphere, box, torus, head)");
+  EXPECT_EQ(errorOf("phantom:blob"),
+            "phantom:blob: unknown phantom 'blob' (known: sphere, box, torus, head, nested, boxes, checker, voxel, "
+            "touch)");
   EXPECT_EQ(errorOf("phantom:sphere?q=1"),
             "phantom:sphere?q=1: unknown key 'q' for phantom 'sphere' (known: c, field, n, r, spacing, type)");
   EXPECT_EQ(errorOf("phantom:sphere?r=abc"),

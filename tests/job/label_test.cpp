@@ -485,3 +485,136 @@ TEST(LabelCli, TheGlbHasANamedColouredNodePerLabelForThreeJs) {
 
 }  // namespace
 }  // namespace isoslab
+
+namespace isoslab {
+namespace {
+
+// A 3D Slicer segmentation as its documentation describes it: a NRRD with key:=value pairs per
+// segment; `layers` > 1 makes it 4-D, layers first.
+std::string writeSegNrrd(const std::string& path, int layers) {
+  std::string header = "NRRD0004\n# Complete NRRD file format specification at:\n";
+  header += layers > 1 ? "type: unsigned char\ndimension: 4\nspace: left-posterior-superior\nsizes: " +
+                             std::to_string(layers) + " 6 5 4\n"
+                       : "type: unsigned char\ndimension: 3\nspace: left-posterior-superior\nsizes: 6 5 4\n";
+  header += layers > 1 ? "space directions: none (0.5,0,0) (0,0.75,0) (0,0,2)\nkinds: list domain domain domain\n"
+                       : "space directions: (0.5,0,0) (0,0.75,0) (0,0,2)\nkinds: domain domain domain\n";
+  header += "encoding: raw\nspace origin: (10,-20,30)\n";
+  header +=
+      "Segment0_Color:=0.8 0.2 0.1\nSegment0_ID:=Segment_1\nSegment0_LabelValue:=1\nSegment0_Layer:=0\n"
+      "Segment0_Name:=Liver\nSegment1_Color:=0.1 0.4 0.9\nSegment1_ID:=Segment_2\nSegment1_LabelValue:=2\n"
+      "Segment1_Layer:=0\nSegment1_Name:=Kidney\n";
+  if (layers > 1) {
+    header +=
+        "Segment2_Color:=0 1 0\nSegment2_ID:=Segment_3\nSegment2_LabelValue:=1\nSegment2_Layer:=1\n"
+        "Segment2_Name:=Tumour\n";
+  }
+  header += "\n";
+  std::string data;
+  for (int k = 0; k < 4; ++k) {
+    for (int j = 0; j < 5; ++j) {
+      for (int i = 0; i < 6; ++i) {
+        // Layer 0: Liver in voxels i 1..2, Kidney in i 3..4 (rows j 1..3, slices k 1..2); layer 1:
+        // the Tumour overlapping both, at i 2..3.
+        const bool inside = j >= 1 && j <= 3 && k >= 1 && k <= 2;
+        const char l0 = inside && i >= 1 && i <= 2 ? 1 : inside && i >= 3 && i <= 4 ? 2 : 0;
+        const char l1 = inside && i >= 2 && i <= 3 ? 1 : 0;
+        data += l0;
+        if (layers > 1) data += l1;
+      }
+    }
+  }
+  std::ofstream(path, std::ios::binary) << header << data;
+  return path;
+}
+
+TEST(LabelInputs, SlicerSegNrrdGivesNamesColoursAndPositions) {
+  const std::string dir = testing::tempDir();
+  const std::string seg = writeSegNrrd(dir + "/s.seg.nrrd", 1);
+  ExtractSettings s;
+  s.inputs = {seg};
+  s.output = dir + "/{name}.ply";
+  s.space = OutputSpace::kLps;
+  const ExtractReport r = runExtract(s);  // a segmentation: labels without being asked
+  ASSERT_EQ(r.labels.size(), 2u);
+  EXPECT_EQ(r.labels[0].name, "Liver");
+  EXPECT_EQ(r.labels[0].color, (std::array<std::uint8_t, 3>{204, 51, 26}));
+  EXPECT_TRUE(r.labels[0].colorFromTable);
+  EXPECT_EQ(r.labels[1].name, "Kidney");
+  EXPECT_EQ(r.labels[1].color, (std::array<std::uint8_t, 3>{26, 102, 230}));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/Liver.ply"));
+  // Liver: voxels i 1..2, j 1..3, k 1..2, boxes half a voxel beyond: x 10 + 0.5 * [0.5, 2.5].
+  const std::array<double, 6> liver{10.25, -20 + 0.75 * 0.5, 30 + 2 * 0.5, 11.25, -20 + 0.75 * 3.5, 30 + 2 * 2.5};
+  for (std::size_t a = 0; a < 6; ++a) EXPECT_NEAR(r.labels[0].stats.bounds[a], liver[a], 1e-5) << a;
+  EXPECT_NEAR(r.labels[0].stats.volume, 12 * 0.5 * 0.75 * 2, 1e-9);
+  EXPECT_EQ(r.interfaces.size(), 1u);  // Liver and Kidney touch
+  EXPECT_NEAR(r.interfaces[0].area, 6 * 0.75 * 2, 1e-9);
+}
+
+TEST(LabelInputs, ALayeredSegNrrdMeshesTheLayerThatChannelChooses) {
+  const std::string dir = testing::tempDir();
+  const std::string seg = writeSegNrrd(dir + "/l.seg.nrrd", 2);
+  const auto refused = testing::runCli("extract " + seg + " -o " + dir + "/{name}.ply -q");
+  EXPECT_EQ(refused.exitCode, 1);
+  EXPECT_EQ(refused.err, "isoslab: error: " + seg +
+                             ": 2 segmentation layers (segments of different layers may overlap); a run meshes one: "
+                             "choose it with --channel 0..1\n");
+  const auto r = testing::runCli("extract " + seg + " --channel 1 -o " + dir + "/{name}.ply -q");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/Tumour.ply"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/Liver.ply"));
+}
+
+}  // namespace
+}  // namespace isoslab
+
+namespace isoslab {
+namespace {
+
+// A mesh's triangles as sets of corner positions, rotated to start at the smallest corner.
+std::multiset<std::array<std::array<float, 3>, 3>> triangleSet(const IndexedMesh& m) {
+  std::multiset<std::array<std::array<float, 3>, 3>> out;
+  for (const Triangle& t : m.triangles) {
+    std::array<std::array<float, 3>, 3> p{};
+    for (std::size_t k = 0; k < 3; ++k) p[k] = {m.positions[t[k]].x, m.positions[t[k]].y, m.positions[t[k]].z};
+    std::rotate(p.begin(), std::min_element(p.begin(), p.end()), p.end());
+    out.insert(p);
+  }
+  return out;
+}
+
+TEST(SeveralIsoValues, OnePassGivesEachValuesOwnSurface) {
+  const std::string dir = testing::tempDir();
+  for (const char* method : {"mc", "mt6"}) {
+    SCOPED_TRACE(method);
+    const auto r =
+        testing::runCli(std::string("extract 'phantom:head?n=48' --iso skin,300 --close-boundary --method ") + method +
+                        " -o '" + dir + "/{iso}.ply' --report " + dir + "/r.json -q");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto report = nlohmann::json::parse(testing::slurp(dir + "/r.json"));
+    ASSERT_EQ(report["labels"].size(), 2u);
+    for (const auto& [value, name] : {std::pair{-400.0, "-400"}, std::pair{300.0, "300"}}) {
+      const auto single = testing::runCli(std::string("extract 'phantom:head?n=48' --close-boundary --method ") +
+                                          method + " --iso " + name + " -o " + dir + "/single.ply -q");
+      ASSERT_EQ(single.exitCode, 0) << single.err;
+      const IndexedMesh one = readMesh(dir + "/single.ply");
+      const IndexedMesh part = readMesh(dir + "/" + name + ".ply");
+      EXPECT_EQ(triangleSet(part), triangleSet(one)) << name;
+      EXPECT_EQ(part.positions.size(), one.positions.size());
+      const auto& entry = report["labels"][value < 0 ? 0 : 1];
+      EXPECT_EQ(entry["iso"], value);
+      EXPECT_EQ(entry["triangles"], one.triangles.size());
+      EXPECT_EQ(entry["closed"], true);
+    }
+  }
+  const auto twice = testing::runCli("extract 'phantom:head?n=48' --iso 300,300 -o '" + dir + "/{iso}.ply' -q");
+  EXPECT_EQ(twice.exitCode, 2);
+  EXPECT_EQ(twice.err, "isoslab: error: --iso lists a value twice\n");
+  const auto autoList = testing::runCli("extract 'phantom:head?n=48' --iso auto,300 -o '" + dir + "/{iso}.ply' -q");
+  EXPECT_EQ(autoList.exitCode, 2);
+  EXPECT_NE(autoList.err.find("'auto' in 'auto,300' is not a number, bone or skin (a list takes no auto)"),
+            std::string::npos)
+      << autoList.err;
+}
+
+}  // namespace
+}  // namespace isoslab

@@ -1,0 +1,132 @@
+#!/usr/bin/python3
+"""Label maps (issue 35), in one run: isoslab against VTK's vtkDiscreteFlyingEdges3D (Debian's VTK
+9.1, every label value set) on mricron's AAL atlas and on checker phantoms of 1000 labels.
+
+For each: wall time, the extraction alone (isoslab's report; VTK's filter), peak RSS and triangles.
+VTK holds the volume and runs a pass per label, so it gets the 256^3 phantom only; isoslab also
+runs the 1024^3 one (a billion voxels) for its memory goal.
+
+    /usr/bin/python3 bench/labels.py [--program build/cli/isoslab] [--out /tmp/labels-bench]
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+VTK_SCRIPT = r"""
+import sys, time, json, vtk
+path, out = sys.argv[1], sys.argv[2]
+t0 = time.perf_counter()
+if path.startswith("phantom:"):
+    # The checker phantom, made in VTK from the same rule as isoslab's: blocks of b voxels labelled
+    # 1 .. labels in turn along x, then y, then z.
+    n, b, labels = (int(v) for v in path.split(":")[1].split(","))
+    import numpy as np
+    from vtk.util import numpy_support
+    i = np.arange(n) // b
+    nb = (n + b - 1) // b
+    block = i[None, None, :] + nb * (i[None, :, None] + nb * i[:, None, None])
+    values = (1 + block % labels).astype(np.uint16)
+    image = vtk.vtkImageData()
+    image.SetDimensions(n, n, n)
+    image.GetPointData().SetScalars(numpy_support.numpy_to_vtk(values.ravel(), deep=1))
+    hi = labels
+else:
+    reader = vtk.vtkNIFTIImageReader()
+    reader.SetFileName(path)
+    reader.Update()
+    image = reader.GetOutput()
+    hi = int(image.GetScalarRange()[1])
+t1 = time.perf_counter()
+f = vtk.vtkDiscreteFlyingEdges3D()
+f.SetInputData(image)
+f.GenerateValues(hi, 1, hi)
+f.ComputeNormalsOff()
+f.ComputeGradientsOff()
+f.ComputeScalarsOn()
+f.Update()
+t2 = time.perf_counter()
+w = vtk.vtkPLYWriter()
+w.SetFileName(out)
+w.SetFileTypeToBinary()
+w.SetInputData(f.GetOutput())
+w.Write()
+t3 = time.perf_counter()
+print(json.dumps({"read": t1 - t0, "filter": t2 - t1, "write": t3 - t2, "total": t3 - t0,
+                  "triangles": f.GetOutput().GetNumberOfCells()}))
+"""
+
+
+def timed(cmd):
+    """Runs cmd under /usr/bin/time: (wall seconds, peak RSS MiB, stdout)."""
+    with tempfile.NamedTemporaryFile("r", suffix=".time") as t:
+        r = subprocess.run(["/usr/bin/time", "-f", "%e %M", "-o", t.name, *cmd], capture_output=True, text=True)
+        if r.returncode != 0:
+            sys.exit(f"labels.py: {' '.join(cmd)} failed: {r.stderr.strip()}")
+        wall, kib = t.read().split()[-2:]
+        return float(wall), int(kib) / 1024, r.stdout
+
+
+def isoslab(program, args, out, threads):
+    report = out + ".json"
+    wall, rss, _ = timed([program, "extract", *args, "-o", out, "--threads", str(threads), "--report", report, "-q"])
+    r = json.load(open(report))
+    tris = r["triangles"]
+    return {"wall": wall, "extract": r["seconds"]["extract"], "rss_mib": rss, "triangles": tris}
+
+
+def vtk_run(source, out):
+    wall, rss, stdout = timed(["/usr/bin/python3", "-c", VTK_SCRIPT, source, out])
+    r = json.loads(stdout)
+    return {"wall": wall, "extract": r["filter"], "file_to_mesh": r["read"] + r["filter"] + r["write"], "rss_mib": rss,
+            "triangles": r["triangles"]}
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--program", default="build/cli/isoslab")
+    parser.add_argument("--out", default=tempfile.mkdtemp(prefix="labels-bench-"))
+    parser.add_argument("--big", type=int, default=1024, help="edge of the large phantom (0: skip)")
+    a = parser.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    aal = "/usr/share/mricron/templates/aal.nii.gz"
+    rows = []
+
+    def row(name, result):
+        rows.append((name, result))
+        print(f"{name:44s} wall {result['wall']:7.3f} s  extract {result['extract']:7.3f} s  "
+              f"RSS {result['rss_mib']:7.1f} MiB  triangles {result['triangles']:>11,}", flush=True)
+
+    if os.path.exists(aal):
+        for threads in (1, 2):
+            row(f"isoslab labels, aal, {threads} thread(s), .ply", isoslab(a.program, [aal], f"{a.out}/aal.ply", threads))
+        row("isoslab mc --iso 1, aal, 1 thread, .ply", isoslab(a.program, [aal, "--iso", "1"], f"{a.out}/mc.ply", 1))
+        row("VTK reader + discrete FE + PLY, aal", vtk_run(aal, f"{a.out}/vtk.ply"))
+    small = "phantom:checker?n=256&b=25&labels=1000"
+    for threads in (1, 2):
+        row(f"isoslab labels, checker 256^3, {threads} thread(s)", isoslab(a.program, [small], f"{a.out}/c256.ply", threads))
+    row("isoslab mc --iso 1, checker 256^3, 1 thread",
+        isoslab(a.program, [small, "--iso", "1"], f"{a.out}/c256mc.ply", 1))
+    row("VTK discrete FE + PLY, checker 256^3", vtk_run("phantom:256,25,1000", f"{a.out}/c256vtk.ply"))
+    if a.big:
+        big = f"phantom:checker?n={a.big}&b={a.big // 10}&labels=1000"
+        for threads in (1, 2):
+            row(f"isoslab labels, checker {a.big}^3, {threads} thread(s)",
+                isoslab(a.program, [big], f"{a.out}/cbig.ply", threads))
+            os.remove(f"{a.out}/cbig.ply")
+    results = {name: r for name, r in rows}
+    aal1 = results.get("isoslab labels, aal, 1 thread(s), .ply")
+    vtk = results.get("VTK reader + discrete FE + PLY, aal")
+    mc = results.get("isoslab mc --iso 1, aal, 1 thread, .ply")
+    if aal1 and vtk and mc:
+        print(f"aal: extraction {vtk['extract'] / aal1['extract']:.1f}x VTK's filter (goal 20x); file to mesh "
+              f"{vtk['wall'] / aal1['wall']:.1f}x VTK's wall (goal 8x); memory {aal1['rss_mib'] / vtk['rss_mib']:.2f} "
+              f"of VTK's (goal 0.1); voxel throughput {mc['extract'] / aal1['extract']:.2f} of plain mc's (goal 0.5)")
+    json.dump(results, open(f"{a.out}/labels-bench.json", "w"), indent=1)
+
+
+if __name__ == "__main__":
+    main()
