@@ -272,8 +272,6 @@ ExtractSettings extractSettings(const ExtractArgs& args, RankGroup* ranks) {
   }
   if (!args.labels.empty()) s.labels = parseLabelRequest(args.labels);
   s.labelTable = args.labelTable;
-  // The edges of every label are measured for the report; the summary line does without.
-  s.labelTopology = !args.report.empty();
   const auto method = parseMethod(args.method);
   if (!method) {
     throw UsageError(

@@ -88,9 +88,6 @@ struct ExtractSettings {
   std::optional<LabelRequest> labels;
   /// Names and colours of the labels (io/label_table.h); empty: the file's own, else none.
   std::string labelTable;
-  /// Label runs: measure each label's edges (closed, manifold, Euler characteristic) too, which
-  /// costs about as much as the extraction; counts, area, volume and bounds are always measured.
-  bool labelTopology = true;
   /// Measure the mesh against this sphere (output coordinates); phantom spheres are measured anyway.
   std::optional<Sphere> sphere;
 

@@ -102,10 +102,9 @@ class ComplexCounter final : public MeshSink {
   MeshStats stats_;
 };
 
-// One label's sinks: its writer (pattern outputs) and its measures.
+// One label's sinks: its writer (pattern outputs or the .glb's mesh); the split measures it.
 struct LabelChain {
   std::unique_ptr<MeshFileSink> writer;
-  MeshStatsSink stats;
   std::unique_ptr<TeeSink> tee;
   std::string path;
 };
@@ -248,11 +247,10 @@ class SurfaceSetRun {
   }
 
   // A label's sinks, when its first triangle arrives: its writer (a pattern's file or the .glb's
-  // mesh) and, for the report, its edge measures.
+  // mesh).
   MeshSink* sinkFor(std::int32_t label) {
     LabelChain& chain = chains_[label];
     std::vector<MeshSink*> sinks;
-    if (settings_.labelTopology) sinks.push_back(&chain.stats);
     if (pattern_) {
       chain.path = expandPattern(settings_.output, label, nameOf(label), isoSet_ ? nameOf(label) : "");
       const auto [it, fresh] = paths_.emplace(chain.path, label);
@@ -270,7 +268,8 @@ class SurfaceSetRun {
     return chain.tee.get();
   }
 
-  ExtractLabel describeLabel(std::int32_t value, LabelChain& chain, const std::map<std::int32_t, std::int64_t>& counts,
+  ExtractLabel describeLabel(std::int32_t value, const LabelChain& chain,
+                             const std::map<std::int32_t, std::int64_t>& counts,
                              const std::map<std::int32_t, LabelSplitSink::Measures>& measures) const {
     ExtractLabel l;
     l.value = value;
@@ -285,9 +284,13 @@ class SurfaceSetRun {
     const auto n = counts.find(value);
     l.voxels = n != counts.end() ? n->second : 0;
     l.voxelVolume = static_cast<double>(l.voxels) * frame_.cellVolume();
-    l.topology = settings_.labelTopology;
-    if (l.topology) l.stats = chain.stats.stats();
+    l.topology = true;
     const LabelSplitSink::Measures& m = measures.at(value);
+    l.stats.edges = m.topology.edges;
+    l.stats.boundaryEdges = m.topology.boundaryEdges;
+    l.stats.nonManifoldEdges = m.topology.nonManifoldEdges;
+    l.stats.inconsistentEdges = m.topology.inconsistentEdges;
+    l.stats.euler = m.topology.euler;
     l.stats.vertices = m.vertices;
     l.stats.triangles = m.triangles;
     l.stats.area = m.area;

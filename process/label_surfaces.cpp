@@ -60,7 +60,8 @@ VertexId LabelSplitSink::idFor(std::uint32_t stream, VertexId v, const MeshChunk
   // The position from the window's chunk: the current one, or the previous (kept in previous_).
   const bool here = v >= chunk.firstVertex;
   const Vec3f& p = here ? chunk.positions[v - chunk.firstVertex] : previousPositions_[v - previous_.first];
-  s.chunk.positions.push_back(p);
+  scratch_.positions.push_back(p);
+  scratch_.boundary.push_back(here ? chunk.boundary[v - chunk.firstVertex] : previousBoundary_[v - previous_.first]);
   Measures& m = s.measures;
   const std::array<double, 3> c{p.x, p.y, p.z};
   for (std::size_t a = 0; a < 3; ++a) {
@@ -68,7 +69,6 @@ VertexId LabelSplitSink::idFor(std::uint32_t stream, VertexId v, const MeshChunk
     if (m.vertices == 0 || c[a] > m.bounds[a + 3]) m.bounds[a + 3] = c[a];
   }
   ++m.vertices;
-  s.chunk.boundary.push_back(here ? chunk.boundary[v - chunk.firstVertex] : previousBoundary_[v - previous_.first]);
   return id;
 }
 
@@ -79,8 +79,11 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
   current_.uses.clear();
   for (std::int32_t l : chunk.labelSplits) ++splits_[l];
   for (std::int32_t l : chunk.labelPinches) ++pinches_[l];
+  // First the measures and each side's stream; then each touched stream's chunk in turn, built in
+  // one scratch chunk, so that a label costs no buffer of its own.
   std::pair<std::int32_t, std::int32_t> lastPair{0, 0};
   Interface* lastInterface = nullptr;
+  sides_.clear();
   for (std::size_t t = 0; t < chunk.triangles.size(); ++t) {
     const Triangle& tri = chunk.triangles[t];
     const LabelPair sides = chunk.faceLabels[t];
@@ -95,41 +98,115 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
     const auto [area, volume] = measure(position(tri[0]), position(tri[1]), position(tri[2]));
     ++lastInterface->triangles;
     lastInterface->area += area;
-    for (int side = 0; side < 2; ++side) {
-      const std::int32_t label = sides[static_cast<std::size_t>(side)];
+    for (std::uint32_t side = 0; side < 2; ++side) {
+      const std::int32_t label = sides[side];
       if (label == 0) continue;
       const std::uint32_t k = streamOf(label);
       if (k == kNoStream) continue;
       Stream& s = streams_[k];
-      if (!s.touched) {
-        s.touched = true;
-        s.chunk.clear();
-        s.chunk.slab = chunk.slab;
-        s.chunk.firstVertex = s.next;
-        touched_.push_back(k);
-      }
-      const VertexId a = idFor(k, tri[0], chunk);
-      const VertexId b = idFor(k, tri[1], chunk);
-      const VertexId c = idFor(k, tri[2], chunk);
-      // The back label's face as it is; the front label's reversed.
-      s.chunk.triangles.push_back(side == 1 ? Triangle{a, b, c} : Triangle{a, c, b});
+      if (s.pending++ == 0) touched_.push_back(k);
+      sides_.push_back({k, static_cast<std::uint32_t>(t) << 1 | side});
       ++s.measures.triangles;
       s.measures.area += area;
       s.measures.volume += side == 1 ? volume : -volume;
     }
   }
+  // The sides by stream (a counting sort over the touched streams, in order).
   std::sort(touched_.begin(), touched_.end());
+  std::uint32_t offset = 0;
+  for (std::uint32_t k : touched_) {
+    const std::uint32_t n = streams_[k].pending;
+    streams_[k].pending = offset;
+    offset += n;
+  }
+  ordered_.resize(sides_.size());
+  for (const auto& [k, ts] : sides_) ordered_[streams_[k].pending++] = ts;
+  std::uint32_t at = 0;
   for (std::uint32_t k : touched_) {
     Stream& s = streams_[k];
-    s.touched = false;
-    s.sink->consume(s.chunk);
+    scratch_.clear();
+    scratch_.slab = chunk.slab;
+    scratch_.firstVertex = s.next;
+    for (; at < s.pending; ++at) {
+      const std::uint32_t t = ordered_[at] >> 1;
+      const bool back = (ordered_[at] & 1) != 0;
+      const Triangle& tri = chunk.triangles[t];
+      const VertexId a = idFor(k, tri[0], chunk);
+      const VertexId b = idFor(k, tri[1], chunk);
+      const VertexId c = idFor(k, tri[2], chunk);
+      // The back label's face as it is; the front label's reversed.
+      scratch_.triangles.push_back(back ? Triangle{a, b, c} : Triangle{a, c, b});
+      tally(k, back ? tri : Triangle{tri[0], tri[2], tri[1]});
+    }
+    s.pending = 0;
+    s.sink->consume(scratch_);
   }
   touched_.clear();
+  settle(chunk.firstVertex);
   previousPositions_ = chunk.positions;
   previousBoundary_ = chunk.boundary;
 }
 
+// Each edge use of a label's triangle (in complex ids, which map one to one to the label's), for
+// the label's topology: an edge is settled once its lower end's chunk is behind the stream.
+void LabelSplitSink::tally(std::uint32_t stream, const Triangle& t) {
+  for (std::size_t e = 0; e < 3; ++e) {
+    const VertexId a = t[e], b = t[(e + 1) % 3];
+    edgeUses_.push_back(EdgeUse{std::min(a, b), std::max(a, b), stream, a < b ? 1 : -1});
+  }
+}
+
+void LabelSplitSink::settle(VertexId before) {
+  // The uses whose lower end lies before `before` are complete: bucket them by their lower end (a
+  // counting sort over the lower ends' range), then group each bucket's few uses by (hi, stream).
+  const auto complete =
+      std::partition(edgeUses_.begin(), edgeUses_.end(), [before](const EdgeUse& u) { return u.lo < before; });
+  if (complete != edgeUses_.begin()) {
+    VertexId low = edgeUses_.front().lo, high = low;
+    for (auto it = edgeUses_.begin(); it != complete; ++it) {
+      low = std::min(low, it->lo);
+      high = std::max(high, it->lo);
+    }
+    offsets_.assign(static_cast<std::size_t>(high - low) + 2, 0);
+    for (auto it = edgeUses_.begin(); it != complete; ++it) ++offsets_[it->lo - low + 1];
+    for (std::size_t k = 1; k < offsets_.size(); ++k) offsets_[k] += offsets_[k - 1];
+    bucketed_.resize(static_cast<std::size_t>(complete - edgeUses_.begin()));
+    for (auto it = edgeUses_.begin(); it != complete; ++it) bucketed_[offsets_[it->lo - low]++] = *it;
+    const auto byEdge = [](const EdgeUse& x, const EdgeUse& y) {
+      return x.hi != y.hi ? x.hi < y.hi : x.stream < y.stream;
+    };
+    for (std::size_t first = 0; first < bucketed_.size();) {
+      std::size_t last = first + 1;
+      while (last < bucketed_.size() && bucketed_[last].lo == bucketed_[first].lo) ++last;
+      // A bucket holds a vertex's few edges: insertion sort.
+      for (std::size_t k = first + 1; k < last; ++k) {
+        for (std::size_t m = k; m > first && byEdge(bucketed_[m], bucketed_[m - 1]); --m) {
+          std::swap(bucketed_[m], bucketed_[m - 1]);
+        }
+      }
+      for (std::size_t k = first; k < last;) {
+        std::size_t end = k;
+        int uses = 0, direction = 0;
+        while (end < last && bucketed_[end].hi == bucketed_[k].hi && bucketed_[end].stream == bucketed_[k].stream) {
+          ++uses;
+          direction += bucketed_[end].direction;
+          ++end;
+        }
+        Topology& t = streams_[bucketed_[k].stream].topology;
+        ++t.edges;
+        if (uses == 1) ++t.boundaryEdges;
+        if (uses > 2) ++t.nonManifoldEdges;
+        if (uses == 2 && direction != 0) ++t.inconsistentEdges;
+        k = end;
+      }
+      first = last;
+    }
+  }
+  edgeUses_.erase(edgeUses_.begin(), complete);
+}
+
 void LabelSplitSink::finish() {
+  settle(std::numeric_limits<VertexId>::max());
   std::vector<std::uint32_t> order(streams_.size());
   for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
   std::sort(order.begin(), order.end(), [&](auto a, auto b) { return streams_[a].label < streams_[b].label; });
@@ -138,7 +215,13 @@ void LabelSplitSink::finish() {
 
 std::map<std::int32_t, LabelSplitSink::Measures> LabelSplitSink::measures() const {
   std::map<std::int32_t, Measures> out;
-  for (const Stream& s : streams_) out[s.label] = s.measures;
+  for (const Stream& s : streams_) {
+    Measures m = s.measures;
+    m.topology = s.topology;
+    m.topology.euler = static_cast<std::int64_t>(m.vertices) - static_cast<std::int64_t>(m.topology.edges) +
+                       static_cast<std::int64_t>(m.triangles);
+    out[s.label] = m;
+  }
   return out;
 }
 

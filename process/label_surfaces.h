@@ -44,9 +44,19 @@ class LabelSplitSink final : public MeshSink {
   const std::map<std::int32_t, std::uint64_t>& splits() const noexcept { return splits_; }
   const std::map<std::int32_t, std::uint64_t>& pinches() const noexcept { return pinches_; }
   /// Per label, measured as the triangles pass (in double, from the float positions): its
-  /// surface's vertices, triangles, area, enclosed volume (divergence theorem, outward faces) and
-  /// bounds (xmin ymin zmin xmax ymax zmax).
+  /// surface's edges, vertices, triangles, area, enclosed volume (divergence theorem, outward
+  /// faces) and bounds (xmin ymin zmin xmax ymax zmax). Memory: the last two chunks' edge uses,
+  /// whatever the number of labels.
+  /// A label's edges, each settled once no later triangle can use it (the streaming contract).
+  struct Topology {
+    std::uint64_t edges = 0;
+    std::uint64_t boundaryEdges = 0;      // used once
+    std::uint64_t nonManifoldEdges = 0;   // used more than twice
+    std::uint64_t inconsistentEdges = 0;  // used twice in one direction
+    std::int64_t euler = 0;               // vertices - edges + triangles
+  };
   struct Measures {
+    Topology topology;
     std::uint64_t vertices = 0;
     std::uint64_t triangles = 0;
     double area = 0;
@@ -62,11 +72,18 @@ class LabelSplitSink final : public MeshSink {
   struct Stream {
     std::int32_t label = 0;
     MeshSink* sink = nullptr;
-    MeshChunk chunk;
     VertexId next = 0;
-    bool touched = false;
+    std::uint32_t pending = 0;  // this chunk's sides, then their offset (consume)
     Measures measures;
+    Topology topology;
   };
+  struct EdgeUse {
+    VertexId lo = 0, hi = 0;
+    std::uint32_t stream = 0;
+    int direction = 0;  // +1: the triangle runs lo -> hi
+  };
+  void tally(std::uint32_t stream, const Triangle& t);
+  void settle(VertexId before);
   // A label's number for a complex vertex of the window.
   struct Use {
     std::uint32_t stream = 0;
@@ -87,6 +104,12 @@ class LabelSplitSink final : public MeshSink {
   std::vector<Stream> streams_;
   std::unordered_map<std::int32_t, std::uint32_t> index_;  // label -> stream (kNoStream: dropped)
   std::vector<std::uint32_t> touched_;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> sides_;  // (stream, triangle << 1 | back)
+  std::vector<std::uint32_t> ordered_;
+  MeshChunk scratch_;  // the chunk of one label, built and sent in turn
+  std::vector<EdgeUse> edgeUses_;
+  std::vector<EdgeUse> bucketed_;  // settle(): the complete uses by lower end
+  std::vector<std::size_t> offsets_;
   Window previous_, current_;
   std::vector<Vec3f> previousPositions_;  // the previous chunk's
   std::vector<std::uint8_t> previousBoundary_;
