@@ -152,7 +152,7 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
 void LabelSplitSink::tally(std::uint32_t stream, const Triangle& t) {
   for (std::size_t e = 0; e < 3; ++e) {
     const VertexId a = t[e], b = t[(e + 1) % 3];
-    edgeUses_.push_back(EdgeUse{std::min(a, b), std::max(a, b), stream, a < b ? 1 : -1});
+    edgeUses_.push_back(EdgeUse{std::min(a, b), std::max(a, b), stream << 1 | (a < b ? 1u : 0u)});
   }
 }
 
@@ -171,32 +171,31 @@ void LabelSplitSink::settle(VertexId before) {
     for (auto it = edgeUses_.begin(); it != complete; ++it) ++offsets_[it->lo - low + 1];
     for (std::size_t k = 1; k < offsets_.size(); ++k) offsets_[k] += offsets_[k - 1];
     bucketed_.resize(static_cast<std::size_t>(complete - edgeUses_.begin()));
-    for (auto it = edgeUses_.begin(); it != complete; ++it) bucketed_[offsets_[it->lo - low]++] = *it;
+    for (std::uint32_t k = 0; k < bucketed_.size(); ++k) bucketed_[offsets_[edgeUses_[k].lo - low]++] = k;
+    const auto use = [&](std::size_t k) -> const EdgeUse& { return edgeUses_[bucketed_[k]]; };
     const auto byEdge = [](const EdgeUse& x, const EdgeUse& y) {
-      return x.hi != y.hi ? x.hi < y.hi : x.stream < y.stream;
+      return x.hi != y.hi ? x.hi < y.hi : (x.streamForward >> 1) < (y.streamForward >> 1);
     };
     for (std::size_t first = 0; first < bucketed_.size();) {
       std::size_t last = first + 1;
-      while (last < bucketed_.size() && bucketed_[last].lo == bucketed_[first].lo) ++last;
+      while (last < bucketed_.size() && use(last).lo == use(first).lo) ++last;
       // A bucket holds a vertex's few edges: insertion sort.
       for (std::size_t k = first + 1; k < last; ++k) {
-        for (std::size_t m = k; m > first && byEdge(bucketed_[m], bucketed_[m - 1]); --m) {
-          std::swap(bucketed_[m], bucketed_[m - 1]);
-        }
+        for (std::size_t m = k; m > first && byEdge(use(m), use(m - 1)); --m) std::swap(bucketed_[m], bucketed_[m - 1]);
       }
       for (std::size_t k = first; k < last;) {
         std::size_t end = k;
-        int uses = 0, direction = 0;
-        while (end < last && bucketed_[end].hi == bucketed_[k].hi && bucketed_[end].stream == bucketed_[k].stream) {
+        int uses = 0, forward = 0;
+        while (end < last && use(end).hi == use(k).hi && (use(end).streamForward >> 1) == (use(k).streamForward >> 1)) {
           ++uses;
-          direction += bucketed_[end].direction;
+          forward += static_cast<int>(use(end).streamForward & 1);
           ++end;
         }
-        Topology& t = streams_[bucketed_[k].stream].topology;
+        Topology& t = streams_[use(k).streamForward >> 1].topology;
         ++t.edges;
         if (uses == 1) ++t.boundaryEdges;
         if (uses > 2) ++t.nonManifoldEdges;
-        if (uses == 2 && direction != 0) ++t.inconsistentEdges;
+        if (uses == 2 && forward != 1) ++t.inconsistentEdges;
         k = end;
       }
       first = last;

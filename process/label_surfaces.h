@@ -77,10 +77,9 @@ class LabelSplitSink final : public MeshSink {
     Measures measures;
     Topology topology;
   };
-  struct EdgeUse {
+  struct EdgeUse {  // 12 bytes: a chunk of two million triangles makes twelve million
     VertexId lo = 0, hi = 0;
-    std::uint32_t stream = 0;
-    int direction = 0;  // +1: the triangle runs lo -> hi
+    std::uint32_t streamForward = 0;  // stream << 1 | 1 when the triangle runs lo -> hi
   };
   void tally(std::uint32_t stream, const Triangle& t);
   void settle(VertexId before);
@@ -108,7 +107,7 @@ class LabelSplitSink final : public MeshSink {
   std::vector<std::uint32_t> ordered_;
   MeshChunk scratch_;  // the chunk of one label, built and sent in turn
   std::vector<EdgeUse> edgeUses_;
-  std::vector<EdgeUse> bucketed_;  // settle(): the complete uses by lower end
+  std::vector<std::uint32_t> bucketed_;  // settle(): the complete uses, by lower end
   std::vector<std::size_t> offsets_;
   Window previous_, current_;
   std::vector<Vec3f> previousPositions_;  // the previous chunk's
