@@ -2,6 +2,8 @@
 // (the waiting chunk, the seam keys); the .drc writer beside it is short.
 #include "encode/draco_writers.h"
 
+#include "encode/glb_scene.h"
+
 #include "core/fans.h"
 
 #include <fmt/format.h>

@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "core/interrupt.h"
 #include "encode/draco_writers.h"
+#include "encode/glb_scene.h"
 #include "encode/mesh_writer.h"
 #include "encode/ply_writer.h"
 #include "extract/label_extractor.h"
