@@ -3,6 +3,8 @@
 // is opened.
 #pragma once
 
+#include "core/edit_distance.h"
+
 #include <CLI/CLI.hpp>
 
 #include <cstdint>
@@ -69,6 +71,5 @@ std::string withFlags(const std::string& text);
 std::string terminalLine(const std::string& text);
 
 /// Levenshtein distance, for "did you mean".
-std::size_t editDistance(const std::string& a, const std::string& b);
 
 }  // namespace isoslab::cli

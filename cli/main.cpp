@@ -41,11 +41,11 @@ namespace isoslab {
 namespace {
 
 using cli::alternatives;
-using cli::editDistance;
 using cli::integerIn;
 using cli::numberList;
 using cli::oneOf;
 using cli::UsageError;
+using isoslab::editDistance;
 
 constexpr const char* kVersion = ISOSLAB_VERSION;
 /// info --bins: 2^24 bins are 128 MiB of counts.

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "extract/label_cells.h"
+#include "extract/slab_run.h"
 
 namespace isoslab {
 namespace {
@@ -93,7 +94,7 @@ class LabelKernel {
   }
 
   // After a following layer: its top plane is the next layer's plane below.
-  void roll() noexcept { std::swap(top_[0], top_[1]); }
+  void rollCaches() noexcept { std::swap(top_[0], top_[1]); }
 
   // After a standalone run: the last layer's top edges, by slot.
   void takeTop(std::vector<std::pair<CacheSlot, LocalVertex>>& top) const {
@@ -365,20 +366,7 @@ class LabelSlabWorker final : public SlabWorker {
 
   void extract(std::span<const SlabView> slabs, SlabPart& part,
                const std::function<void(const SlabView&)>& before) override {
-    part.chunks.resize(slabs.size());
-    part.foreign.clear();
-    part.top.clear();
-    kernel_.resetVertexCount();
-    for (std::size_t k = 0; k < slabs.size(); ++k) {
-      MeshChunk& chunk = part.chunks[k];
-      chunk.clear();
-      chunk.slab = slabs[k].z;
-      chunk.firstVertex = 0;
-      if (before) before(slabs[k]);
-      kernel_.extractSlab(slabs[k], chunk, k == 0 ? &part.foreign : nullptr);
-      if (k + 1 < slabs.size()) kernel_.roll();
-    }
-    kernel_.takeTop(part.top);
+    extractRun(kernel_, slabs, part, before);
   }
 
  private:
@@ -400,7 +388,7 @@ class LabelExtractor final : public Extractor {
   std::unique_ptr<SlabWorker> makeWorker() const override { return std::make_unique<LabelSlabWorker>(kernel_); }
   void extractSlab(const SlabView& slab, MeshChunk& out) override {
     kernel_.extractSlab(slab, out, nullptr);
-    kernel_.roll();
+    kernel_.rollCaches();
   }
 
  private:

@@ -3,6 +3,7 @@
 #include "extract/lattice_extractor.h"
 
 #include "extract/lattice_kernel.h"
+#include "extract/slab_run.h"
 
 namespace isoslab {
 namespace {
@@ -20,20 +21,7 @@ class LatticeSlabWorker final : public SlabWorker {
   // that vertex ids run on over the whole run.
   void extract(std::span<const SlabView> slabs, SlabPart& part,
                const std::function<void(const SlabView&)>& before) override {
-    part.chunks.resize(slabs.size());
-    part.foreign.clear();
-    part.top.clear();
-    kernel_.resetVertexCount();
-    for (std::size_t k = 0; k < slabs.size(); ++k) {
-      MeshChunk& chunk = part.chunks[k];
-      chunk.clear();
-      chunk.slab = slabs[k].z;
-      chunk.firstVertex = 0;
-      if (before) before(slabs[k]);
-      kernel_.extractSlab(slabs[k], chunk, k == 0 ? &part.foreign : nullptr);
-      if (k + 1 < slabs.size()) kernel_.rollCaches();
-    }
-    kernel_.takeTop(part.top);
+    extractRun(kernel_, slabs, part, before);
   }
 
  private:
