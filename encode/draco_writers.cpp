@@ -149,10 +149,10 @@ std::int64_t GlbScene::write(const nlohmann::ordered_json& extras) {
         rgba.push_back(v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
       }
       rgba.push_back(1.0);
-      materials.push_back({{"name", m.name},
-                           {"pbrMetallicRoughness", {{"baseColorFactor", rgba}, {"metallicFactor", 0.0},
-                                                     {"roughnessFactor", 0.6}}},
-                           {"doubleSided", false}});
+      materials.push_back(
+          {{"name", m.name},
+           {"pbrMetallicRoughness", {{"baseColorFactor", rgba}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.6}}},
+           {"doubleSided", false}});
     }
     if (options_.gltfFrame) {
       const std::string tag = header_.space == "lps" || header_.space == "physical" ? "LPS" : header_.space;
@@ -547,7 +547,8 @@ void GlbDracoWriter::addToScene() {
       dracoAttributes["NORMAL"] = p.ids.normal;
     }
     if (p.ids.seam >= 0) {
-      attributes[kSeamAttribute] = scene_->addAccessor({{"componentType", 5123}, {"count", p.points}, {"type", "VEC2"}});
+      attributes[kSeamAttribute] =
+          scene_->addAccessor({{"componentType", 5123}, {"count", p.points}, {"type", "VEC2"}});
       dracoAttributes[kSeamAttribute] = p.ids.seam;
     }
     const std::size_t indices =
