@@ -16,6 +16,7 @@
 #include "encode/mesh_metadata.h"
 #include "encode/mesh_reader.h"
 #include "encode/mesh_writer.h"
+#include "io/dicom_seg.h"
 #include "io/dicom_series.h"
 #include "io/label_source.h"
 #include "io/open_source.h"
@@ -83,11 +84,18 @@ void printHistogram(const ValueHistogram& h, const std::string& indent, int widt
 
 int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw, std::size_t histogramBins) {
   const SourceOptions options = sourceOptions(raw);
-  const bool dicom = !options.raw && !PhantomSource::isPhantom(inputs.front()) &&
-                     std::all_of(inputs.begin(), inputs.end(), [](const std::string& in) { return isDicomInput(in); });
+  const bool dicom =
+      !options.raw && !PhantomSource::isPhantom(inputs.front()) &&
+      std::all_of(inputs.begin(), inputs.end(), [](const std::string& in) { return isDicomInput(in); }) &&
+      !(inputs.size() == 1 && isDicomSegmentation(inputs.front()));
   if (!dicom) {
     std::vector<std::string> notes;
-    auto source = openSource(inputs, options, &notes);
+    SourceOptions sourceOptions = options;
+    // A segmentation whose segments overlap is shown by its first layer (the note says how many).
+    if (inputs.size() == 1 && sourceOptions.dicom.channel < 0 && isDicomSegmentation(inputs.front())) {
+      sourceOptions.dicom.channel = 0;
+    }
+    auto source = openSource(inputs, sourceOptions, &notes);
     std::printf("input      %s\n", inputs.front().c_str());
     printGeometry(source->info());
     std::optional<ValueHistogram> histogram;
@@ -102,6 +110,7 @@ int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw, std::siz
       std::printf("range      %d .. %d\n", counts.empty() ? 0 : counts.begin()->first,
                   counts.empty() ? 0 : counts.rbegin()->first);
       std::printf("labels     %zu (a label map: extract meshes every label, or those --labels names)\n", n);
+      for (const std::string& note : notes) std::printf("note       %s\n", withFlags(note).c_str());
       for (const std::string& w : labels.warnings()) std::printf("warning    %s\n", withFlags(w).c_str());
       return 0;
     }

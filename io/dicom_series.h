@@ -79,6 +79,9 @@ struct DicomScan {
   std::vector<DicomSeries> series;
   /// Files that are not DICOM images (non-DICOM files, directories, private objects), counted.
   int skipped = 0;
+  /// DICOM Segmentation objects found (also counted in `skipped`): label volumes of their own,
+  /// read by io/dicom_seg.h, never part of a series.
+  std::vector<std::string> segmentations;
   std::vector<std::string> warnings;
 };
 

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <sstream>
 
 #include "core/error.h"
 
@@ -34,6 +35,7 @@ bool LabelSource::readSlice(std::span<float> slice) {
   if (!inner_->readSlice(slice)) return false;
   const std::int64_t nx = inner_->info().dims[0];
   const auto voxels = static_cast<std::int64_t>(slice.size());
+  const bool counted = slice_ >= countFirst_ && slice_ < countEnd_;
   // Runs of equal values: a run is checked, counted and selected once.
   std::int64_t i = 0;
   while (i < voxels) {
@@ -49,7 +51,7 @@ bool LabelSource::readSlice(std::span<float> slice) {
                               i / nx, slice_, value, why));
     }
     const auto label = static_cast<std::int32_t>(v);
-    count(label, end - i);
+    if (counted) count(label, end - i);
     if (keep_ && label != 0) {
       const std::int64_t k = std::int64_t{label} - kDenseLow;
       const bool kept = k >= 0 && k < static_cast<std::int64_t>(keepDense_.size())
@@ -75,6 +77,24 @@ std::map<std::int32_t, std::int64_t> LabelSource::voxelCounts() const {
     if (dense_[k] != 0) counts[static_cast<std::int32_t>(k) + kDenseLow] += dense_[k];
   }
   return counts;
+}
+
+std::string LabelSource::countsText() const {
+  std::string text;
+  for (const auto& [label, n] : voxelCounts()) text += fmt::format("{} {}\n", label, n);
+  return text;
+}
+
+void LabelSource::addCounts(const std::string& text) {
+  std::istringstream in(text);
+  std::int64_t label = 0;
+  std::int64_t n = 0;
+  while (in >> label >> n) {
+    if (std::abs(static_cast<double>(label)) > kLargestLabel || n < 0) {
+      throw Error(what_ + ": a rank's label counts are damaged");
+    }
+    count(static_cast<std::int32_t>(label), n);
+  }
 }
 
 }  // namespace isoslab

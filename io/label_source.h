@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -35,6 +36,15 @@ class LabelSource final : public SliceSource {
 
   /// Voxels per label over the slices read so far, before selection (the background included).
   std::map<std::int32_t, std::int64_t> voxelCounts() const;
+  /// Counts only slices first .. end - 1 (a rank's own, where ranks read a slice beyond their
+  /// range); every slice read is still checked.
+  void countOnly(std::int64_t first, std::int64_t end) noexcept {
+    countFirst_ = first;
+    countEnd_ = end;
+  }
+  /// voxelCounts() as text ("label count" pairs), and those of another LabelSource added in.
+  std::string countsText() const;
+  void addCounts(const std::string& text);
 
  private:
   void count(std::int32_t label, std::int64_t n);
@@ -43,6 +53,8 @@ class LabelSource final : public SliceSource {
   std::string what_;
   std::optional<std::set<std::int32_t>> keep_;
   std::int64_t slice_ = 0;
+  std::int64_t countFirst_ = 0;
+  std::int64_t countEnd_ = std::numeric_limits<std::int64_t>::max();
   // Counts of labels -32768 .. 65535 (every 8- and 16-bit label) by index, the rest in a map.
   static constexpr std::int32_t kDenseLow = -32768;
   std::vector<std::int64_t> dense_;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "io/dicom_seg.h"
 #include "io/file_list.h"
 #include "io/image_stack.h"
 #include "io/phantom.h"
@@ -58,8 +59,19 @@ std::unique_ptr<SliceSource> openUnchecked(const std::vector<std::string>& input
       throw Error(fmt::format("{}: cannot open: {}", in, std::strerror(ENOENT)));
     }
   }
+  // A DICOM Segmentation is a label volume of its own, not an image of a series.
+  if (inputs.size() == 1 && isDicomSegmentation(input)) {
+    return openDicomSegmentation(input, options.dicom.channel, notes);
+  }
   if (std::all_of(inputs.begin(), inputs.end(), [](const std::string& in) { return isDicomInput(in); })) {
     const DicomScan scan = scanDicom(inputs, options.dicom);
+    if (scan.series.empty() && scan.segmentations.size() == 1) {
+      return openDicomSegmentation(scan.segmentations.front(), options.dicom.channel, notes);
+    }
+    if (scan.series.empty() && scan.segmentations.size() > 1) {
+      throw Error(fmt::format("{}: no DICOM image, but {} DICOM Segmentations ({}, ...); give one of them", input,
+                              scan.segmentations.size(), scan.segmentations.front()));
+    }
     if (scan.series.empty()) {
       throw Error(fmt::format("{}: no DICOM image found ({} file{} skipped)", input, scan.skipped,
                               scan.skipped == 1 ? "" : "s"));

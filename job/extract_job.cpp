@@ -264,13 +264,15 @@ void runSurfaceSet(const ExtractSettings& settings, ExtractObserver& observer, O
   runLabelExtract(settings, observer, std::move(input), report, reporting.slabHook(0, "extract"), threads,
                   writerOptions(settings, info, threads));
   report.peakRssMib = peakRssMib();
-  if (!settings.reportPath.empty()) {
+  const bool primary = ranks == nullptr || ranks->rank() == 0;
+  if (!settings.reportPath.empty() && primary) {
     const auto spell = [&](const std::string& t) { return observer.spell(t); };
     writeReportFile(settings.reportPath, extractReportText(report, settings.reportPath, spell) + "\n");
   }
   reporting.checkStop();
   outputs.commit();
-  reporting.finished(info.dims[2] + 1);
+  if (ranks != nullptr) agreeAtTheEnd(*ranks);
+  if (primary) reporting.finished(info.dims[2] + 1);
 }
 
 }  // namespace

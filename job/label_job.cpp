@@ -161,7 +161,7 @@ class SurfaceSetRun {
     for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     // A .glb: one mesh per label in one file, its chunks encoded as they close.
     labelWriting_ = writing_;
-    if (!pattern_ && extension == ".glb") {
+    if (!pattern_ && extension == ".glb" && primary()) {
       labelWriting_.encodeThreads = 0;
       scene_.emplace(settings_.output, labelWriting_);
       scene_->begin(header_);
@@ -169,7 +169,7 @@ class SurfaceSetRun {
     split_.emplace([this](std::int32_t label) { return sinkFor(label); });
     // The complex as a whole is counted, not measured: its measures are the labels'.
     std::vector<MeshSink*> heads{&*split_, &complexStats_};
-    if (!pattern_ && !scene_) {
+    if (!pattern_ && !scene_ && primary()) {
       complexWriter_ = makeMeshWriter(settings_.output, writing_);
       heads.insert(heads.begin(), complexWriter_.get());
     }
@@ -179,6 +179,16 @@ class SurfaceSetRun {
     options.maxThreadBytes = (static_cast<std::size_t>(settings_.maxMemoryMiB) << 20) / 2;
     if (settings_.sequentialVoxels >= 0) options.sequentialVoxels = settings_.sequentialVoxels;
     options.onSlab = onSlab;
+    if (ranked()) {
+      // Each rank counts the voxels of its own slabs' top slices (slab z's is slice z of the
+      // input), so that every slice is counted once; rank 0 adds the others' counts.
+      RankGroup& group = *settings_.ranks;
+      const SlabRange range = rankSlabs(source_->info().dims[2] - 1, group.rank(), group.size());
+      counter_->countOnly(range.first, range.end);
+      options.ranks = &group;
+      options.rankSummary = [this] { return counter_->countsText(); };
+      options.mergeRankSummary = [this](int, const std::string& counts) { counter_->addCounts(counts); };
+    }
     return runPipeline(*source_, *extractor_, tee, header_, options);
   }
 
@@ -201,8 +211,10 @@ class SurfaceSetRun {
       if (pair.first == 0) continue;  // a label's boundary with the background is in its own area
       report_.interfaces.push_back(ExtractInterface{pair.first, pair.second, face.triangles, face.area});
     }
+    if (!primary()) return;
     warnAbsent(counts);
     for (std::string& w : source_->warnings()) report_.warnings.push_back(std::move(w));
+    for (const std::string& w : run.rankWarnings) report_.warnings.push_back(w);
     for (std::size_t n = report_.openingWarnings; n < report_.warnings.size(); ++n) {
       observer.warning(report_.warnings[n]);
     }
@@ -237,6 +249,9 @@ class SurfaceSetRun {
   }
 
  private:
+  bool ranked() const { return settings_.ranks != nullptr && settings_.ranks->size() > 1; }
+  bool primary() const { return !ranked() || settings_.ranks->rank() == 0; }
+
   std::string nameOf(std::int32_t value) const {
     if (isoSet_) return fmt::format("{}", settings_.isos[static_cast<std::size_t>(value - 1)]);
     const LabelEntry* e = table_ ? table_->find(value) : nullptr;
@@ -354,8 +369,8 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
                      ExtractReport& report, const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads,
                      const WriterOptions& writing) {
   checkLabelSettings(settings);
-  if (settings.ranks != nullptr && settings.ranks->size() > 1) {
-    throw SettingError("label surfaces and iso lists under mpirun are not supported yet: run one process");
+  if (settings.ranks != nullptr && settings.ranks->size() > 1 && !settings.isos.empty()) {
+    throw SettingError("iso lists under mpirun are not supported yet: run one process");
   }
   report.labelRun = true;
   SurfaceSetRun run(settings, report, writing);

@@ -626,6 +626,7 @@ PipelineResult runRank(RankGroup& group, SliceSource& source, Extractor& extract
     }
     last.put(static_cast<std::uint64_t>(warnings.size()));
     for (const std::string& w : warnings) last.putString(w);
+    last.putString(options.rankSummary ? options.rankSummary() : std::string());
   }
   group.send(0, last.bytes());
   const std::vector<std::byte> outcome = group.receive(0);
@@ -687,6 +688,8 @@ PipelineResult runRankZero(RankGroup& group, SliceSource& source, Extractor& ext
             run->result().extractSeconds += r.get<double>();
             const auto warnings = r.get<std::uint64_t>();
             for (std::uint64_t k = 0; k < warnings; ++k) run->result().rankWarnings.push_back(r.getString());
+            const std::string summary = r.getString();
+            if (options.mergeRankSummary) options.mergeRankSummary(q, summary);
           });
           more = false;
           break;

@@ -50,6 +50,11 @@ struct PipelineOptions {
   /// feeds `sink`; the other ranks' sinks get nothing. Every rank calls runPipeline() with the
   /// same source and options. The output is the same for every number of ranks.
   RankGroup* ranks = nullptr;
+  /// With ranks: what each rank but 0 adds to its last message, asked once its range is done
+  /// (counts that its source kept of its own slices, such as label voxels), and rank 0's use of
+  /// each, in rank order. Either may be empty.
+  std::function<std::string()> rankSummary;
+  std::function<void(int rank, const std::string& summary)> mergeRankSummary;
 };
 
 /// How a threaded pipeline divides the work.
