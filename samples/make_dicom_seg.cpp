@@ -1,22 +1,17 @@
-// Writes any isoslab input that holds integer labels (a label phantom, a NIfTI atlas, a .seg.nrrd)
-// as one DICOM Segmentation object with DCMTK's dcmseg: a segment per nonzero label value in
-// increasing order (numbers 1, 2, ...), named and coloured from the input's labels where it gives
-// them, and a frame per (segment, slice) where the slice holds the segment, slice by slice. Test
-// data for the DICOM SEG reader.
+// Writes an isoslab input that holds integer labels (a label phantom, a NIfTI atlas, a .seg.nrrd) as
+// one DICOM Segmentation object with DCMTK's dcmseg: a segment per nonzero label value, in increasing
+// order, named and coloured from the input's labels where it has them; a frame per (segment, slice)
+// where the slice holds the segment. Test data for the DICOM SEG reader.
 //
 //   make_dicom_seg [--fractional MAX] [--overlap] [--rotate DEG] [--tilt DEG] [--labelmap]
 //                  [--transfer explicit|implicit|deflated] INPUT OUT.dcm
 //
-//   --fractional MAX  a FRACTIONAL (PROBABILITY) segmentation, MAX 1..255: the segment's voxels get
-//                     MAX, or ceil(MAX/2) (50%, inside) on odd slices; the voxels beside the segment
-//                     in its slice get floor((MAX-1)/2) (just below 50%, outside); others 0.
-//   --overlap         one more segment, last, "union": every nonzero voxel.
-//   --rotate DEG      turn the geometry about the patient z axis, then --tilt DEG about the x axis.
-//   --labelmap        Label Map Segmentation Storage (1.2.840.10008.5.1.4.1.1.66.7), which DCMTK
-//                     3.6.7 cannot create: written as a binary SEG, then rewritten (see below).
-//
-// Binary Pixel Data is always packed here, not by DCMTK: 3.6.7 corrupts frames whose rows*cols
-// is not a multiple of 8 (DCMTK bug #1132). Frames follow one another bit by bit, LSB first.
+// --fractional MAX (1..255): FRACTIONAL/PROBABILITY; a segment's voxels get MAX, ceil(MAX/2) (50%,
+// inside) on odd slices; voxels beside it in the slice get floor((MAX-1)/2) (below 50%, outside).
+// --overlap: a last segment "union" of every nonzero voxel. --rotate, --tilt: turn the geometry
+// about the patient z axis, then the x axis. --labelmap: Label Map Segmentation Storage (below).
+// Binary Pixel Data is packed here, frames following one another bit by bit, LSB first: DCMTK
+// 3.6.7 corrupts frames whose rows*cols is not a multiple of 8 (DCMTK bug #1132).
 #include <dcmtk/config/osconfig.h>
 #include <dcmtk/dcmdata/dcdeftag.h>
 #include <dcmtk/dcmdata/dcfilefo.h>
@@ -37,7 +32,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -86,7 +81,7 @@ std::int64_t labelOf(float v, std::int64_t k, const std::string& input) {
 class PixelFile {
  public:
   explicit PixelFile(std::string path) : path_(std::move(path)), file_(std::fopen(path_.c_str(), "wb")) {
-    if (file_ == nullptr) throw Error(fmt::format("{}: cannot write", path_));
+    if (file_ == nullptr) fail();
   }
   ~PixelFile() {
     if (file_ != nullptr) std::fclose(file_);
@@ -102,15 +97,14 @@ class PixelFile {
     }
   }
   void bytes(const std::vector<Uint8>& data) {
-    if (std::fwrite(data.data(), 1, data.size(), file_) != data.size())
-      throw Error(fmt::format("{}: cannot write", path_));
+    if (std::fwrite(data.data(), 1, data.size(), file_) != data.size()) fail();
     size_ += data.size();
   }
   // Completes the last byte, pads to an even length and hands the file to `element`.
   void finish(DcmElement& element) {
     if (bit_ != 0) flush();
     if (size_ % 2 != 0) flush();
-    if (std::fclose(std::exchange(file_, nullptr)) != 0) throw Error(fmt::format("{}: cannot write", path_));
+    if (std::fclose(std::exchange(file_, nullptr)) != 0) fail();
     if (size_ > 0xFFFFFFFEu) throw Error(fmt::format("Pixel Data of {} bytes is beyond DICOM's 4 GiB", size_));
     check(element.createValueFromTempFile(new DcmInputFileStreamFactory(path_.c_str(), 0), static_cast<Uint32>(size_),
                                           EBO_LittleEndian),
@@ -119,11 +113,12 @@ class PixelFile {
 
  private:
   void flush() {
-    if (std::fputc(byte_, file_) == EOF) throw Error(fmt::format("{}: cannot write", path_));
+    if (std::fputc(byte_, file_) == EOF) fail();
     ++size_;
     byte_ = 0;
     bit_ = 0;
   }
+  [[noreturn]] void fail() const { throw Error(fmt::format("{}: cannot write", path_)); }
   std::string path_;
   std::FILE* file_;
   std::uint64_t size_ = 0;
@@ -133,45 +128,40 @@ class PixelFile {
 
 struct Options {
   int fractional = 0;  // MaximumFractionalValue, 0 for binary
-  bool overlap = false;
-  bool labelmap = false;
-  double rotate = 0;
-  double tilt = 0;
+  bool overlap = false, labelmap = false;
+  double rotate = 0, tilt = 0;
   E_TransferSyntax transfer = EXS_LittleEndianExplicit;
-  std::string input;
-  std::string output;
+  std::string input, output;
 };
 
 // Returns false on a usage error.
 bool parse(int argc, char** argv, Options& o) {
+  static const std::map<std::string, E_TransferSyntax> transfers{{"explicit", EXS_LittleEndianExplicit},
+                                                                 {"implicit", EXS_LittleEndianImplicit},
+                                                                 {"deflated", EXS_DeflatedLittleEndianExplicit}};
   std::vector<std::string> positional;
-  auto number = [&](int& i, double min, double max, double& out) {
-    if (++i >= argc) return false;
-    char* end = nullptr;
-    out = std::strtod(argv[i], &end);
-    return *argv[i] != '\0' && *end == '\0' && out >= min && out <= max;
-  };
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    double v = 0;
-    if (a == "--fractional") {
-      if (!number(i, 1, 255, v) || v != std::floor(v)) return false;
-      o.fractional = static_cast<int>(v);
-    } else if (a == "--rotate" || a == "--tilt") {
-      if (!number(i, -360, 360, a == "--rotate" ? o.rotate : o.tilt)) return false;
-    } else if (a == "--overlap") {
-      o.overlap = true;
-    } else if (a == "--labelmap") {
-      o.labelmap = true;
-    } else if (a == "--transfer" && i + 1 < argc) {
-      const std::string t = argv[++i];
-      if (t != "explicit" && t != "implicit" && t != "deflated") return false;
-      o.transfer = t == "implicit" ? EXS_LittleEndianImplicit
-                                   : (t == "deflated" ? EXS_DeflatedLittleEndianExplicit : EXS_LittleEndianExplicit);
-    } else if (a.rfind("--", 0) == 0) {
-      return false;
-    } else {
+    if (a == "--overlap" || a == "--labelmap") {
+      (a == "--overlap" ? o.overlap : o.labelmap) = true;
+    } else if (a.rfind("--", 0) != 0) {
       positional.push_back(a);
+    } else if (++i < argc) {
+      const std::string v = argv[i];
+      char* end = nullptr;
+      const double x = std::strtod(v.c_str(), &end);
+      const bool number = !v.empty() && *end == '\0';
+      if (a == "--fractional" && number && x >= 1 && x <= 255 && x == std::floor(x)) {
+        o.fractional = static_cast<int>(x);
+      } else if ((a == "--rotate" || a == "--tilt") && number && std::abs(x) <= 360) {
+        (a == "--rotate" ? o.rotate : o.tilt) = x;
+      } else if (a == "--transfer" && transfers.count(v) != 0) {
+        o.transfer = transfers.at(v);
+      } else {
+        return false;
+      }
+    } else {
+      return false;
     }
   }
   if (positional.size() != 2 || (o.labelmap && (o.fractional > 0 || o.overlap))) return false;
@@ -269,15 +259,12 @@ void run(const Options& o) {
                                                ds(column[0]).c_str(), ds(column[1]).c_str(), ds(column[2]).c_str()),
         "ImageOrientationPatient");
   check(seg->addForAllFrames(orientation), "PlaneOrientation");
-  dcmGenerateUniqueIdentifier(uid, SITE_INSTANCE_UID_ROOT);
-  if (!o.labelmap) {
-    check(seg->getDimensions().addDimensionIndex(DCM_ReferencedSegmentNumber, uid, DCM_SegmentIdentificationSequence,
-                                                 "ReferencedSegmentNumber"),
-          "dimension");
-  }
-  check(seg->getDimensions().addDimensionIndex(DCM_ImagePositionPatient, uid, DCM_PlanePositionSequence,
-                                               "ImagePositionPatient"),
-        "dimension");
+  dcmGenerateUniqueIdentifier(uid, SITE_INSTANCE_UID_ROOT);  // the dimension organization
+  auto dimension = [&](const DcmTagKey& tag, const DcmTagKey& group, const char* name) {
+    check(seg->getDimensions().addDimensionIndex(tag, uid, group, name), name);
+  };
+  if (!o.labelmap) dimension(DCM_ReferencedSegmentNumber, DCM_SegmentIdentificationSequence, "ReferencedSegmentNumber");
+  dimension(DCM_ImagePositionPatient, DCM_PlanePositionSequence, "ImagePositionPatient");
 
   // Pass 2: frames, slice by slice; in a slice, its segments in order.
   std::optional<PixelFile> pixels;  // binary and label map Pixel Data; dcmseg writes fractional frames right
@@ -308,34 +295,30 @@ void run(const Options& o) {
     FGFrameContent frameContent;
     const OFVector<FGBase*> groups{&plane, &frameContent};
     if (o.labelmap) {  // a zero frame for the per-frame groups; the labels go to the file
-      std::fill(frame.begin(), frame.end(), Uint8{0});
       check(frameContent.setDimensionIndexValues(static_cast<Uint32>(k + 1), 0), "frame content");
       check(seg->addFrame(frame.data(), 1, groups), fmt::format("slice {}", k));
-      std::vector<Uint8> bytes(wide ? 2 * n : n);
-      for (std::size_t p = 0; p < n; ++p) {
-        if (wide) bytes[2 * p + 1] = static_cast<Uint8>(number[p] >> 8);
-        bytes[wide ? 2 * p : p] = static_cast<Uint8>(number[p] & 0xFF);
+      std::vector<Uint8> bytes;  // little endian
+      for (const Uint16 v : number) {
+        bytes.push_back(static_cast<Uint8>(v & 0xFF));
+        if (wide) bytes.push_back(static_cast<Uint8>(v >> 8));
       }
       pixels->bytes(bytes);
       continue;
     }
-    const auto half = static_cast<Uint8>((o.fractional + 1) / 2), below = static_cast<Uint8>((o.fractional - 1) / 2);
+    const auto full = static_cast<Uint8>(o.fractional), half = static_cast<Uint8>((o.fractional + 1) / 2),
+               below = static_cast<Uint8>(o.fractional > 0 ? (o.fractional - 1) / 2 : 0);
     for (std::size_t s = 1; s <= segments; ++s) {
       if (!present[s]) continue;
       const bool isUnion = s == labels.size() + 1;
       auto inside = [&](std::size_t p) { return isUnion ? number[p] != 0 : number[p] == s; };
-      for (std::size_t p = 0; p < n; ++p) {
-        if (o.fractional == 0) {
-          frame[p] = inside(p) ? 1 : 0;
-        } else if (inside(p)) {
-          frame[p] = static_cast<Uint8>(k % 2 == 1 ? half : o.fractional);
-        } else {
-          const std::size_t i = p % cols, j = p / cols;
-          const bool beside = (i > 0 && inside(p - 1)) || (i + 1 < cols && inside(p + 1)) ||
-                              (j > 0 && inside(p - cols)) || (j + 1 < rows && inside(p + cols));
-          frame[p] = beside ? below : 0;
-        }
-      }
+      auto beside = [&](std::size_t p) {  // in the slice
+        const std::size_t i = p % cols, j = p / cols;
+        return (i > 0 && inside(p - 1)) || (i + 1 < cols && inside(p + 1)) || (j > 0 && inside(p - cols)) ||
+               (j + 1 < rows && inside(p + cols));
+      };
+      for (std::size_t p = 0; p < n; ++p)
+        frame[p] =
+            inside(p) ? (o.fractional == 0 ? 1 : (k % 2 == 1 ? half : full)) : (below > 0 && beside(p) ? below : 0);
       check(frameContent.setDimensionIndexValues(static_cast<Uint32>(s), 0), "frame content");
       check(frameContent.setDimensionIndexValues(static_cast<Uint32>(k + 1), 1), "frame content");
       check(seg->addFrame(frame.data(), static_cast<Uint16>(s), groups), fmt::format("slice {} segment {}", k, s));
@@ -363,21 +346,23 @@ void run(const Options& o) {
     // Pixel Padding Value, 0 here. Per-frame groups carry no Segment Identification, and the
     // dimensions do not include the segment number.
     const char* labelMapStorage = "1.2.840.10008.5.1.4.1.1.66.7";
-    check(data.putAndInsertString(DCM_SOPClassUID, labelMapStorage), "SOPClassUID");
     check(file.getMetaInfo()->putAndInsertString(DCM_MediaStorageSOPClassUID, labelMapStorage), "meta header");
-    check(data.putAndInsertString(DCM_SegmentationType, "LABELMAP"), "SegmentationType");
-    check(data.putAndInsertUint16(DCM_BitsAllocated, wide ? 16 : 8), "BitsAllocated");
-    check(data.putAndInsertUint16(DCM_BitsStored, wide ? 16 : 8), "BitsStored");
-    check(data.putAndInsertUint16(DCM_HighBit, wide ? 15 : 7), "HighBit");
-    check(data.putAndInsertString(DCM_PhotometricInterpretation, "MONOCHROME2"), "PhotometricInterpretation");
-    check(data.putAndInsertUint16(DCM_PixelPaddingValue, 0), "PixelPaddingValue");
-    check(data.putAndInsertString(DCM_NumberOfFrames, std::to_string(slices).c_str()), "NumberOfFrames");
+    for (const auto& [tag, value] : {std::pair<DcmTagKey, std::string>{DCM_SOPClassUID, labelMapStorage},
+                                     {DCM_SegmentationType, "LABELMAP"},
+                                     {DCM_PhotometricInterpretation, "MONOCHROME2"},
+                                     {DCM_NumberOfFrames, std::to_string(slices)}})
+      check(data.putAndInsertString(tag, value.c_str()), "label map");
+    const Uint16 bits = wide ? 16 : 8;
+    for (const auto& [tag, value] : {std::pair<DcmTagKey, Uint16>{DCM_BitsAllocated, bits},
+                                     {DCM_BitsStored, bits},
+                                     {DCM_HighBit, static_cast<Uint16>(bits - 1)},
+                                     {DCM_PixelPaddingValue, 0}})
+      check(data.putAndInsertUint16(tag, value), "label map");
     DcmSequenceOfItems* perFrame = nullptr;
     check(data.findAndGetSequence(DCM_PerFrameFunctionalGroupsSequence, perFrame), "per-frame groups");
     while (perFrame->card() > static_cast<unsigned long>(slices)) delete perFrame->remove(perFrame->card() - 1);
-    for (unsigned long f = 0; f < perFrame->card(); ++f) {
+    for (unsigned long f = 0; f < perFrame->card(); ++f)
       perFrame->getItem(f)->findAndDeleteElement(DCM_SegmentIdentificationSequence);
-    }
     check(pixelData->setVR(wide ? EVR_OW : EVR_OB), "Pixel Data");
   }
   if (pixels) pixels->finish(*pixelData);

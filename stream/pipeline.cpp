@@ -501,6 +501,9 @@ void writePart(MessageWriter& w, const SlabPart& part) {
     w.putVector(c.normals);
     w.putVector(c.boundary);
     w.putVector(c.triangles);
+    w.putVector(c.faceLabels);
+    w.putVector(c.labelSplits);
+    w.putVector(c.labelPinches);
   }
   w.putVector(part.foreign);
   w.put(static_cast<std::uint64_t>(part.top.size()));
@@ -522,6 +525,9 @@ void readPart(MessageReader& r, SlabPart& part) {
     r.getVector(c.normals);
     r.getVector(c.boundary);
     r.getVector(c.triangles);
+    r.getVector(c.faceLabels);
+    r.getVector(c.labelSplits);
+    r.getVector(c.labelPinches);
   }
   r.getVector(part.foreign);
   const auto top = r.get<std::uint64_t>();
