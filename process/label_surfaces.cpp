@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "core/error.h"
+
 namespace isoslab {
 namespace {
 constexpr std::uint32_t kNoStream = std::numeric_limits<std::uint32_t>::max();
@@ -98,10 +100,12 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
     const auto [area, volume] = measure(position(tri[0]), position(tri[1]), position(tri[2]));
     ++lastInterface->triangles;
     lastInterface->area += area;
+    std::array<std::uint32_t, 2> streams{kNoStream, kNoStream};
     for (std::uint32_t side = 0; side < 2; ++side) {
       const std::int32_t label = sides[side];
       if (label == 0) continue;
       const std::uint32_t k = streamOf(label);
+      streams[side] = k;
       if (k == kNoStream) continue;
       Stream& s = streams_[k];
       if (s.pending++ == 0) touched_.push_back(k);
@@ -110,6 +114,7 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
       s.measures.area += area;
       s.measures.volume += side == 1 ? volume : -volume;
     }
+    if (streams[0] != kNoStream || streams[1] != kNoStream) tally(streams, tri);
   }
   // The sides by stream (a counting sort over the touched streams, in order).
   std::sort(touched_.begin(), touched_.end());
@@ -136,7 +141,6 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
       const VertexId c = idFor(k, tri[2], chunk);
       // The back label's face as it is; the front label's reversed.
       scratch_.triangles.push_back(back ? Triangle{a, b, c} : Triangle{a, c, b});
-      tally(k, back ? tri : Triangle{tri[0], tri[2], tri[1]});
     }
     s.pending = 0;
     s.sink->consume(scratch_);
@@ -147,61 +151,88 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
   previousBoundary_ = chunk.boundary;
 }
 
-// Each edge use of a label's triangle (in complex ids, which map one to one to the label's), for
-// the label's topology: an edge is settled once its lower end's chunk is behind the stream.
-void LabelSplitSink::tally(std::uint32_t stream, const Triangle& t) {
+// Each edge use of a complex triangle (in complex ids, which map one to one to each label's), with
+// the streams of its two sides, for the labels' topology: an edge is settled once its lower end's
+// chunk is behind the stream. The back side keeps the triangle's direction, the front reverses it.
+void LabelSplitSink::tally(const std::array<std::uint32_t, 2>& streams, const Triangle& t) {
   for (std::size_t e = 0; e < 3; ++e) {
     const VertexId a = t[e], b = t[(e + 1) % 3];
-    edgeUses_.push_back(EdgeUse{std::min(a, b), std::max(a, b), stream << 1 | (a < b ? 1u : 0u)});
+    edgeUses_.push_back(EdgeUse{std::min(a, b), std::max(a, b), streams[0], streams[1], a < b});
   }
 }
 
 void LabelSplitSink::settle(VertexId before) {
-  // The uses whose lower end lies before `before` are complete: bucket them by their lower end (a
-  // counting sort over the lower ends' range), then group each bucket's few uses by (hi, stream).
-  const auto complete =
-      std::partition(edgeUses_.begin(), edgeUses_.end(), [before](const EdgeUse& u) { return u.lo < before; });
-  if (complete != edgeUses_.begin()) {
-    VertexId low = edgeUses_.front().lo, high = low;
-    for (auto it = edgeUses_.begin(); it != complete; ++it) {
-      low = std::min(low, it->lo);
-      high = std::max(high, it->lo);
-    }
-    offsets_.assign(static_cast<std::size_t>(high - low) + 2, 0);
-    for (auto it = edgeUses_.begin(); it != complete; ++it) ++offsets_[it->lo - low + 1];
-    for (std::size_t k = 1; k < offsets_.size(); ++k) offsets_[k] += offsets_[k - 1];
-    bucketed_.resize(static_cast<std::size_t>(complete - edgeUses_.begin()));
-    for (std::uint32_t k = 0; k < bucketed_.size(); ++k) bucketed_[offsets_[edgeUses_[k].lo - low]++] = k;
-    const auto use = [&](std::size_t k) -> const EdgeUse& { return edgeUses_[bucketed_[k]]; };
-    const auto byEdge = [](const EdgeUse& x, const EdgeUse& y) {
-      return x.hi != y.hi ? x.hi < y.hi : (x.streamForward >> 1) < (y.streamForward >> 1);
-    };
-    for (std::size_t first = 0; first < bucketed_.size();) {
-      std::size_t last = first + 1;
-      while (last < bucketed_.size() && use(last).lo == use(first).lo) ++last;
-      // A bucket holds a vertex's few edges: insertion sort.
-      for (std::size_t k = first + 1; k < last; ++k) {
-        for (std::size_t m = k; m > first && byEdge(use(m), use(m - 1)); --m) std::swap(bucketed_[m], bucketed_[m - 1]);
-      }
-      for (std::size_t k = first; k < last;) {
-        std::size_t end = k;
-        int uses = 0, forward = 0;
-        while (end < last && use(end).hi == use(k).hi && (use(end).streamForward >> 1) == (use(k).streamForward >> 1)) {
-          ++uses;
-          forward += static_cast<int>(use(end).streamForward & 1);
-          ++end;
-        }
-        Topology& t = streams_[use(k).streamForward >> 1].topology;
-        ++t.edges;
-        if (uses == 1) ++t.boundaryEdges;
-        if (uses > 2) ++t.nonManifoldEdges;
-        if (uses == 2 && forward != 1) ++t.inconsistentEdges;
-        k = end;
-      }
-      first = last;
+  // The uses whose lower end lies before `before` are complete: moved, bucketed by their lower end
+  // (a counting sort over the lower ends' range), into settling_; the others stay, in order.
+  VertexId low = before;
+  std::size_t complete = 0;
+  for (const EdgeUse& u : edgeUses_) {
+    if (u.lo < before) {
+      low = std::min(low, u.lo);
+      ++complete;
     }
   }
-  edgeUses_.erase(edgeUses_.begin(), complete);
+  if (complete == 0) return;
+  offsets_.assign(static_cast<std::size_t>(before - low) + 1, 0);
+  for (const EdgeUse& u : edgeUses_) {
+    if (u.lo < before) ++offsets_[u.lo - low + 1];
+  }
+  for (std::size_t k = 1; k < offsets_.size(); ++k) offsets_[k] += offsets_[k - 1];
+  settling_.resize(complete);
+  std::size_t kept = 0;
+  for (const EdgeUse& u : edgeUses_) {
+    if (u.lo < before) {
+      settling_[offsets_[u.lo - low]++] = u;
+    } else {
+      edgeUses_[kept++] = u;
+    }
+  }
+  edgeUses_.resize(kept);
+  // Each bucket holds one vertex's few edge uses: an insertion sort by hi, then per edge the uses
+  // of each label (a stream on either side) and how many run forward in that label's surface.
+  struct LabelUses {
+    std::uint32_t stream;
+    int uses, forward;
+  };
+  std::array<LabelUses, 16> labels{};
+  for (std::size_t first = 0; first < settling_.size();) {
+    std::size_t last = first + 1;
+    while (last < settling_.size() && settling_[last].lo == settling_[first].lo) ++last;
+    for (std::size_t k = first + 1; k < last; ++k) {
+      const EdgeUse u = settling_[k];
+      std::size_t m = k;
+      for (; m > first && u.hi < settling_[m - 1].hi; --m) settling_[m] = settling_[m - 1];
+      settling_[m] = u;
+    }
+    for (std::size_t k = first; k < last;) {
+      std::size_t n = 0;
+      std::size_t end = k;
+      for (; end < last && settling_[end].hi == settling_[k].hi; ++end) {
+        const EdgeUse& u = settling_[end];
+        for (std::uint32_t side = 0; side < 2; ++side) {
+          const std::uint32_t stream = side == 0 ? u.front : u.back;
+          if (stream == kNoStream) continue;
+          std::size_t at = 0;
+          while (at < n && labels[at].stream != stream) ++at;
+          if (at == n) {
+            if (n == labels.size()) throw Error("an edge of the label complex has more than 16 labels around it");
+            labels[n++] = LabelUses{stream, 0, 0};
+          }
+          ++labels[at].uses;
+          labels[at].forward += (u.forward != 0) == (side == 1) ? 1 : 0;
+        }
+      }
+      for (std::size_t at = 0; at < n; ++at) {
+        Topology& t = streams_[labels[at].stream].topology;
+        ++t.edges;
+        if (labels[at].uses == 1) ++t.boundaryEdges;
+        if (labels[at].uses > 2) ++t.nonManifoldEdges;
+        if (labels[at].uses == 2 && labels[at].forward != 1) ++t.inconsistentEdges;
+      }
+      k = end;
+    }
+    first = last;
+  }
 }
 
 void LabelSplitSink::finish() {

@@ -77,11 +77,12 @@ class LabelSplitSink final : public MeshSink {
     Measures measures;
     Topology topology;
   };
-  struct EdgeUse {  // 12 bytes: a chunk of two million triangles makes twelve million
+  struct EdgeUse {  // 20 bytes, three a triangle of the complex
     VertexId lo = 0, hi = 0;
-    std::uint32_t streamForward = 0;  // stream << 1 | 1 when the triangle runs lo -> hi
+    std::uint32_t front = 0, back = 0;  // the sides' streams (kNoStream: none)
+    std::uint32_t forward = 0;          // 1 when the triangle runs lo -> hi
   };
-  void tally(std::uint32_t stream, const Triangle& t);
+  void tally(const std::array<std::uint32_t, 2>& streams, const Triangle& t);
   void settle(VertexId before);
   // A label's number for a complex vertex of the window.
   struct Use {
@@ -107,7 +108,7 @@ class LabelSplitSink final : public MeshSink {
   std::vector<std::uint32_t> ordered_;
   MeshChunk scratch_;  // the chunk of one label, built and sent in turn
   std::vector<EdgeUse> edgeUses_;
-  std::vector<std::uint32_t> bucketed_;  // settle(): the complete uses, by lower end
+  std::vector<EdgeUse> settling_;  // settle(): the complete uses, by lower end
   std::vector<std::size_t> offsets_;
   Window previous_, current_;
   std::vector<Vec3f> previousPositions_;  // the previous chunk's

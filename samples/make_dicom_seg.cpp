@@ -231,9 +231,9 @@ void run(const Options& o) {
     IODCIELabUtil::rgb2DicomLab(lab[0], lab[1], lab[2], rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0);
     auto scaled = [](double x) { return static_cast<Uint16>(std::lround(std::clamp(x, 0.0, 65535.0))); };
     check(segment->setRecommendedDisplayCIELabValue(scaled(lab[0]), scaled(lab[1]), scaled(lab[2])), "CIELab");
-    Uint16 number = 0;
-    check(seg->addSegment(owned.release(), number), "segment " + name);
-    if (number != s + 1) throw Error(fmt::format("segment {} was numbered {}", name, number));
+    Uint16 assigned = 0;
+    check(seg->addSegment(owned.release(), assigned), "segment " + name);
+    if (assigned != s + 1) throw Error(fmt::format("segment {} was numbered {}", name, assigned));
   }
 
   // Geometry, turned by --rotate about z, then by --tilt about x.
@@ -266,7 +266,7 @@ void run(const Options& o) {
   if (!o.labelmap) dimension(DCM_ReferencedSegmentNumber, DCM_SegmentIdentificationSequence, "ReferencedSegmentNumber");
   dimension(DCM_ImagePositionPatient, DCM_PlanePositionSequence, "ImagePositionPatient");
 
-  // Pass 2: frames, slice by slice; in a slice, its segments in order.
+  // Pass 2: frames, slice by slice (so slice-major, not segment-major); in a slice, its segments in order.
   std::optional<PixelFile> pixels;  // binary and label map Pixel Data; dcmseg writes fractional frames right
   if (o.fractional == 0) pixels.emplace(o.output + ".pixels.tmp");
   const bool wide = segments > 255;
@@ -282,8 +282,8 @@ void run(const Options& o) {
     for (std::size_t p = 0; p < n; ++p) {
       if (slice[p] != last) {
         last = slice[p];
-        const auto at = std::lower_bound(labels.begin(), labels.end(), labelOf(last, k, o.input));
-        lastNumber = last == 0 ? 0 : static_cast<Uint16>(at - labels.begin() + 1);
+        const auto it = std::lower_bound(labels.begin(), labels.end(), labelOf(last, k, o.input));
+        lastNumber = last == 0 ? 0 : static_cast<Uint16>(it - labels.begin() + 1);
       }
       number[p] = lastNumber;
       present[lastNumber] = true;
