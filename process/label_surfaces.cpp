@@ -164,16 +164,17 @@ void LabelSplitSink::tally(const std::array<std::uint32_t, 2>& streams, const Tr
 void LabelSplitSink::settle(VertexId before) {
   // The uses whose lower end lies before `before` are complete: moved, bucketed by their lower end
   // (a counting sort over the lower ends' range), into settling_; the others stay, in order.
-  VertexId low = before;
+  VertexId low = before, high = 0;
   std::size_t complete = 0;
   for (const EdgeUse& u : edgeUses_) {
     if (u.lo < before) {
       low = std::min(low, u.lo);
+      high = std::max(high, u.lo);
       ++complete;
     }
   }
   if (complete == 0) return;
-  offsets_.assign(static_cast<std::size_t>(before - low) + 1, 0);
+  offsets_.assign(static_cast<std::size_t>(high - low) + 2, 0);
   for (const EdgeUse& u : edgeUses_) {
     if (u.lo < before) ++offsets_[u.lo - low + 1];
   }
