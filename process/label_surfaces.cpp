@@ -157,7 +157,8 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
 void LabelSplitSink::tally(const std::array<std::uint32_t, 2>& streams, const Triangle& t) {
   for (std::size_t e = 0; e < 3; ++e) {
     const VertexId a = t[e], b = t[(e + 1) % 3];
-    edgeUses_.push_back(EdgeUse{std::min(a, b), std::max(a, b), streams[0], streams[1], a < b});
+    edgeUses_.push_back(
+        EdgeUse{std::min(a, b), std::max(a, b), (streams[0] + 1) | (a < b ? 1u << 31 : 0u), streams[1] + 1});
   }
 }
 
@@ -211,7 +212,7 @@ void LabelSplitSink::settle(VertexId before) {
       for (; end < last && settling_[end].hi == settling_[k].hi; ++end) {
         const EdgeUse& u = settling_[end];
         for (std::uint32_t side = 0; side < 2; ++side) {
-          const std::uint32_t stream = side == 0 ? u.front : u.back;
+          const std::uint32_t stream = (side == 0 ? u.frontForward & ~(1u << 31) : u.back) - 1;
           if (stream == kNoStream) continue;
           std::size_t at = 0;
           while (at < n && labels[at].stream != stream) ++at;
@@ -220,7 +221,7 @@ void LabelSplitSink::settle(VertexId before) {
             labels[n++] = LabelUses{stream, 0, 0};
           }
           ++labels[at].uses;
-          labels[at].forward += (u.forward != 0) == (side == 1) ? 1 : 0;
+          labels[at].forward += ((u.frontForward >> 31) != 0) == (side == 1) ? 1 : 0;
         }
       }
       for (std::size_t at = 0; at < n; ++at) {

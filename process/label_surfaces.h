@@ -77,10 +77,10 @@ class LabelSplitSink final : public MeshSink {
     Measures measures;
     Topology topology;
   };
-  struct EdgeUse {  // 20 bytes, three a triangle of the complex
+  struct EdgeUse {  // 16 bytes, three a triangle of the complex
     VertexId lo = 0, hi = 0;
-    std::uint32_t front = 0, back = 0;  // the sides' streams (kNoStream: none)
-    std::uint32_t forward = 0;          // 1 when the triangle runs lo -> hi
+    // The sides' streams + 1 (0: none), the front's with bit 31 set when the triangle runs lo -> hi.
+    std::uint32_t frontForward = 0, back = 0;
   };
   void tally(const std::array<std::uint32_t, 2>& streams, const Triangle& t);
   void settle(VertexId before);

@@ -8,7 +8,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build-fuzz}
-ninja -C "$build" isoslab make_dicom_series fuzz_make_images >/dev/null
+ninja -C "$build" isoslab make_dicom_series make_dicom_seg fuzz_make_images >/dev/null
 export ASAN_OPTIONS=detect_leaks=0
 cli=$build/cli/isoslab
 work=$(mktemp -d)
@@ -46,6 +46,13 @@ q "$cli" extract "$mesh" -q --normals --space voxel -o "$work/n.drc"
 
 # DICOM: a three-slice CT series.
 q "$build/samples/make_dicom_series" 'phantom:sphere?n=4,4,3&r=1.5' "$work/dicom"
+# DICOM Segmentations: 35-pixel frames (bits across bytes), fractional, label map, and overlapping
+# segments on an oblique grid (two layers).
+seg="$build/samples/make_dicom_seg"
+q "$seg" 'phantom:nested?n=7,5,4' "$work/seg_binary.dcm"
+q "$seg" --fractional 8 'phantom:nested?n=7,5,4' "$work/seg_fractional.dcm"
+q "$seg" --labelmap 'phantom:boxes?n=7,5,4' "$work/seg_labelmap.dcm"
+q "$seg" --overlap --rotate 20 'phantom:nested?n=7,5,4' "$work/seg_overlap.dcm"
 
 # Images: PNG and TIFF slices, and a multi-page TIFF.
 img="$build/tests/fuzz/fuzz_make_images"
@@ -97,6 +104,9 @@ put("volume", "u8_hdr_img", bytes([6]) + bytes(hdr) + SEP + nii[352:])
 files = sorted(glob.glob(os.path.join(work, "dicom", "*")))
 put("dicom", "file", bytes([0]) + open(files[0], "rb").read())
 put("dicom", "series", bytes([1]) + SEP.join(open(f, "rb").read() for f in files))
+for name in ("binary", "fractional", "labelmap"):
+    put("dicom", "seg_" + name, bytes([0]) + rd("seg_%s.dcm" % name))
+put("dicom", "seg_overlap_layer0", bytes([8]) + rd("seg_overlap.dcm"))  # --channel 0
 
 # image_stack: selector bit 0 = .tif, bits 1-2 the layout (0 folder, 1 list, 2 pattern, 3 one file).
 def stack(prefix, ext):
