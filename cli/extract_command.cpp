@@ -259,6 +259,7 @@ ExtractSettings extractSettings(const ExtractArgs& args, RankGroup* ranks) {
   s.source = sourceOptions(args.raw);
   s.output = args.output;
   s.reportPath = args.report;
+  s.labelTopology = !args.report.empty();
   s.space = parseOutputSpace(args.space).value_or(OutputSpace::kPhysical);
   if (args.iso.find(',') != std::string::npos) {
     for (std::size_t at = 0; at <= args.iso.size();) {

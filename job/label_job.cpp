@@ -166,7 +166,8 @@ class SurfaceSetRun {
       scene_.emplace(settings_.output, labelWriting_);
       scene_->begin(header_);
     }
-    split_.emplace([this](std::int32_t label) { return sinkFor(label); });
+    perLabel_ = pattern_ || scene_ || settings_.labelTopology;
+    split_.emplace([this](std::int32_t label) { return sinkFor(label); }, perLabel_, settings_.labelTopology);
     // The complex as a whole is counted, not measured: its measures are the labels'.
     std::vector<MeshSink*> heads{&*split_, &complexStats_};
     if (!pattern_ && !scene_ && primary()) {
@@ -300,7 +301,7 @@ class SurfaceSetRun {
     const auto n = counts.find(value);
     l.voxels = n != counts.end() ? n->second : 0;
     l.voxelVolume = static_cast<double>(l.voxels) * frame_.cellVolume();
-    l.topology = true;
+    l.topology = settings_.labelTopology;
     const LabelSplitSink::Measures& m = measures.at(value);
     l.stats.edges = m.topology.edges;
     l.stats.boundaryEdges = m.topology.boundaryEdges;
@@ -355,6 +356,7 @@ class SurfaceSetRun {
   std::unique_ptr<Extractor> extractor_;
   MeshHeader header_;
   bool pattern_ = false;
+  bool perLabel_ = true;  // the split builds each label's chunks
   std::optional<GlbScene> scene_;
   std::map<std::int32_t, LabelChain> chains_;  // before split_: the split's sinks outlive it
   std::map<std::string, std::int32_t> paths_;

@@ -23,7 +23,8 @@ std::pair<double, double> measure(const Vec3f& a, const Vec3f& b, const Vec3f& c
 }
 }  // namespace
 
-LabelSplitSink::LabelSplitSink(SinkFor sinkFor) : sinkFor_(std::move(sinkFor)) {}
+LabelSplitSink::LabelSplitSink(SinkFor sinkFor, bool perLabel, bool topology)
+    : sinkFor_(std::move(sinkFor)), perLabel_(perLabel), topology_(perLabel && topology) {}
 
 void LabelSplitSink::begin(const MeshHeader& header) {
   header_ = header;
@@ -75,10 +76,12 @@ VertexId LabelSplitSink::idFor(std::uint32_t stream, VertexId v, const MeshChunk
 }
 
 void LabelSplitSink::consume(const MeshChunk& chunk) {
-  std::swap(previous_, current_);
-  current_.first = chunk.firstVertex;
-  current_.head.assign(chunk.positions.size(), 0);
-  current_.uses.clear();
+  if (perLabel_) {
+    std::swap(previous_, current_);
+    current_.first = chunk.firstVertex;
+    current_.head.assign(chunk.positions.size(), 0);
+    current_.uses.clear();
+  }
   for (std::int32_t l : chunk.labelSplits) ++splits_[l];
   for (std::int32_t l : chunk.labelPinches) ++pinches_[l];
   // First the measures and each side's stream; then each touched stream's chunk in turn, built in
@@ -108,13 +111,15 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
       streams[side] = k;
       if (k == kNoStream) continue;
       Stream& s = streams_[k];
-      if (s.pending++ == 0) touched_.push_back(k);
-      sides_.push_back({k, static_cast<std::uint32_t>(t) << 1 | side});
+      if (perLabel_) {
+        if (s.pending++ == 0) touched_.push_back(k);
+        sides_.push_back({k, static_cast<std::uint32_t>(t) << 1 | side});
+      }
       ++s.measures.triangles;
       s.measures.area += area;
       s.measures.volume += side == 1 ? volume : -volume;
     }
-    if (streams[0] != kNoStream || streams[1] != kNoStream) tally(streams, tri);
+    if (topology_ && (streams[0] != kNoStream || streams[1] != kNoStream)) tally(streams, tri);
   }
   // The sides by stream (a counting sort over the touched streams, in order).
   std::sort(touched_.begin(), touched_.end());
@@ -146,7 +151,8 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
     s.sink->consume(scratch_);
   }
   touched_.clear();
-  settle(chunk.firstVertex);
+  if (topology_) settle(chunk.firstVertex);
+  if (!perLabel_) previous_.first = chunk.firstVertex;  // the window of the chunk just consumed
   previousPositions_ = chunk.positions;
   previousBoundary_ = chunk.boundary;
 }

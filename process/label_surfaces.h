@@ -26,7 +26,11 @@ class LabelSplitSink final : public MeshSink {
   /// chunks, and finish() at this sink's finish(), in label order.
   using SinkFor = std::function<MeshSink*(std::int32_t label)>;
 
-  explicit LabelSplitSink(SinkFor sinkFor);
+  /// `perLabel` false: only the per-label counts, area, volume and interfaces, without building
+  /// each label's chunks (no sinks get them, and vertices, bounds and topology stay 0): for a run
+  /// that writes the complex and reports nothing per label. `topology` (needs perLabel): each
+  /// label's edges, boundary, non-manifold and inconsistent edges, and Euler characteristic.
+  explicit LabelSplitSink(SinkFor sinkFor, bool perLabel = true, bool topology = true);
 
   void begin(const MeshHeader& header) override;
   void consume(const MeshChunk& chunk) override;
@@ -100,6 +104,8 @@ class LabelSplitSink final : public MeshSink {
   VertexId idFor(std::uint32_t stream, VertexId v, const MeshChunk& chunk);
 
   SinkFor sinkFor_;
+  bool perLabel_ = true;
+  bool topology_ = true;
   MeshHeader header_;
   std::vector<Stream> streams_;
   std::unordered_map<std::int32_t, std::uint32_t> index_;  // label -> stream (kNoStream: dropped)

@@ -618,3 +618,43 @@ TEST(SeveralIsoValues, OnePassGivesEachValuesOwnSurface) {
 
 }  // namespace
 }  // namespace isoslab
+
+namespace isoslab {
+namespace {
+
+// Without topology (the program's runs without --report) the complex .ply and every label's
+// counts, area, volume and interfaces are those of the full split; only the topology is left out.
+TEST(LabelSplit, WithoutTopologyTheComplexAndMeasuresAreTheSame) {
+  const std::string dir = testing::tempDir();
+  ExtractSettings s;
+  s.inputs = {"phantom:checker?n=21,18,15&b=3&labels=7"};
+  s.output = dir + "/full.ply";
+  const ExtractReport full = runExtract(s);
+  s.output = dir + "/light.ply";
+  s.labelTopology = false;
+  const ExtractReport light = runExtract(s);
+  EXPECT_EQ(testing::slurp(dir + "/full.ply"), testing::slurp(dir + "/light.ply"));
+  ASSERT_EQ(light.labels.size(), full.labels.size());
+  ASSERT_EQ(light.labels.size(), 7u);
+  for (std::size_t n = 0; n < full.labels.size(); ++n) {
+    const ExtractLabel& a = full.labels[n];
+    const ExtractLabel& b = light.labels[n];
+    EXPECT_TRUE(a.topology);
+    EXPECT_FALSE(b.topology);
+    EXPECT_TRUE(a.stats.closed());
+    EXPECT_EQ(a.value, b.value);
+    EXPECT_EQ(a.voxels, b.voxels);
+    EXPECT_EQ(a.stats.triangles, b.stats.triangles);
+    EXPECT_EQ(a.stats.area, b.stats.area);
+    EXPECT_EQ(a.stats.volume, b.stats.volume);
+    EXPECT_EQ(b.stats.edges, 0u);
+  }
+  ASSERT_EQ(light.interfaces.size(), full.interfaces.size());
+  for (std::size_t n = 0; n < full.interfaces.size(); ++n) {
+    EXPECT_EQ(light.interfaces[n].triangles, full.interfaces[n].triangles);
+    EXPECT_EQ(light.interfaces[n].area, full.interfaces[n].area);
+  }
+}
+
+}  // namespace
+}  // namespace isoslab
