@@ -209,14 +209,23 @@ const CellGroups& LabelCellCache::groups(const std::array<std::int32_t, 8>& labe
 
 const CellGroups& LabelCellCache::manyLabels(const std::array<std::int32_t, 8>& labels,
                                              std::vector<std::int32_t>& pinches) {
-  std::array<std::int32_t, 8> distinct = labels;
-  std::sort(distinct.begin(), distinct.end(), connectsBefore);
-  const auto end = std::unique(distinct.begin(), distinct.end());
+  // The distinct labels in connection order (an insertion into at most eight), then each corner's
+  // rank among them.
+  std::array<std::int32_t, 8> distinct{};
+  std::size_t n = 0;
+  for (const std::int32_t l : labels) {
+    std::size_t at = 0;
+    while (at < n && distinct[at] != l && connectsBefore(distinct[at], l)) ++at;
+    if (at < n && distinct[at] == l) continue;
+    for (std::size_t k = n; k > at; --k) distinct[k] = distinct[k - 1];
+    distinct[at] = l;
+    ++n;
+  }
   std::uint32_t key = 0;
   std::array<std::int32_t, 8> ranked{};
   for (std::size_t c = 0; c < 8; ++c) {
-    const auto rank = static_cast<std::uint32_t>(std::lower_bound(distinct.begin(), end, labels[c], connectsBefore) -
-                                                 distinct.begin());
+    std::uint32_t rank = 0;
+    while (distinct[rank] != labels[c]) ++rank;
     key |= rank << (3 * c);
     ranked[c] = static_cast<std::int32_t>(rank);
   }
