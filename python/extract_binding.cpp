@@ -124,6 +124,9 @@ ExtractSettings settingsOf(const py::dict& d) {
     s.iso = parseIsoRequest(text);
     if (!s.iso) throw SettingError(fmt::format("`iso`: '{}' is not a number, auto, bone or skin", text));
   }
+  if (auto isos = get<std::vector<double>>(d, "isos")) s.isos = *isos;
+  if (auto labels = get<std::string>(d, "labels")) s.labels = parseLabelRequest(*labels);
+  s.labelTable = get<std::string>(d, "label_table").value_or("");
   const std::string method = get<std::string>(d, "method").value_or("mc");
   const auto m = parseMethod(method);
   if (!m) throw SettingError(fmt::format("`method`: unknown method '{}'", method));

@@ -168,7 +168,7 @@ _EXTRACT_OPTIONS = {
     "space", "normals", "close_boundary", "report", "sphere", "threads", "max_memory", "sequential_voxels",
     "draco_level", "quant_bits", "chunk_triangles", "draco", "gltf_frame", "roi", "roi_space", "keep_largest",
     "component_measure", "min_triangles", "min_volume", "seed", "smooth", "smooth_method", "pass_band",
-    "smooth_faces", "smooth_normals", "decimate", "max_error", "preview", "quiet"}
+    "smooth_faces", "smooth_normals", "decimate", "max_error", "preview", "quiet", "labels", "label_table"}
 # Options that take several numbers: a sequence, or the program's comma-separated text.
 _LIST_OPTIONS = {"raw_dims", "sphere", "roi", "seed", "spacing"}
 
@@ -211,7 +211,11 @@ def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=Non
     Options are the program's, with underscores: normals=True, close_boundary=True, threads=2,
     smooth=10, keep_largest=1, roi=(0, 0, 0, 99, 99, 99), raw_dims=(256, 256, 113), report="r.json",
     ... (lists as sequences or comma-separated text). `iso` may be a number or "auto", "bone",
-    "skin" (None: the input's suggestion, for phantoms). An array is read in place, a slice at a
+    "skin" (None: the input's suggestion, for phantoms), or a list of numbers: one surface each, in
+    one pass. A label map (NIfTI label intent, .seg.nrrd, DICOM SEG) gives one surface per label
+    without `iso`; labels="all" or labels=[3, "7-9", "Hippocampus_L"] selects, label_table= names
+    them, and `output` may be a pattern ("organs/{name}.stl"); the report's "labels" and
+    "label_interfaces" describe each. An array is read in place, a slice at a
     time, without a copy or a temporary file; its axes are (slices, rows, columns), and `spacing`
     follows them. The GIL is released while the job runs.
 
@@ -226,7 +230,9 @@ def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=Non
     if unknown:
         raise TypeError(f"extract() got an unexpected keyword argument {unknown[0]!r}")
     settings = {"output": os.fspath(output), "method": str(method)}
-    if iso is not None:
+    if isinstance(iso, (list, tuple, np.ndarray)):
+        settings["isos"] = _numbers("iso", iso)  # several surfaces in one pass
+    elif iso is not None:
         settings["iso"] = iso if isinstance(iso, str) else float(iso)
     volume = None
     if isinstance(inputs, np.ndarray):
@@ -252,8 +258,11 @@ def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=Non
                 value = [int(v) for v in value]
         elif name == "draco" and isinstance(value, bool):
             value = "on" if value else "off"
-        elif name in ("report", "preview"):
+        elif name in ("report", "preview", "label_table"):
             value = os.fspath(value)
+        elif name == "labels":
+            # "all", a value, or a list of values, ranges ("7-9") and names, as --labels takes them.
+            value = ",".join(str(v) for v in value) if isinstance(value, (list, tuple, set)) else str(value)
         settings[name] = value
     if progress is None:
         progress = _terminal_progress()

@@ -114,3 +114,28 @@ def test_selection_by_name_range_and_value(tmp_path):
     assert [e["value"] for e in report["labels"]] == [3, 4, 5, 37, 90]
     assert [e["name"] for e in report["labels"]][3] == "Hippocampus_L"
     assert all(os.path.exists(e["path"]) and e["path"].endswith(e["name"] + ".ply") for e in report["labels"])
+
+
+def test_extract_in_process_takes_labels_tables_and_iso_lists(tmp_path):
+    """isoslab.extract() runs label maps and iso lists as the program does: the same files and the
+    same per-label report, for the selection given as a list."""
+    isoslab = pytest.importorskip("isoslab")
+    path = os.path.join(TEMPLATES, "aal.nii.gz")
+    if not os.path.exists(path):
+        pytest.skip(f"{path} is absent (Debian's mricron-data)")
+    table = os.path.join(TEMPLATES, "aal.nii.txt")
+    program = run([path, "--label-table", table, "--labels", "Hippocampus_L,3-5", "-o", str(tmp_path / "p{label}.ply")],
+                  tmp_path)
+    report = isoslab.extract(path, tmp_path / "x{label}.ply", labels=["Hippocampus_L", "3-5"], label_table=table,
+                             progress=False)
+    assert [e["value"] for e in report["labels"]] == [e["value"] for e in program["labels"]] == [3, 4, 5, 37]
+    for mine, theirs in zip(report["labels"], program["labels"]):
+        assert mine["name"] == theirs["name"] and mine["voxels"] == theirs["voxels"]
+        assert open(mine["path"], "rb").read() == open(theirs["path"], "rb").read()
+    assert report["label_interfaces"] == program["label_interfaces"]
+    # Two iso values in one pass: one surface each, as two runs of one value give.
+    both = isoslab.extract("phantom:nested?n=24", tmp_path / "{iso}.ply", iso=[0.5, 1.5], progress=False)
+    assert [e["iso"] for e in both["labels"]] == [0.5, 1.5]
+    for value, entry in zip((0.5, 1.5), both["labels"]):
+        single = isoslab.extract("phantom:nested?n=24", tmp_path / "single.ply", iso=value, progress=False)
+        assert single["triangles"] == entry["triangles"]
