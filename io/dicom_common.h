@@ -44,6 +44,10 @@ struct FrameGeometry {
 };
 FrameGeometry frameGeometry(DcmItem* plain, DcmItem* perFrame, DcmItem* shared, const std::string& path);
 
+/// What makes a file unsafe to parse, or empty: sequences nested deeper than DCMTK's recursive
+/// parser can take (io/dicom_series.cpp; checked on the raw bytes before any loadFile).
+std::string nestingDepthProblem(const std::string& path);
+
 /// Whether two ImageOrientationPatient values are the same: each direction cosine within 1e-4.
 bool sameOrientation(const std::array<double, 6>& a, const std::array<double, 6>& b);
 /// Whether two PixelSpacing values are the same to the precision DICOM writes them with.

@@ -405,6 +405,7 @@ class DicomSegSource final : public SliceSource {
 bool isDicomSegmentation(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec) || !looksLikeDicom(path)) return false;
+  if (!nestingDepthProblem(path).empty()) return false;  // the series scan says what is wrong
   initDcmtk();
   DcmFileFormat ff;
   if (ff.loadFile(path.c_str(), EXS_Unknown, EGL_noChange, 256).bad()) return false;
@@ -414,6 +415,7 @@ bool isDicomSegmentation(const std::string& path) {
 
 std::unique_ptr<SliceSource> openDicomSegmentation(const std::string& path, int layer,
                                                    std::vector<std::string>* notes) {
+  if (const std::string problem = nestingDepthProblem(path); !problem.empty()) throw Error(problem);
   initDcmtk();
   auto file = std::make_unique<DcmFileFormat>();
   if (const OFCondition c = file->loadFile(path.c_str(), EXS_Unknown, EGL_noChange, 4096); c.bad()) {

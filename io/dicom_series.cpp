@@ -366,6 +366,12 @@ std::string pixelDataLengthProblem(const DicomSeries& s, std::int64_t frames, bo
 
 }  // namespace
 
+namespace dicom {
+std::string nestingDepthProblem(const std::string& path) {
+  return nestingProblem(path);
+}
+}  // namespace dicom
+
 bool looksLikeDicom(const std::string& path) {
   if (fs::path(path).filename() == "DICOMDIR") return true;
   std::ifstream f(path, std::ios::binary);

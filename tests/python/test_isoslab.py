@@ -259,9 +259,9 @@ def test_calls_from_two_threads_overlap():
     # one long call while another makes short ones, and each notes when its calls start and end:
     # with the GIL released, short calls start and end all through the long one. Were the GIL held,
     # the short thread could not run during the long call's extraction, and its notes would leave a
-    # gap that long (threads switch every 5 ms; the long call takes well over 100 ms). Wall-clock
+    # gap that long (threads switch every 5 ms; the long call takes about a second). Wall-clock
     # times, so a busy machine slows both threads alike rather than separating them.
-    big = smooth_noise((80, 80, 80), 5)
+    big = smooth_noise((160, 160, 160), 5)  # about a second: a busy machine's pauses stay far shorter
     small = smooth_noise((12, 12, 12), 6)
     start = threading.Barrier(2)
     long_call = []
