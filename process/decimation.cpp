@@ -250,8 +250,18 @@ void DecimationSink::closeBlock() {
   trim(middle >= 2 ? middle - 2 : 0);
 }
 
+const DecimationSink::OriginalSurface& DecimationSink::surfaceFor(ChunkRange range) {
+  if (!surface_ || !(surfaceRange_ == range)) {
+    surface_.reset();  // the old grid goes before the new one is built
+    surface_.emplace(originalSurface(range));
+    surfaceRange_ = range;
+  }
+  return *surface_;
+}
+
 void DecimationSink::trim(std::size_t firstChunk) {
   if (firstChunk <= chunkBase_) return;
+  surface_.reset();
   const std::size_t drop = firstChunk - chunkBase_;
   const VertexId newBase = chunkFirst_[drop];
   const std::size_t vertices = newBase - base_;
@@ -414,6 +424,7 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     for (std::size_t t = 0; t < triangles.size(); ++t) (frozen[t] ? out : input).push_back(triangles[t]);
     // Frozen triangles count towards the target: the rest is simplified a little further.
     const std::size_t share = target > frozenCount ? target - frozenCount : 0;
+    surface_.reset();  // not kept through meshoptimizer's working set: memory stays as it was
     const std::vector<Triangle> simplified = collapse(input, share);
     out.insert(out.end(), simplified.begin(), simplified.end());
     // The edges the result should not have.
@@ -437,10 +448,10 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     for (std::size_t v = 0; v < fansAfter.size(); ++v) {
       if (fansAfter[v] > std::max(1u, fansBefore[v])) bad.push_back(base_ + static_cast<VertexId>(v));
     }
-    // Triangles that moved the surface too far. (The grid is made again for each try rather than
-    // kept: it would add to meshoptimizer's memory in the next try.)
+    // Triangles that moved the surface too far, against the grid of the original triangles, which
+    // the distance measure of the try that succeeds reuses.
     if (limit > 0) {
-      const OriginalSurface original = originalSurface(originals);
+      const OriginalSurface& original = surfaceFor(originals);
       for (const Triangle& t : simplified) {
         if (!triangleWithin(t, original, limit)) bad.insert(bad.end(), t.begin(), t.end());
       }
@@ -688,7 +699,7 @@ double DecimationSink::triangleDistance(const Triangle& t, const OriginalSurface
 // The one-sided distance from the final triangles to the original surface, for the report.
 void DecimationSink::measure(const std::vector<Triangle>& triangles, ChunkRange originals) {
   if (triangles.empty()) return;
-  const OriginalSurface surface = originalSurface(originals);
+  const OriginalSurface& surface = surfaceFor(originals);
   for (const Triangle& t : triangles) {
     report_.distanceMax = std::max(report_.distanceMax, triangleDistance(t, surface, &distanceSum_, &report_.samples));
   }

@@ -26,6 +26,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -89,6 +90,7 @@ class DecimationSink final : public MeshSink {
   // Chunks [first, end) of the stream: the original triangles a region's error is measured against.
   struct ChunkRange {
     std::size_t first = 0, end = 0;
+    bool operator==(const ChunkRange&) const = default;
   };
   struct Region {
     std::vector<Triangle> triangles;  // global ids
@@ -128,6 +130,10 @@ class DecimationSink final : public MeshSink {
   void measure(const std::vector<Triangle>& triangles, ChunkRange originals);
   ChunkRange rangeAround(const std::vector<Triangle>& triangles) const;
   OriginalSurface originalSurface(ChunkRange range) const;
+  // The original surface of `range`, kept for the next caller with the same range: the try that
+  // succeeds and the distance measure of its output share it (a try drops it before meshoptimizer
+  // runs, and trim() drops it).
+  const OriginalSurface& surfaceFor(ChunkRange range);
   double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
   bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const;
   using Vec3d = std::array<double, 3>;
@@ -163,6 +169,8 @@ class DecimationSink final : public MeshSink {
   std::vector<Triangle> pendingUpper_;
   std::size_t pendingMiddle_ = 0;  // the chunk where the pending upper half starts
   MeshChunk out_;
+  ChunkRange surfaceRange_;
+  std::optional<OriginalSurface> surface_;
 };
 
 }  // namespace isoslab
