@@ -26,36 +26,56 @@ struct EdgeUse {
   std::uint32_t forward = 0;  // uses from the smaller id to the larger
 };
 
-// Every edge of the triangles: its uses and their directions.
-// Every edge of the triangles, sorted by key (smaller id << 32 | larger id): its uses and their
-// directions. Sorted arrays, not a hash map: one allocation each, for blocks of a million triangles.
+// Every edge of the triangles, sorted by key (smaller id << 32 | larger id): its uses and how many
+// run from the smaller id to the larger. Linear: the uses are bucketed by their smaller id (a
+// counting sort over the ids' range), then each vertex's few uses are sorted by the larger id.
 std::vector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(const std::vector<Triangle>& triangles) {
-  std::vector<std::uint64_t> directed;
-  directed.reserve(3 * triangles.size());
-  for (const Triangle& t : triangles) {
-    for (std::size_t k = 0; k < 3; ++k) directed.push_back((std::uint64_t{t[k]} << 32) | t[(k + 1) % 3]);
-  }
-  std::sort(directed.begin(), directed.end());
-  const auto count = [&](std::uint64_t key) {
-    const auto range = std::equal_range(directed.begin(), directed.end(), key);
-    return static_cast<std::uint32_t>(range.second - range.first);
-  };
   std::vector<std::pair<std::uint64_t, EdgeUse>> edges;
-  for (std::size_t i = 0; i < directed.size();) {
-    std::size_t j = i;
-    while (j < directed.size() && directed[j] == directed[i]) ++j;
-    const auto a = static_cast<VertexId>(directed[i] >> 32);
-    const auto b = static_cast<VertexId>(directed[i] & 0xffffffffu);
-    const std::uint64_t reverse = (std::uint64_t{b} << 32) | a;
-    const auto here = static_cast<std::uint32_t>(j - i);
-    if (a < b) {
-      edges.push_back({directed[i], EdgeUse{here + count(reverse), here}});
-    } else if (count(reverse) == 0) {
-      edges.push_back({reverse, EdgeUse{here, 0}});  // used only from the larger id
+  if (triangles.empty()) return edges;
+  VertexId low = triangles.front()[0], high = low;
+  for (const Triangle& t : triangles) {
+    for (VertexId v : t) {
+      low = std::min(low, v);
+      high = std::max(high, v);
     }
-    i = j;
   }
-  std::sort(edges.begin(), edges.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  std::vector<std::uint32_t> offsets(static_cast<std::size_t>(high - low) + 2, 0);
+  // An edge from a vertex to itself (a triangle that repeats an id) is no edge.
+  for (const Triangle& t : triangles) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (t[k] != t[(k + 1) % 3]) ++offsets[std::min(t[k], t[(k + 1) % 3]) - low + 1];
+    }
+  }
+  for (std::size_t k = 1; k < offsets.size(); ++k) offsets[k] += offsets[k - 1];
+  // Per use: the larger id, and 1 when it runs from the smaller id to the larger.
+  std::vector<std::pair<VertexId, std::uint32_t>> uses(offsets.back());
+  std::vector<std::uint32_t> fill(offsets.begin(), offsets.end() - 1);
+  for (const Triangle& t : triangles) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const VertexId a = t[k], b = t[(k + 1) % 3];
+      if (a != b) uses[fill[std::min(a, b) - low]++] = {std::max(a, b), a < b ? 1u : 0u};
+    }
+  }
+  for (std::size_t v = 0; v + 1 < offsets.size(); ++v) {
+    const std::uint32_t first = offsets[v], last = offsets[v + 1];
+    for (std::uint32_t k = first + 1; k < last; ++k) {
+      const auto u = uses[k];
+      std::uint32_t m = k;
+      for (; m > first && u.first < uses[m - 1].first; --m) uses[m] = uses[m - 1];
+      uses[m] = u;
+    }
+    const std::uint64_t lo = low + static_cast<VertexId>(v);
+    for (std::uint32_t k = first; k < last;) {
+      std::uint32_t end = k;
+      EdgeUse e{0, 0};
+      for (; end < last && uses[end].first == uses[k].first; ++end) {
+        ++e.uses;
+        e.forward += uses[end].second;
+      }
+      edges.push_back({(lo << 32) | uses[k].first, e});
+      k = end;
+    }
+  }
   return edges;
 }
 
