@@ -11,8 +11,11 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <map>
+#include <optional>
 #include <set>
+#include <unordered_map>
 
 #include "core/error.h"
 #include "core/interrupt.h"
@@ -104,6 +107,10 @@ void readPixelModule(DcmDataset* ds, std::int64_t frames, SegLayout& s) {
   s.rows = getU16(ds, DCM_Rows);
   s.columns = getU16(ds, DCM_Columns);
   if (s.rows == 0 || s.columns == 0) fail(s.path, fmt::format("Rows {} and Columns {}: no pixels", s.rows, s.columns));
+  if (s.framePixels() > limits::kMaxSliceVoxels) {
+    fail(s.path, fmt::format("Rows {} x Columns {} exceeds the limit of {} voxels a slice", s.rows, s.columns,
+                             limits::kMaxSliceVoxels));
+  }
   s.bitsAllocated = getU16(ds, DCM_BitsAllocated);
   const std::uint16_t samples = getU16(ds, DCM_SamplesPerPixel, 1);
   const std::uint16_t sign = getU16(ds, DCM_PixelRepresentation);
@@ -215,38 +222,57 @@ void placeFrames(DcmDataset* ds, std::int64_t frames, SegLayout& s) {
   std::sort(planes.begin(), planes.end());
   planes.erase(std::unique(planes.begin(), planes.end(), [&](double a, double b) { return b - a <= tolerance; }),
                planes.end());
+  // The step: SpacingBetweenSlices where given, else from the planes themselves: each gap counted
+  // as a whole number of the smallest gap (segments skip the slices they do not touch), the step
+  // then the span over that count, so that rounded positions do not add up to an error.
   double step = 0;
   std::string stepField = "ImagePositionPatient";
-  if (double between = 0;
-      getDoubles(subItem(shared, DCM_PixelMeasuresSequence), DCM_SpacingBetweenSlices, &between, 1) &&
-      std::isfinite(between) && between > 0) {
-    step = between;
+  std::optional<std::array<double, 6>> between =
+      getDecimals(subItem(shared, DCM_PixelMeasuresSequence), DCM_SpacingBetweenSlices, 1, s.path);
+  if (!between) {
+    between =
+        getDecimals(subItem(perFrames->getItem(0), DCM_PixelMeasuresSequence), DCM_SpacingBetweenSlices, 1, s.path);
+  }
+  if (between && (*between)[0] > 0) {
+    step = (*between)[0];
     stepField = "SpacingBetweenSlices";
   } else if (planes.size() > 1) {
-    step = planes[1] - planes[0];
-    for (std::size_t k = 2; k < planes.size(); ++k) step = std::min(step, planes[k] - planes[k - 1]);
+    double smallest = planes[1] - planes[0];
+    for (std::size_t k = 2; k < planes.size(); ++k) smallest = std::min(smallest, planes[k] - planes[k - 1]);
+    double count = 0;
+    for (std::size_t k = 1; k < planes.size(); ++k) {
+      count += std::max(1.0, std::round((planes[k] - planes[k - 1]) / smallest));
+    }
+    step = (planes.back() - planes.front()) / count;
   } else if (thickness && *thickness > 0) {
     step = *thickness;
     stepField = "SliceThickness";
   }
-  if (!(step > tolerance)) {
+  if (planes.size() == 1 && !(step > 0)) {
     fail(s.path,
          "every frame lies in one plane and neither SpacingBetweenSlices nor SliceThickness gives the "
          "slices' spacing");
   }
-  // The first plane's frame gives the origin; every frame must lie on the lattice from it.
+  if (!(step > 2 * tolerance)) {
+    fail(s.path, fmt::format("a slice spacing of {:g} mm ({}) is below what the positions resolve", step, stepField));
+  }
+  // The first plane's frame gives the origin; every frame must lie on the lattice from it, and
+  // the lattice may not be mostly slices that no frame backs.
   const std::size_t first = static_cast<std::size_t>(
       std::min_element(positions.begin(), positions.end(),
                        [&](const Vec3d& a, const Vec3d& b) { return dot(a, normal) < dot(b, normal); }) -
       positions.begin());
   const Vec3d origin = positions[first];
   const double lattice = (planes.back() - planes.front()) / step;
-  if (!(lattice < static_cast<double>(limits::kMaxFrames))) {
-    fail(s.path, fmt::format("the frames span {:g} mm, {:g} slices of {:g} mm ({})", planes.back() - planes.front(),
-                             lattice, step, stepField));
+  const double most = std::max(4096.0, 64.0 * static_cast<double>(planes.size()));
+  if (!(lattice < most)) {
+    fail(s.path, fmt::format("the frames' {} planes span {:g} mm, {:.0f} slices of {:g} mm ({}): too few frames for "
+                             "so many slices",
+                             planes.size(), planes.back() - planes.front(), lattice, step, stepField));
   }
   const auto slices = static_cast<std::int64_t>(std::llround(lattice)) + 1;
   s.framesOfSlice.assign(static_cast<std::size_t>(slices), {});
+  std::vector<double> planeOfSlice(static_cast<std::size_t>(slices), std::numeric_limits<double>::quiet_NaN());
   const double inPlane = std::max(tolerance, 1e-3 * std::max(pixelSpacing[0], pixelSpacing[1]));
   for (std::uint32_t f = 0; f < static_cast<std::uint32_t>(frames); ++f) {
     const Vec3d& p = positions[f];
@@ -255,11 +281,19 @@ void placeFrames(DcmDataset* ds, std::int64_t frames, SegLayout& s) {
     const auto k = static_cast<std::int64_t>(std::llround(along));
     const double shift = static_cast<double>(k) * step;
     const Vec3d off{d[0] - normal[0] * shift, d[1] - normal[1] * shift, d[2] - normal[2] * shift};
-    if (std::abs(along - static_cast<double>(k)) * step > std::max(tolerance, 0.01 * step) ||
+    if (std::abs(along - static_cast<double>(k)) * step > std::max(tolerance, 0.02 * step) ||
         std::abs(dot(off, row)) > inPlane || std::abs(dot(off, col)) > inPlane) {
       fail(s.path, fmt::format("frame {}'s ImagePositionPatient {:g}\\{:g}\\{:g} is not on the slice lattice of frame "
                                "{} ({:g} mm apart by {}); the frames do not match one geometry",
                                f + 1, p[0], p[1], p[2], first + 1, step, stepField));
+    }
+    // Two planes apart on one slice: a step far larger than the frames' own gaps.
+    double& plane = planeOfSlice[static_cast<std::size_t>(k)];
+    if (std::isnan(plane)) plane = dot(p, normal);
+    if (std::abs(plane - dot(p, normal)) > tolerance) {
+      fail(s.path, fmt::format("frames {:g} mm apart fall on one slice of {:g} mm ({}); the frames do not match one "
+                               "geometry",
+                               std::abs(plane - dot(p, normal)), step, stepField));
     }
     s.framesOfSlice[static_cast<std::size_t>(k)].push_back(f);
   }
@@ -323,26 +357,61 @@ class FrameReader {
 };
 
 // Segments that share a voxel, as pairs (lower number first): one pass over the slices that hold
-// frames of two or more segments, a slice of owners at a time.
+// frames of two or more segments, a slice of owners at a time. A pixel that a second segment covers
+// keeps its list of segments aside, so that three or more on one pixel give every pair.
 std::set<std::pair<std::uint16_t, std::uint16_t>> overlaps(const SegLayout& s, FrameReader& reader) {
+  constexpr std::size_t kMostPairs = 1u << 20;
   std::set<std::pair<std::uint16_t, std::uint16_t>> pairs;
   std::vector<std::uint16_t> owner;
   std::vector<std::uint16_t> mask;
+  std::unordered_map<std::size_t, std::vector<std::uint16_t>> shared;  // pixel -> every segment on it
   for (const auto& frames : s.framesOfSlice) {
     throwIfInterrupted();
     if (frames.size() < 2) continue;
     owner.assign(static_cast<std::size_t>(s.framePixels()), 0);
+    shared.clear();
     for (const std::uint32_t f : frames) {
       reader.read(f, mask);
       const std::uint16_t segment = s.segmentOfFrame[f];
       for (std::size_t p = 0; p < mask.size(); ++p) {
         if (mask[p] == 0) continue;
-        if (owner[p] != 0) pairs.emplace(std::min(owner[p], segment), std::max(owner[p], segment));
-        owner[p] = segment;
+        if (owner[p] == 0) {
+          owner[p] = segment;
+          continue;
+        }
+        std::vector<std::uint16_t>& on = shared[p];
+        if (on.empty()) on.push_back(owner[p]);
+        for (const std::uint16_t other : on) pairs.emplace(std::min(other, segment), std::max(other, segment));
+        on.push_back(segment);
+        if (pairs.size() > kMostPairs) {
+          fail(s.path, fmt::format("more than {} pairs of segments overlap", kMostPairs));
+        }
       }
     }
   }
   return pairs;
+}
+
+// Layers: each segment the lowest layer that none of the segments it overlaps (and that come
+// before it) holds.
+std::map<std::uint16_t, int> layersOf(const SegLayout& s,
+                                      const std::set<std::pair<std::uint16_t, std::uint16_t>>& pairs, int& layers) {
+  std::map<std::uint16_t, std::vector<std::uint16_t>> before;  // segment -> the smaller ones it overlaps
+  for (const auto& [a, b] : pairs) before[b].push_back(a);
+  std::map<std::uint16_t, int> layerOf;
+  layers = 1;
+  std::vector<bool> taken;
+  for (const auto& [number, segment] : s.segments) {
+    taken.assign(static_cast<std::size_t>(layers) + 1, false);
+    if (const auto it = before.find(number); it != before.end()) {
+      for (const std::uint16_t other : it->second) taken[static_cast<std::size_t>(layerOf[other])] = true;
+    }
+    int l = 0;
+    while (taken[static_cast<std::size_t>(l)]) ++l;
+    layerOf[number] = l;
+    layers = std::max(layers, l + 1);
+  }
+  return layerOf;
 }
 
 class DicomSegSource final : public SliceSource {
@@ -443,19 +512,7 @@ std::unique_ptr<SliceSource> openDicomSegmentation(const std::string& path, int 
   // Layers: segments that overlap never share one.
   std::map<std::uint16_t, int> layerOf;
   int layers = 1;
-  if (s.kind != SegKind::kLabelMap) {
-    const auto pairs = overlaps(s, reader);
-    for (const auto& [number, segment] : s.segments) {
-      std::set<int> taken;
-      for (const auto& [a, b] : pairs) {
-        if (b == number && layerOf.count(a) != 0) taken.insert(layerOf[a]);
-      }
-      int l = 0;
-      while (taken.count(l) != 0) ++l;
-      layerOf[number] = l;
-      layers = std::max(layers, l + 1);
-    }
-  }
+  if (s.kind != SegKind::kLabelMap) layerOf = layersOf(s, overlaps(s, reader), layers);
   if (layers > 1 && layer < 0) {
     fail(path, fmt::format("{} segmentation layers (segments of different layers overlap); a run meshes one: "
                            "choose it with `channel` 0..{}",

@@ -723,6 +723,7 @@ void DecimationSink::measure(const std::vector<Triangle>& triangles, ChunkRange 
   for (const Triangle& t : triangles) {
     report_.distanceMax = std::max(report_.distanceMax, triangleDistance(t, surface, &distanceSum_, &report_.samples));
   }
+  surface_.reset();  // not held while the region goes on downstream
 }
 
 // Sends a final region on as one chunk: its vertices that no earlier chunk sent, in the order the

@@ -8,10 +8,10 @@
 //
 // --fractional MAX (1..255): FRACTIONAL/PROBABILITY; a segment's voxels get MAX, ceil(MAX/2) (50%,
 // inside) on odd slices; voxels beside it in the slice get floor((MAX-1)/2) (below 50%, outside).
-// --overlap: a last segment "union" of every nonzero voxel. --rotate, --tilt: turn the geometry
-// about the patient z axis, then the x axis. --labelmap: Label Map Segmentation Storage (below).
-// Binary Pixel Data is packed here, frames following one another bit by bit, LSB first: DCMTK
-// 3.6.7 corrupts frames whose rows*cols is not a multiple of 8 (DCMTK bug #1132).
+// --overlap: a last segment "union" of every nonzero voxel (given twice, a second, "union 2"). --rotate, --tilt: turn
+// the geometry about the patient z axis, then the x axis. --labelmap: Label Map Segmentation Storage (below). Binary
+// Pixel Data is packed here, frames following one another bit by bit, LSB first: DCMTK 3.6.7 corrupts frames whose
+// rows*cols is not a multiple of 8 (DCMTK bug #1132).
 #include <dcmtk/config/osconfig.h>
 #include <dcmtk/dcmdata/dcdeftag.h>
 #include <dcmtk/dcmdata/dcfilefo.h>
@@ -128,7 +128,8 @@ class PixelFile {
 
 struct Options {
   int fractional = 0;  // MaximumFractionalValue, 0 for binary
-  bool overlap = false, labelmap = false;
+  int overlap = 0;     // "union" segments added
+  bool labelmap = false;
   double rotate = 0, tilt = 0;
   E_TransferSyntax transfer = EXS_LittleEndianExplicit;
   std::string input, output;
@@ -142,8 +143,10 @@ bool parse(int argc, char** argv, Options& o) {
   std::vector<std::string> positional;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--overlap" || a == "--labelmap") {
-      (a == "--overlap" ? o.overlap : o.labelmap) = true;
+    if (a == "--overlap") {
+      ++o.overlap;
+    } else if (a == "--labelmap") {
+      o.labelmap = true;
     } else if (a.rfind("--", 0) != 0) {
       positional.push_back(a);
     } else if (++i < argc) {
@@ -164,7 +167,7 @@ bool parse(int argc, char** argv, Options& o) {
       return false;
     }
   }
-  if (positional.size() != 2 || (o.labelmap && (o.fractional > 0 || o.overlap))) return false;
+  if (positional.size() != 2 || (o.labelmap && (o.fractional > 0 || o.overlap > 0))) return false;
   o.input = positional[0];
   o.output = positional[1];
   return true;
@@ -185,7 +188,7 @@ void run(const Options& o) {
     }
   }
   const std::vector<std::int64_t> labels(values.begin(), values.end());
-  const std::size_t segments = labels.size() + (o.overlap ? 1 : 0);
+  const std::size_t segments = labels.size() + static_cast<std::size_t>(o.overlap);
   if (labels.empty()) throw Error(fmt::format("{}: no voxel holds a nonzero label", o.input));
   if (segments > 65535) throw Error(fmt::format("{}: {} segments; DICOM allows 65535", o.input, segments));
 
@@ -213,9 +216,11 @@ void run(const Options& o) {
 
   // Segments, numbered 1, 2, ... in label order.
   for (std::size_t s = 0; s < segments; ++s) {
-    const bool isUnion = s == labels.size();
+    const bool isUnion = s >= labels.size();
     const auto value = static_cast<std::int32_t>(isUnion ? 0 : labels[s]);
-    std::string name = isUnion ? "union" : fmt::format("label {}", value);
+    std::string name = !isUnion             ? fmt::format("label {}", value)
+                       : s == labels.size() ? std::string("union")
+                                            : fmt::format("union {}", s - labels.size() + 1);
     std::array<std::uint8_t, 3> rgb =
         isUnion ? std::array<std::uint8_t, 3>{200, 200, 200} : isoslab::defaultLabelColor(value);
     for (const auto& label : info.labels) {
@@ -288,7 +293,8 @@ void run(const Options& o) {
       number[p] = lastNumber;
       present[lastNumber] = true;
     }
-    if (o.overlap) present[segments] = std::any_of(number.begin(), number.end(), [](Uint16 v) { return v != 0; });
+    const bool any = std::any_of(number.begin(), number.end(), [](Uint16 v) { return v != 0; });
+    for (std::size_t u = labels.size() + 1; u <= segments; ++u) present[u] = any;
     const Vec3 at = position(k);
     FGPlanePosPatient plane;
     check(plane.setImagePositionPatient(ds(at[0]).c_str(), ds(at[1]).c_str(), ds(at[2]).c_str()), "position");
@@ -309,7 +315,7 @@ void run(const Options& o) {
                below = static_cast<Uint8>(o.fractional > 0 ? (o.fractional - 1) / 2 : 0);
     for (std::size_t s = 1; s <= segments; ++s) {
       if (!present[s]) continue;
-      const bool isUnion = s == labels.size() + 1;
+      const bool isUnion = s > labels.size();
       auto inside = [&](std::size_t p) { return isUnion ? number[p] != 0 : number[p] == s; };
       auto beside = [&](std::size_t p) {  // in the slice
         const std::size_t i = p % cols, j = p / cols;
@@ -336,7 +342,7 @@ void run(const Options& o) {
   DcmFileFormat file;
   DcmDataset& data = *file.getDataset();
   check(seg->writeDataset(data), o.output);
-  check(data.putAndInsertString(DCM_SegmentsOverlap, o.overlap ? "YES" : "NO"), "SegmentsOverlap");
+  check(data.putAndInsertString(DCM_SegmentsOverlap, o.overlap > 0 ? "YES" : "NO"), "SegmentsOverlap");
   DcmElement* pixelData = nullptr;
   check(data.findAndGetElement(DCM_PixelData, pixelData), "Pixel Data");
   if (o.labelmap) {

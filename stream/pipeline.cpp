@@ -614,6 +614,14 @@ PipelineResult runRank(RankGroup& group, SliceSource& source, Extractor& extract
     }
   }
   spool.reset();
+  std::string summary;  // what rank 0 adds up (label voxels): a failure to make it fails the rank
+  if (!error && options.rankSummary) {
+    try {
+      summary = options.rankSummary();
+    } catch (...) {
+      error = std::current_exception();
+    }
+  }
   MessageWriter last(error ? Message::kFailed : Message::kEnd);
   if (error) {
     last.putString(messageOf(error));
@@ -632,7 +640,7 @@ PipelineResult runRank(RankGroup& group, SliceSource& source, Extractor& extract
     }
     last.put(static_cast<std::uint64_t>(warnings.size()));
     for (const std::string& w : warnings) last.putString(w);
-    last.putString(options.rankSummary ? options.rankSummary() : std::string());
+    last.putString(summary);
   }
   group.send(0, last.bytes());
   const std::vector<std::byte> outcome = group.receive(0);

@@ -230,7 +230,7 @@ def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=Non
     if unknown:
         raise TypeError(f"extract() got an unexpected keyword argument {unknown[0]!r}")
     settings = {"output": os.fspath(output), "method": str(method)}
-    if isinstance(iso, (list, tuple, np.ndarray)):
+    if isinstance(iso, (list, tuple, np.ndarray)) or (isinstance(iso, str) and "," in iso):
         settings["isos"] = _numbers("iso", iso)  # several surfaces in one pass
     elif iso is not None:
         settings["iso"] = iso if isinstance(iso, str) else float(iso)
@@ -262,6 +262,8 @@ def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=Non
             value = os.fspath(value)
         elif name == "labels":
             # "all", a value, or a list of values, ranges ("7-9") and names, as --labels takes them.
+            if isinstance(value, np.ndarray):
+                value = value.tolist()
             value = ",".join(str(v) for v in value) if isinstance(value, (list, tuple, set)) else str(value)
         settings[name] = value
     if progress is None:
