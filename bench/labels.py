@@ -122,7 +122,7 @@ def main():
         big = f"phantom:checker?n={a.big}&b={a.big // 10}&labels=1000"
         for threads in (1, 2):
             row(f"isoslab labels, checker {a.big}^3, {threads} thread(s)",
-                isoslab(a.program, [big], f"{a.out}/cbig.ply", threads, repeat=0))
+                isoslab(a.program, [big], f"{a.out}/cbig.ply", threads, repeat=1))
             os.remove(f"{a.out}/cbig.ply")
     results = {name: r for name, r in rows}
     aal1 = results.get("isoslab labels, aal, 1 thread(s), .ply")
