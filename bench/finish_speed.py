@@ -22,8 +22,9 @@ import argparse
 import json
 import os
 import subprocess
-import sys
 import tempfile
+
+from timing import timed  # bench/timing.py
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SHARED = os.path.join(HERE, "..", "..", "shared", "data")
@@ -46,16 +47,6 @@ t1 = time.perf_counter()
 print(json.dumps({"seconds": t1 - t0, "triangles": f.GetOutput().GetNumberOfCells(),
                   "triangles_in": mesh.GetNumberOfCells()}))
 """
-
-
-def timed(cmd):
-    """Runs cmd under /usr/bin/time: (wall seconds, peak RSS MiB, stdout)."""
-    with tempfile.NamedTemporaryFile("r", suffix=".time") as t:
-        r = subprocess.run(["/usr/bin/time", "-f", "%e %M", "-o", t.name, *cmd], capture_output=True, text=True)
-        if r.returncode != 0:
-            sys.exit(f"finish_speed.py: {' '.join(cmd)} failed: {r.stderr.strip()}")
-        wall, kib = t.read().split()[-2:]
-        return float(wall), int(kib) / 1024, r.stdout
 
 
 def isoslab(program, source, iso, out, threads, extra):

@@ -12,9 +12,9 @@ runs the 1024^3 one (a billion voxels) for its memory goal.
 import argparse
 import json
 import os
-import subprocess
-import sys
 import tempfile
+
+from timing import timed  # bench/timing.py
 
 VTK_SCRIPT = r"""
 import sys, time, json, vtk
@@ -58,16 +58,6 @@ t3 = time.perf_counter()
 print(json.dumps({"read": t1 - t0, "filter": t2 - t1, "write": t3 - t2, "total": t3 - t0,
                   "triangles": f.GetOutput().GetNumberOfCells()}))
 """
-
-
-def timed(cmd):
-    """Runs cmd under /usr/bin/time: (wall seconds, peak RSS MiB, stdout)."""
-    with tempfile.NamedTemporaryFile("r", suffix=".time") as t:
-        r = subprocess.run(["/usr/bin/time", "-f", "%e %M", "-o", t.name, *cmd], capture_output=True, text=True)
-        if r.returncode != 0:
-            sys.exit(f"labels.py: {' '.join(cmd)} failed: {r.stderr.strip()}")
-        wall, kib = t.read().split()[-2:]
-        return float(wall), int(kib) / 1024, r.stdout
 
 
 def isoslab(program, args, out, threads, repeat=3):
