@@ -84,17 +84,14 @@ void printHistogram(const ValueHistogram& h, const std::string& indent, int widt
 
 int runInfo(const std::vector<std::string>& inputs, const RawArgs& raw, std::size_t histogramBins) {
   const SourceOptions options = sourceOptions(raw);
-  const bool dicom =
-      !options.raw && !PhantomSource::isPhantom(inputs.front()) &&
-      std::all_of(inputs.begin(), inputs.end(), [](const std::string& in) { return isDicomInput(in); }) &&
-      !(inputs.size() == 1 && isDicomSegmentation(inputs.front()));
+  const bool segmentation = !options.raw && inputs.size() == 1 && isDicomSegmentation(inputs.front());
+  const bool dicom = !options.raw && !segmentation && !PhantomSource::isPhantom(inputs.front()) &&
+                     std::all_of(inputs.begin(), inputs.end(), [](const std::string& in) { return isDicomInput(in); });
   if (!dicom) {
     std::vector<std::string> notes;
     SourceOptions sourceOptions = options;
     // A segmentation whose segments overlap is shown by its first layer (the note says how many).
-    if (inputs.size() == 1 && sourceOptions.dicom.channel < 0 && isDicomSegmentation(inputs.front())) {
-      sourceOptions.dicom.channel = 0;
-    }
+    if (segmentation && sourceOptions.dicom.channel < 0) sourceOptions.dicom.channel = 0;
     auto source = openSource(inputs, sourceOptions, &notes);
     std::printf("input      %s\n", inputs.front().c_str());
     printGeometry(source->info());
