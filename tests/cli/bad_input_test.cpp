@@ -6,6 +6,7 @@
 #include <dcmtk/config/osconfig.h>
 #include <dcmtk/dcmdata/dcdeftag.h>
 #include <dcmtk/dcmdata/dcfilefo.h>
+#include <dcmtk/dcmdata/dcsequen.h>
 #include <dcmtk/dcmdata/dcuid.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -297,6 +298,36 @@ std::string cutHugeVolume(const std::string& dir, const std::string& ext) {
     write(path, deflated(header + zeros));
   }
   return path;
+}
+
+// A DICOM Segmentation written by samples/make_dicom_seg (dcmseg) from a label phantom, then
+// damaged with DCMTK: `edit` changes its dataset.
+std::string damagedSeg(const std::string& dir, const std::function<void(DcmDataset*)>& edit) {
+  const std::string path = dir + "/seg.dcm";
+  const std::string command =
+      std::string(ISOSLAB_MAKE_DICOM_SEG) + " 'phantom:nested?n=13,11,9&spacing=0.7,0.9,1.6' " + path;
+  EXPECT_EQ(std::system(command.c_str()), 0) << command;
+  DcmFileFormat ff;
+  EXPECT_TRUE(ff.loadFile(path.c_str()).good());
+  edit(ff.getDataset());
+  EXPECT_TRUE(ff.saveFile(path.c_str(), EXS_LittleEndianExplicit).good());
+  return path;
+}
+
+DcmItem* segFrameItem(DcmDataset* ds, unsigned long f, const DcmTagKey& seq) {
+  DcmItem* frame = nullptr;
+  DcmItem* item = nullptr;
+  ds->findAndGetSequenceItem(DCM_PerFrameFunctionalGroupsSequence, frame, static_cast<signed long>(f));
+  if (frame != nullptr) frame->findAndGetSequenceItem(seq, item, 0);
+  return item;
+}
+
+void segSpacingBetweenSlices(DcmDataset* ds, const char* value) {
+  DcmItem* shared = nullptr;
+  DcmItem* measures = nullptr;
+  ds->findAndGetSequenceItem(DCM_SharedFunctionalGroupsSequence, shared, 0);
+  shared->findAndGetSequenceItem(DCM_PixelMeasuresSequence, measures, 0);
+  measures->putAndInsertString(DCM_SpacingBetweenSlices, value);
 }
 
 struct Case {
@@ -1516,6 +1547,78 @@ const Case kCases[] = {
        return d + "/m.ply";
      },
      "decode {in} -o {dir}/out.stl", 1, "'4' follows the element count"},
+    // --- DICOM Segmentations whose frames do not match their geometry (io/dicom_seg.cpp) ------------
+    {"DicomSegFrameOffTheLattice",
+     [](const std::string& d) {
+       return damagedSeg(d, [](DcmDataset* ds) {
+         DcmItem* plane = segFrameItem(ds, 1, DCM_PlanePositionSequence);
+         Float64 z = 0;
+         plane->findAndGetFloat64(DCM_ImagePositionPatient, z, 2);
+         OFString x, y;
+         plane->findAndGetOFString(DCM_ImagePositionPatient, x, 0);
+         plane->findAndGetOFString(DCM_ImagePositionPatient, y, 1);
+         plane->putAndInsertString(DCM_ImagePositionPatient,
+                                   (std::string(x.c_str()) + "\\" + y.c_str() + "\\" + std::to_string(z + 0.8)).c_str());
+       });
+     },
+     "extract {in} -q -o {dir}/out.ply", 1, "is not on the slice lattice of frame"},
+    {"DicomSegUndescribedSegment",
+     [](const std::string& d) {
+       return damagedSeg(d, [](DcmDataset* ds) {
+         segFrameItem(ds, 0, DCM_SegmentIdentificationSequence)->putAndInsertUint16(DCM_ReferencedSegmentNumber, 9);
+       });
+     },
+     "extract {in} -q -o {dir}/out.ply", 1, ": frame 1 names segment 9, which the SegmentSequence does not describe"},
+    {"DicomSegPixelDataShort",
+     [](const std::string& d) {
+       return damagedSeg(d, [](DcmDataset* ds) {
+         DcmElement* e = nullptr;
+         ds->findAndGetElement(DCM_PixelData, e);
+         Uint8* bytes = nullptr;
+         e->getUint8Array(bytes);
+         const Uint32 length = e->getLength();
+         std::vector<Uint8> shorter(bytes, bytes + length - 2);
+         ds->putAndInsertUint8Array(DCM_PixelData, shorter.data(), length - 2);
+       });
+     },
+     "extract {in} -q -o {dir}/out.ply", 1, "the frames do not match the pixel module"},
+    {"DicomSegFewerFrameItems",
+     [](const std::string& d) {
+       return damagedSeg(d, [](DcmDataset* ds) {
+         DcmSequenceOfItems* frames = nullptr;
+         ds->findAndGetSequence(DCM_PerFrameFunctionalGroupsSequence, frames);
+         delete frames->remove(frames->card() - 1);
+       });
+     },
+     "extract {in} -q -o {dir}/out.ply", 1, "per-frame functional group items for NumberOfFrames"},
+    {"DicomSegHugeSlice",
+     [](const std::string& d) {
+       return damagedSeg(d, [](DcmDataset* ds) {
+         ds->putAndInsertUint16(DCM_Rows, 65535);
+         ds->putAndInsertUint16(DCM_Columns, 65535);
+       });
+     },
+     "extract {in} -q -o {dir}/out.ply", 1, ": Rows 65535 x Columns 65535 exceeds the limit of 1073741824 voxels a slice"},
+    {"DicomSegSpacingBelowResolution",
+     [](const std::string& d) {
+       return damagedSeg(d, [](DcmDataset* ds) { segSpacingBetweenSlices(ds, "0.001"); });
+     },
+     "extract {in} -q -o {dir}/out.ply", 1,
+     ": a slice spacing of 0.001 mm (SpacingBetweenSlices) is below what the positions resolve"},
+    {"DicomSegSpacingPutsPlanesOnOneSlice",
+     [](const std::string& d) {
+       return damagedSeg(d, [](DcmDataset* ds) { segSpacingBetweenSlices(ds, "1000"); });
+     },
+     "extract {in} -q -o {dir}/out.ply", 1,
+     "fall on one slice of 1000 mm (SpacingBetweenSlices); the frames do not match one geometry"},
+    {"DicomSegTypeOfAnotherClass",
+     [](const std::string& d) {
+       return damagedSeg(d, [](DcmDataset* ds) {
+         ds->putAndInsertString(DCM_SOPClassUID, "1.2.840.10008.5.1.4.1.1.66.7");
+       });
+     },
+     "extract {in} -q -o {dir}/out.ply", 1,
+     ": SegmentationType 'BINARY' does not belong to the SOP class Label Map Segmentation Storage"},
     // --- Usage errors ------------------------------------------------------------------------------
     {"UsageUnknownOption",
      [](const std::string& d) {
