@@ -16,13 +16,39 @@ namespace {
 
 constexpr VertexId kUnsetId = std::numeric_limits<VertexId>::max();
 
-// What the layer above reads of a cell, in the slots of the top plane (slotOf(cell, k), below
-// k): its top edges' vertices (edges 2, 3, 6, 7: k = 0..3), then the vertices of its split faces
-// x = 0 (k = 4..7) and y = 0 (k = 8..11), by the position of an edge in the face.
+// What the layer above reads of a cell, by slot (slotOf(cell, k), below kTopSlots): its top edges'
+// vertices (edges 2, 3, 6, 7: k = 0..3), then the vertices of its split faces x = 0 (k = 4..7) and
+// y = 0 (k = 8..11), by the position of an edge in the face. The slots name vertices for the
+// stitcher of a threaded run; the plane itself keeps a TopCell a cell, from which every slot's id
+// follows.
 constexpr std::size_t kTopSlots = 12;
-// The top edges' slots come first (cell * 4 + k), the rarely used split faces' after all of them
-// (cells * 4 + cell * 8 + k - 4), so that the plane the layer above reads most is small.
-constexpr std::array<int, 12> kTopSlot{-1, -1, 0, 1, -1, -1, 2, 3, -1, -1, -1, -1};
+// The top edges, by slot k = 0..3.
+constexpr std::array<std::size_t, 4> kTopEdges{2, 3, 6, 7};
+
+// A crossed cell as the layer above reads it (8 bytes, so that a slice's plane stays in cache):
+// its first vertex; each top edge's copy (2 bits a slot) and which top edges are crossed; its
+// copies' count (bits 0-2), and for the split faces x = 0 and y = 0 (f = 0, 1) whether it owns one
+// (bit 3 + f) and whether the split is of kind 1 (bit 5 + f; else kind 2, faceSplit()).
+struct TopCell {
+  VertexId first;
+  std::uint8_t copies;
+  std::uint8_t crossed;
+  std::uint8_t meta;
+  std::uint8_t unused;
+};
+static_assert(sizeof(TopCell) == 8);
+
+// The vertex of slot k of a crossed cell: a top edge's copy, or a split face's vertex (its two
+// vertices follow the copies and the split faces before it, the first holding positions 3, 0 for
+// a split of kind 1 and 0, 1 for kind 2).
+constexpr VertexId topVertex(const TopCell& c, std::size_t k) noexcept {
+  if (k < 4) return c.first + ((c.copies >> (2 * k)) & 3u);
+  const std::size_t f = (k - 4) / 4, position = (k - 4) % 4;
+  VertexId id = c.first + (c.meta & 7u) + (f == 1 && (c.meta & 8u) != 0 ? 2u : 0u);
+  const bool kindOne = (c.meta >> (5 + f) & 1u) != 0;
+  const bool second = kindOne ? (position == 1 || position == 2) : position >= 2;
+  return id + (second ? 1u : 0u);
+}
 
 // A cell's ids in a row buffer: its edges' copies (0..11), then the vertices of its split faces
 // x = 0, y = 0 and z = 0, by edge position (12 + 4 * face + position).
@@ -34,14 +60,15 @@ constexpr std::array<int, 3> kOwnedFaces{0, 2, 4};
 // Ids by slot, left uninitialised: a slot is read only for a crossed edge, whose cell wrote it in
 // the same pass (or, for the top plane, the layer before), so stale values are never read; pages
 // that no crossed cell touches are never mapped.
-class IdPlane {
+template <class T>
+class Plane {
  public:
-  void allocate(std::size_t n) { ids_.reset(new VertexId[std::max<std::size_t>(1, n)]); }
-  VertexId& operator[](std::size_t k) noexcept { return ids_[k]; }
-  VertexId operator[](std::size_t k) const noexcept { return ids_[k]; }
+  void allocate(std::size_t n) { items_.reset(new T[std::max<std::size_t>(1, n)]); }
+  T& operator[](std::size_t k) noexcept { return items_[k]; }
+  const T& operator[](std::size_t k) const noexcept { return items_[k]; }
 
  private:
-  std::unique_ptr<VertexId[]> ids_;
+  std::unique_ptr<T[]> items_;
 };
 
 // The cell walk of one cell layer (slab). Serves the sequential extractor (layers follow each
@@ -72,7 +99,7 @@ class LabelKernel {
   void extractSlab(const SlabView& slab, MeshChunk& out, std::vector<CacheSlot>* foreign) {
     if (!allocated_) {
       for (auto& r : row_) r.allocate(static_cast<std::size_t>(cx_) * kRowIds);
-      for (auto& t : top_) t.allocate(sliceSlots());
+      for (auto& t : top_) t.allocate(static_cast<std::size_t>(cx_ * cy_));
       allocated_ = true;
     }
     out_ = &out;
@@ -81,10 +108,15 @@ class LabelKernel {
     below_ = slab.slices[0];
     lo_ = slab.slices[1];
     hi_ = slab.slices[2];
+    // Each slice is classified once: the upper slice's rows serve the next layer as its lower's.
+    const bool carried = classified_ == slab.z;
+    classified_ = -1;
+    if (carried) std::swap(scratch_[0], scratch_[1]);
     for (int s = 0; s < 2; ++s) {
       const RowSpan* given = slab.rows[static_cast<std::size_t>(s + 1)];
       if (given == nullptr) {
-        classifySlice(s == 0 ? lo_ : hi_, scratch_[static_cast<std::size_t>(s)]);
+        if (s == 1 || !carried) classifySlice(s == 0 ? lo_ : hi_, scratch_[static_cast<std::size_t>(s)]);
+        if (s == 1) classified_ = slab.z + 1;
         given = scratch_[static_cast<std::size_t>(s)].data();
       }
       spans_[static_cast<std::size_t>(s)] = given;
@@ -99,9 +131,14 @@ class LabelKernel {
   // After a standalone run: the last layer's top edges, by slot.
   void takeTop(std::vector<std::pair<CacheSlot, LocalVertex>>& top) const {
     top.clear();
-    top.reserve(topSet_.size());
-    for (std::size_t slot : topSet_)
-      top.emplace_back(CacheSlot{static_cast<std::int64_t>(slot)}, LocalVertex{top_[1][slot]});
+    top.reserve(topSet_.size() * 4);
+    for (const std::size_t cell : topSet_) {
+      const TopCell& c = top_[1][cell];
+      for (std::size_t k = 0; k < kTopSlots; ++k) {
+        const bool used = k < 4 ? ((c.crossed >> k) & 1u) != 0 : ((c.meta >> (3 + (k - 4) / 4)) & 1u) != 0;
+        if (used) top.emplace_back(CacheSlot{static_cast<std::int64_t>(slotOf(cell, k))}, LocalVertex{topVertex(c, k)});
+      }
+    }
   }
 
  private:
@@ -196,14 +233,14 @@ class LabelKernel {
     if (g.count > 1) appendSplits(labels, g, out_->labelSplits);
     const auto cellIndex = static_cast<std::size_t>(j * cx_ + i);
     for (std::size_t e = 0; e < 12; ++e) {
-      if (g.edge[e] == 0xff) continue;
-      const VertexId id = first + g.edge[e];
-      ids[e] = id;
-      if (kTopSlot[e] >= 0) {
-        const std::size_t slot = slotOf(cellIndex, static_cast<std::size_t>(kTopSlot[e]));
-        top_[1][slot] = id;
-        topSet_.push_back(slot);
-      }
+      if (g.edge[e] != 0xff) ids[e] = first + g.edge[e];
+    }
+    TopCell top{first, 0, 0, g.count, 0};
+    for (std::size_t k = 0; k < 4; ++k) {
+      const std::uint8_t copy = g.edge[kTopEdges[k]];
+      if (copy == 0xff) continue;
+      top.crossed = static_cast<std::uint8_t>(top.crossed | (1u << k));
+      top.copies = static_cast<std::uint8_t>(top.copies | (copy << (2 * k)));
     }
     // Split faces: two vertices at the face's centre, one per copy of its mesh edge, so that the
     // copies stay two edges even where both cells join them into one vertex copy.
@@ -218,15 +255,13 @@ class LabelKernel {
       const VertexId a = addVertex(c), b = addVertex(c);
       // Copy a holds positions 3, 0 (split 1) or 0, 1 (split 2); copy b the other two.
       const std::array<VertexId, 4> byPosition = split == 1 ? std::array{a, b, b, a} : std::array{a, a, b, b};
-      for (std::size_t k = 0; k < 4; ++k) {
-        ids[12 + 4 * f + k] = byPosition[k];
-        if (f < 2) {
-          const std::size_t slot = slotOf(cellIndex, 4 + 4 * f + k);
-          top_[1][slot] = byPosition[k];
-          topSet_.push_back(slot);
-        }
+      for (std::size_t k = 0; k < 4; ++k) ids[12 + 4 * f + k] = byPosition[k];
+      if (f < 2) {
+        top.meta = static_cast<std::uint8_t>(top.meta | (8u << f) | (split == 1 ? 32u << f : 0u));
       }
     }
+    top_[1][cellIndex] = top;
+    topSet_.push_back(cellIndex);
     ids[24] = owned;
     emitQuads(i, j, labels, g, ids, below);
   }
@@ -282,6 +317,11 @@ class LabelKernel {
   // the edge's position k in the face; kUnsetId where the face is not split.
   VertexId sideVertex(std::int64_t ci, std::int64_t cj, int dz, int f, int k, const VertexId* ownerIds) {
     if (dz == 0) return ((ownerIds[24] >> f) & 1) != 0 ? ownerIds[12 + 4 * f + k] : kUnsetId;
+    if (foreign_ == nullptr) {  // the cell below, crossed (the quad's edge is one of its edges), wrote its plane entry
+      const TopCell& c = top_[0][static_cast<std::size_t>(cj * cx_ + ci)];
+      if (((c.meta >> (3 + f)) & 1u) == 0) return kUnsetId;
+      return topVertex(c, static_cast<std::size_t>(4 + 4 * f + k));
+    }
     const auto& corners = kLabelFaceCorners[static_cast<std::size_t>(kOwnedFaces[static_cast<std::size_t>(f)])];
     std::array<std::int32_t, 4> face{};
     for (std::size_t c = 0; c < 4; ++c) {
@@ -301,8 +341,9 @@ class LabelKernel {
 
   // The vertex in slot k of cell (i, j) of the layer below (kTopSlots).
   VertexId lower(std::int64_t i, std::int64_t j, int k) {
-    const std::size_t slot = slotOf(static_cast<std::size_t>(j * cx_ + i), static_cast<std::size_t>(k));
-    if (foreign_ == nullptr) return top_[0][slot];
+    const auto cell = static_cast<std::size_t>(j * cx_ + i);
+    if (foreign_ == nullptr) return topVertex(top_[0][cell], static_cast<std::size_t>(k));
+    const std::size_t slot = slotOf(cell, static_cast<std::size_t>(k));
     const auto id = kForeignVertex | static_cast<VertexId>(foreign_->size());
     foreign_->push_back(CacheSlot{static_cast<std::int64_t>(slot)});
     return id;
@@ -349,10 +390,11 @@ class LabelKernel {
   const float* hi_ = nullptr;
   std::array<const RowSpan*, 2> spans_{};
   std::array<std::vector<RowSpan>, 2> scratch_;
+  std::int64_t classified_ = -1;  // the slab whose lower slice scratch_[1] classifies (-1: none)
   std::vector<std::uint8_t> column_;  // per cell of a row: crossed
-  std::array<IdPlane, 2> row_;        // per cell of rows j and j - 1 (alternating): the id of each edge's copy
-  std::array<IdPlane, 2> top_;        // the top edges' ids: [0] the layer below, [1] this layer
-  std::vector<std::size_t> topSet_;
+  std::array<Plane<VertexId>, 2> row_;  // per cell of rows j and j - 1 (alternating): the id of each edge's copy
+  std::array<Plane<TopCell>, 2> top_;   // per crossed cell: [0] the layer below, [1] this layer
+  std::vector<std::size_t> topSet_;     // the crossed cells of this layer
   LabelCellCache cells_;
   bool allocated_ = false;
   MeshChunk* out_ = nullptr;
