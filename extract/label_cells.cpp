@@ -51,6 +51,14 @@ std::array<CellGroups, 256> makeTwoLabelTable() noexcept {
   return table;
 }
 
+// A pattern key's first slot in a table of `size` (a power of two) slots: Fibonacci hashing, with
+// the high bits folded in.
+std::size_t slotOfKey(std::uint32_t key, std::size_t size) noexcept {
+  std::uint32_t h = key * 0x9e3779b1u;
+  h ^= h >> 15;
+  return h & (size - 1);
+}
+
 }  // namespace
 
 int faceSplit(const std::array<std::int32_t, 4>& f) noexcept {
@@ -188,25 +196,6 @@ void appendSplits(const std::array<std::int32_t, 8>& labels, const CellGroups& g
   }
 }
 
-const CellGroups& LabelCellCache::groups(const std::array<std::int32_t, 8>& labels,
-                                         std::vector<std::int32_t>& pinches) {
-  const std::int32_t a = labels[0];
-  std::int32_t b = a;
-  for (std::int32_t l : labels) {
-    if (l != a) {
-      b = l;
-      break;
-    }
-  }
-  std::uint8_t mask = 0;
-  const std::int32_t later = connectsBefore(a, b) ? b : a;
-  for (std::size_t c = 0; c < 8; ++c) {
-    if (labels[c] != a && labels[c] != b) return manyLabels(labels, pinches);
-    if (labels[c] == later) mask = static_cast<std::uint8_t>(mask | (1u << c));
-  }
-  return twoLabelGroups(mask);
-}
-
 const CellGroups& LabelCellCache::manyLabels(const std::array<std::int32_t, 8>& labels,
                                              std::vector<std::int32_t>& pinches) {
   // The distinct labels in connection order (an insertion into at most eight), then each corner's
@@ -229,8 +218,21 @@ const CellGroups& LabelCellCache::manyLabels(const std::array<std::int32_t, 8>& 
     key |= rank << (3 * c);
     ranked[c] = static_cast<std::int32_t>(rank);
   }
-  auto [it, fresh] = patterns_.try_emplace(key);
-  Pattern& cell = it->second;
+  if (slots_.size() < 2 * (patterns_.size() + 1)) {  // grow, keeping every pattern's index
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> old(std::max<std::size_t>(1024, 2 * slots_.size()));
+    old.swap(slots_);
+    for (const auto& entry : old) {
+      if (entry.first == 0) continue;
+      std::size_t at = slotOfKey(entry.first, slots_.size());
+      while (slots_[at].first != 0) at = (at + 1) & (slots_.size() - 1);
+      slots_[at] = entry;
+    }
+  }
+  std::size_t at = slotOfKey(key + 1, slots_.size());
+  while (slots_[at].first != 0 && slots_[at].first != key + 1) at = (at + 1) & (slots_.size() - 1);
+  const bool fresh = slots_[at].first == 0;
+  if (fresh) slots_[at] = {key + 1, static_cast<std::uint32_t>(patterns_.size())};
+  Pattern& cell = fresh ? patterns_.emplace_back() : patterns_[slots_[at].second];
   if (fresh) {
     // Ranks keep the connection order (0 stays the background's rank only when 0 is there, and the
     // rule only compares labels), so the pattern's copies are the cell's.

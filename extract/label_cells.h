@@ -20,9 +20,9 @@
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cstdint>
 #include <functional>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -92,7 +92,17 @@ class LabelCellCache {
  public:
   /// The copies of a crossed cell; appends its pinches (forEachPinch) to `pinches`, a label per
   /// extra fan.
-  const CellGroups& groups(const std::array<std::int32_t, 8>& labels, std::vector<std::int32_t>& pinches);
+  const CellGroups& groups(const std::array<std::int32_t, 8>& labels, std::vector<std::int32_t>& pinches) {
+    // Two labels a and b: the mask of the corners of the one that connects later, from the table.
+    const std::int32_t a = labels[0];
+    std::uint32_t isA = 0;
+    for (std::size_t c = 0; c < 8; ++c) isA |= static_cast<std::uint32_t>(labels[c] == a) << c;
+    const std::int32_t b = labels[static_cast<std::size_t>(std::countr_one(isA) & 7)];
+    std::uint32_t isB = 0;
+    for (std::size_t c = 0; c < 8; ++c) isB |= static_cast<std::uint32_t>(labels[c] == b) << c;
+    if ((isA | isB) != 0xffu) return manyLabels(labels, pinches);
+    return twoLabelGroups(static_cast<std::uint8_t>(connectsBefore(a, b) ? isB : isA));
+  }
 
  private:
   struct Pattern {
@@ -100,7 +110,10 @@ class LabelCellCache {
     std::vector<std::pair<std::uint8_t, int>> pinches;  // (rank, extra fans)
   };
   const CellGroups& manyLabels(const std::array<std::int32_t, 8>& labels, std::vector<std::int32_t>& pinches);
-  std::unordered_map<std::uint32_t, Pattern> patterns_;
+  // The patterns seen, and an open-addressed table of their keys (key + 1, 0: empty) and indices,
+  // a power of two in size and at most half full.
+  std::vector<Pattern> patterns_;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> slots_;
 };
 
 /// The row spans of a slice of labels (RowSpan::first and last: the first and last x >= 1 where a

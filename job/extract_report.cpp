@@ -62,11 +62,9 @@ void addLabelsJson(Json& r, const ExtractReport& report) {
                   {"color_from", l.colorFromTable ? "table" : "default"},
                   {"layer", l.layer},
                   {"voxels", l.voxels},
-                  {"voxel_volume", l.voxelVolume},
-                  {"mesh_volume", l.stats.volume},
-                  {"area", l.stats.area},
-                  {"vertices", l.stats.vertices},
-                  {"triangles", l.stats.triangles}});
+                  {"voxel_volume", l.voxelVolume}});
+    if (l.measured) j.update(Json{{"mesh_volume", l.stats.volume}, {"area", l.stats.area}});
+    j.update(Json{{"vertices", l.stats.vertices}, {"triangles", l.stats.triangles}});
     if (l.topology) {
       j["closed"] = l.stats.closed();
       j["oriented"] = l.stats.oriented();

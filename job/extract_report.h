@@ -60,6 +60,7 @@ struct ExtractLabel {
   double voxelVolume = 0;     // voxels times one voxel's volume, in output units
   MeshStats stats;            // edges and euler only with topology
   bool topology = false;      // ExtractSettings::labelTopology
+  bool measured = true;       // area and mesh volume (ExtractSettings::labelMeasures)
   std::uint64_t splits = 0;   // vertices split where its voxels touch at an edge or a corner
   std::uint64_t pinches = 0;  // extra fans kept at a vertex where three labels meet
   std::string path;           // its file, with a pattern output

@@ -76,6 +76,10 @@ struct ExtractSettings {
   /// only with --report; without it, and with the complex written to one .ply, the split also
   /// skips each label's vertices and bounds.
   bool labelTopology = true;
+  /// Label surfaces: measure each label's area and enclosed volume, and the interfaces between
+  /// labels (a tenth of a run on an atlas). A .glb output measures them whatever this says (its
+  /// nodes carry them); the program asks for them only with --report. Triangles are always counted.
+  bool labelMeasures = true;
 
   OutputSpace space = OutputSpace::kPhysical;
   /// A number, Otsu's threshold ("auto") or a named CT value; empty: the input's suggestion (phantoms).

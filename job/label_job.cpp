@@ -167,7 +167,9 @@ class SurfaceSetRun {
       scene_->begin(header_);
     }
     perLabel_ = pattern_ || scene_ || settings_.labelTopology;
-    split_.emplace([this](std::int32_t label) { return sinkFor(label); }, perLabel_, settings_.labelTopology);
+    // Areas, volumes and interfaces go to the report and the .glb's extras only.
+    split_.emplace([this](std::int32_t label) { return sinkFor(label); }, perLabel_, settings_.labelTopology,
+                   scene_.has_value() || settings_.labelMeasures);
     // The complex as a whole is counted, not measured: its measures are the labels'.
     std::vector<MeshSink*> heads{&*split_, &complexStats_};
     if (!pattern_ && !scene_ && primary()) {
@@ -302,6 +304,7 @@ class SurfaceSetRun {
     l.voxels = n != counts.end() ? n->second : 0;
     l.voxelVolume = static_cast<double>(l.voxels) * frame_.cellVolume();
     l.topology = settings_.labelTopology;
+    l.measured = scene_.has_value() || settings_.labelMeasures;
     const LabelSplitSink::Measures& m = measures.at(value);
     l.stats.edges = m.topology.edges;
     l.stats.boundaryEdges = m.topology.boundaryEdges;

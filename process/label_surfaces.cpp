@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <tuple>
 
 #include "core/error.h"
 
@@ -23,8 +24,8 @@ std::pair<double, double> measure(const Vec3f& a, const Vec3f& b, const Vec3f& c
 }
 }  // namespace
 
-LabelSplitSink::LabelSplitSink(SinkFor sinkFor, bool perLabel, bool topology)
-    : sinkFor_(std::move(sinkFor)), perLabel_(perLabel), topology_(perLabel && topology) {}
+LabelSplitSink::LabelSplitSink(SinkFor sinkFor, bool perLabel, bool topology, bool measures)
+    : sinkFor_(std::move(sinkFor)), perLabel_(perLabel), topology_(perLabel && topology), measures_(measures) {}
 
 void LabelSplitSink::begin(const MeshHeader& header) {
   header_ = header;
@@ -32,11 +33,18 @@ void LabelSplitSink::begin(const MeshHeader& header) {
 }
 
 std::uint32_t LabelSplitSink::streamOf(std::int32_t label) {
-  const auto [it, inserted] = index_.try_emplace(label, kNoStream);
-  if (inserted) {
+  std::uint32_t* entry = nullptr;
+  if (label >= 0 && label < kDirectLabels) {
+    if (direct_.empty()) direct_.assign(kDirectLabels, 0);
+    entry = &direct_[static_cast<std::size_t>(label)];
+  } else {
+    entry = &index_.try_emplace(label, 0).first->second;
+  }
+  if (*entry == 0) {
+    *entry = kNoStream;
     MeshSink* sink = sinkFor_(label);
     if (sink != nullptr) {
-      it->second = static_cast<std::uint32_t>(streams_.size());
+      *entry = static_cast<std::uint32_t>(streams_.size()) + 1;
       Stream& s = streams_.emplace_back();
       s.label = label;
       s.sink = sink;
@@ -45,7 +53,7 @@ std::uint32_t LabelSplitSink::streamOf(std::int32_t label) {
       sink->begin(h);
     }
   }
-  return it->second;
+  return *entry == kNoStream ? kNoStream : *entry - 1;
 }
 
 VertexId LabelSplitSink::idFor(std::uint32_t stream, VertexId v, const MeshChunk& chunk) {
@@ -92,17 +100,20 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
   for (std::size_t t = 0; t < chunk.triangles.size(); ++t) {
     const Triangle& tri = chunk.triangles[t];
     const LabelPair sides = chunk.faceLabels[t];
-    const std::pair<std::int32_t, std::int32_t> key = std::minmax(sides[0], sides[1]);
-    if (lastInterface == nullptr || key != lastPair) {
-      lastInterface = &interfaces_[key];
-      lastPair = key;
+    double area = 0, volume = 0;
+    if (measures_) {
+      const std::pair<std::int32_t, std::int32_t> key = std::minmax(sides[0], sides[1]);
+      if (lastInterface == nullptr || key != lastPair) {
+        lastInterface = &interfaces_[key];
+        lastPair = key;
+      }
+      const auto position = [&](VertexId v) -> const Vec3f& {
+        return v >= chunk.firstVertex ? chunk.positions[v - chunk.firstVertex] : previousPositions_[v - previous_.first];
+      };
+      std::tie(area, volume) = measure(position(tri[0]), position(tri[1]), position(tri[2]));
+      ++lastInterface->triangles;
+      lastInterface->area += area;
     }
-    const auto position = [&](VertexId v) -> const Vec3f& {
-      return v >= chunk.firstVertex ? chunk.positions[v - chunk.firstVertex] : previousPositions_[v - previous_.first];
-    };
-    const auto [area, volume] = measure(position(tri[0]), position(tri[1]), position(tri[2]));
-    ++lastInterface->triangles;
-    lastInterface->area += area;
     std::array<std::uint32_t, 2> streams{kNoStream, kNoStream};
     for (std::uint32_t side = 0; side < 2; ++side) {
       const std::int32_t label = sides[side];
@@ -153,8 +164,10 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
   touched_.clear();
   if (topology_) settle(chunk.firstVertex);
   if (!perLabel_) previous_.first = chunk.firstVertex;  // the window of the chunk just consumed
-  previousPositions_ = chunk.positions;
-  previousBoundary_ = chunk.boundary;
+  if (perLabel_ || measures_) {  // what the next chunk's triangles may read of this one's vertices
+    previousPositions_ = chunk.positions;
+    previousBoundary_ = chunk.boundary;
+  }
 }
 
 // Each edge use of a complex triangle (in complex ids, which map one to one to each label's), with

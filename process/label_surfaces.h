@@ -30,7 +30,9 @@ class LabelSplitSink final : public MeshSink {
   /// each label's chunks (no sinks get them, and vertices, bounds and topology stay 0): for a run
   /// that writes the complex and reports nothing per label. `topology` (needs perLabel): each
   /// label's edges, boundary, non-manifold and inconsistent edges, and Euler characteristic.
-  explicit LabelSplitSink(SinkFor sinkFor, bool perLabel = true, bool topology = true);
+  /// `measures` false: each label's triangles are counted, but no area, volume or interface is
+  /// measured (for a run that reports nothing per label).
+  explicit LabelSplitSink(SinkFor sinkFor, bool perLabel = true, bool topology = true, bool measures = true);
 
   void begin(const MeshHeader& header) override;
   void consume(const MeshChunk& chunk) override;
@@ -106,9 +108,14 @@ class LabelSplitSink final : public MeshSink {
   SinkFor sinkFor_;
   bool perLabel_ = true;
   bool topology_ = true;
+  bool measures_ = true;
   MeshHeader header_;
   std::vector<Stream> streams_;
-  std::unordered_map<std::int32_t, std::uint32_t> index_;  // label -> stream (kNoStream: dropped)
+  // label -> stream + 1 (0: not seen yet; kNoStream: dropped): by value for labels in
+  // [0, kDirectLabels), in the map for the others.
+  static constexpr std::int32_t kDirectLabels = 1 << 16;
+  std::vector<std::uint32_t> direct_;
+  std::unordered_map<std::int32_t, std::uint32_t> index_;
   std::vector<std::uint32_t> touched_;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> sides_;  // (stream, triangle << 1 | back)
   std::vector<std::uint32_t> ordered_;

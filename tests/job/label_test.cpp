@@ -656,5 +656,41 @@ TEST(LabelSplit, WithoutTopologyTheComplexAndMeasuresAreTheSame) {
   }
 }
 
+// Without measures (the program's run without --report), the complex and the triangle counts are
+// the same, and the report leaves out what was not measured rather than printing zeros.
+TEST(LabelSplit, WithoutMeasuresTheComplexAndCountsAreTheSameAndTheReportSaysNothingElse) {
+  const std::string dir = testing::tempDir();
+  ExtractSettings s;
+  s.inputs = {"phantom:checker?n=21,18,15&b=3&labels=7"};
+  s.output = dir + "/full.ply";
+  const ExtractReport full = runExtract(s);
+  s.output = dir + "/light.ply";
+  s.labelTopology = false;
+  s.labelMeasures = false;
+  const ExtractReport light = runExtract(s);
+  EXPECT_EQ(testing::slurp(dir + "/full.ply"), testing::slurp(dir + "/light.ply"));
+  ASSERT_EQ(light.labels.size(), 7u);
+  ASSERT_EQ(full.labels.size(), 7u);
+  for (std::size_t n = 0; n < full.labels.size(); ++n) {
+    EXPECT_EQ(full.labels[n].stats.triangles, light.labels[n].stats.triangles);
+    EXPECT_GT(full.labels[n].stats.area, 0);
+    EXPECT_TRUE(full.labels[n].measured);
+    EXPECT_FALSE(light.labels[n].measured);
+  }
+  EXPECT_FALSE(full.interfaces.empty());
+  EXPECT_TRUE(light.interfaces.empty());
+  const auto json = nlohmann::json::parse(extractReportText(light, "extract", nullptr));
+  ASSERT_EQ(json["labels"].size(), 7u);
+  EXPECT_FALSE(json["labels"][0].contains("area"));
+  EXPECT_FALSE(json["labels"][0].contains("mesh_volume"));
+  EXPECT_EQ(json["labels"][0]["triangles"].get<std::uint64_t>(), full.labels[0].stats.triangles);
+  // A .glb's nodes carry the measures, so it measures them whatever the setting says.
+  s.output = dir + "/scene.glb";
+  const ExtractReport scene = runExtract(s);
+  ASSERT_EQ(scene.labels.size(), 7u);
+  EXPECT_TRUE(scene.labels[0].measured);
+  EXPECT_EQ(scene.labels[0].stats.area, full.labels[0].stats.area);
+}
+
 }  // namespace
 }  // namespace isoslab
