@@ -8,7 +8,6 @@
 
 #include "core/error.h"
 #include "core/interrupt.h"
-#include "encode/binary_buffer.h"
 #include "encode/mesh_metadata.h"
 
 namespace isoslab {
@@ -61,33 +60,31 @@ void PlyWriter::begin(const MeshHeader& header) {
 }
 
 void PlyWriter::consume(const MeshChunk& chunk) {
-  buffer_.clear();
+  throwIfInterrupted();
   const bool normals = meshHeader_.normals;
-  for (std::size_t v = 0; v < chunk.positions.size(); ++v) {
-    throwIfInterruptedEvery(v);  // decode hands over the whole mesh as one chunk
-    appendBytes(buffer_, chunk.positions[v].x);
-    appendBytes(buffer_, chunk.positions[v].y);
-    appendBytes(buffer_, chunk.positions[v].z);
-    if (normals) {
-      appendBytes(buffer_, chunk.normals[v].x);
-      appendBytes(buffer_, chunk.normals[v].y);
-      appendBytes(buffer_, chunk.normals[v].z);
+  static_assert(sizeof(Vec3f) == 12 && sizeof(Triangle) == 12 && sizeof(LabelPair) == 8);
+  if (!normals) {  // the positions are the vertex records as they are
+    file_->write(chunk.positions.data(), chunk.positions.size() * sizeof(Vec3f));
+  } else {
+    buffer_.resize(chunk.positions.size() * 24);
+    char* out = buffer_.data();
+    for (std::size_t v = 0; v < chunk.positions.size(); ++v, out += 24) {
+      throwIfInterruptedEvery(v);  // decode hands over the whole mesh as one chunk
+      std::memcpy(out, &chunk.positions[v], 12);
+      std::memcpy(out + 12, &chunk.normals[v], 12);
     }
+    file_->write(buffer_.data(), buffer_.size());
   }
-  file_->write(buffer_.data(), buffer_.size());
   vertices_ += chunk.positions.size();
-  buffer_.clear();
-  for (std::size_t n = 0; n < chunk.triangles.size(); ++n) {
+  // Each face: its count (3), its ids and, in a label complex, its labels in front and behind.
+  const std::size_t record = meshHeader_.labels ? 21 : 13;
+  buffer_.resize(chunk.triangles.size() * record);
+  char* out = buffer_.data();
+  for (std::size_t n = 0; n < chunk.triangles.size(); ++n, out += record) {
     throwIfInterruptedEvery(n);
-    const Triangle& t = chunk.triangles[n];
-    buffer_.push_back(3);
-    appendBytes(buffer_, t[0]);
-    appendBytes(buffer_, t[1]);
-    appendBytes(buffer_, t[2]);
-    if (meshHeader_.labels) {
-      appendBytes(buffer_, chunk.faceLabels[n][0]);
-      appendBytes(buffer_, chunk.faceLabels[n][1]);
-    }
+    *out = 3;
+    std::memcpy(out + 1, &chunk.triangles[n], 12);
+    if (record == 21) std::memcpy(out + 13, &chunk.faceLabels[n], 8);
   }
   faces_->write(buffer_.data(), buffer_.size());
   faceCount_ += chunk.triangles.size();

@@ -71,6 +71,44 @@ class Plane {
   std::unique_ptr<T[]> items_;
 };
 
+// A row's output, written through raw pointers and appended to the chunk once a row: at most
+// kRowVertices vertices and kRowTriangles triangles a crossed cell (four copies, three split faces'
+// two vertices each, three fanned quads' centres; three quads of at most eight triangles).
+constexpr std::size_t kCellVertices = 13;
+constexpr std::size_t kCellTriangles = 24;
+struct RowStage {
+  Plane<Vec3f> positions;
+  Plane<std::uint8_t> boundary;
+  Plane<Triangle> triangles;
+  Plane<LabelPair> faceLabels;
+  std::size_t vertices = 0, faces = 0, capacity = 0;
+
+  void reserve(std::size_t cells) {
+    if (cells <= capacity) return;
+    positions.allocate(cells * kCellVertices);
+    boundary.allocate(cells * kCellVertices);
+    triangles.allocate(cells * kCellTriangles);
+    faceLabels.allocate(cells * kCellTriangles);
+    capacity = cells;
+  }
+  void addVertex(const Vec3f& p, std::uint8_t volumeFaces) {
+    positions[vertices] = p;
+    boundary[vertices++] = volumeFaces;
+  }
+  void addTriangle(const Triangle& t, const LabelPair& sides) {
+    triangles[faces] = t;
+    faceLabels[faces++] = sides;
+  }
+  // Appends the row to the chunk and empties it.
+  void flush(MeshChunk& out) {
+    out.positions.insert(out.positions.end(), &positions[0], &positions[0] + vertices);
+    out.boundary.insert(out.boundary.end(), &boundary[0], &boundary[0] + vertices);
+    out.triangles.insert(out.triangles.end(), &triangles[0], &triangles[0] + faces);
+    out.faceLabels.insert(out.faceLabels.end(), &faceLabels[0], &faceLabels[0] + faces);
+    vertices = faces = 0;
+  }
+};
+
 // The cell walk of one cell layer (slab). Serves the sequential extractor (layers follow each
 // other and the top plane carries over) and the slab worker (a run's first layer names the
 // vertices of the layer below by their top-plane slot, for the stitcher).
@@ -187,6 +225,7 @@ class LabelKernel {
     }
     col[n - 1] = 0;
     for (std::size_t k = n; k < n + 8; ++k) col[k] = 0;
+    stage_.reserve(static_cast<std::size_t>(cx_));
     for (std::size_t k = 0; k + 1 < n;) {
       // Eight uniform cells at a time.
       std::uint64_t word;
@@ -208,6 +247,7 @@ class LabelKernel {
           static_cast<std::int32_t>(rows[3][i]), static_cast<std::int32_t>(rows[3][i + 1])};
       cell(i, j, labels, here + i * static_cast<std::int64_t>(kRowIds), below);
     }
+    stage_.flush(*out_);
   }
 
   void cell(std::int64_t i, std::int64_t j, const std::array<std::int32_t, 8>& labels, VertexId* ids,
@@ -225,10 +265,7 @@ class LabelKernel {
     if (j == cy_ - 1) faces |= kFaceYMax;
     if (z_ == 0) faces |= kFaceZMin;
     if (z_ == pz_ - 2) faces |= kFaceZMax;
-    for (int c = 0; c < g.count; ++c) {
-      out_->positions.push_back(position);
-      out_->boundary.push_back(faces);
-    }
+    for (int c = 0; c < g.count; ++c) stage_.addVertex(position, faces);
     next_ += g.count;
     if (g.count > 1) appendSplits(labels, g, out_->labelSplits);
     const auto cellIndex = static_cast<std::size_t>(j * cx_ + i);
@@ -334,8 +371,7 @@ class LabelKernel {
 
   VertexId addVertex(const std::array<double, 3>& lattice) {
     const Vec3d p = frame_.map(lattice[0], lattice[1], lattice[2]);
-    out_->positions.push_back({static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])});
-    out_->boundary.push_back(0);
+    stage_.addVertex({static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])}, 0);
     return static_cast<VertexId>(next_++);
   }
 
@@ -361,10 +397,8 @@ class LabelKernel {
     if (m[0] == kUnsetId && m[1] == kUnsetId && m[2] == kUnsetId && m[3] == kUnsetId) {
       const VertexId second = reverse ? v[3] : v[1];
       const VertexId fourth = reverse ? v[1] : v[3];
-      out_->triangles.push_back({v[0], second, v[2]});
-      out_->triangles.push_back({v[0], v[2], fourth});
-      out_->faceLabels.push_back(sides);
-      out_->faceLabels.push_back(sides);
+      stage_.addTriangle({v[0], second, v[2]}, sides);
+      stage_.addTriangle({v[0], v[2], fourth}, sides);
       return;
     }
     std::array<VertexId, 8> ring{};
@@ -376,8 +410,7 @@ class LabelKernel {
     if (reverse) std::reverse(ring.begin() + 1, ring.begin() + static_cast<std::ptrdiff_t>(n));
     const VertexId c = addVertex(centre);
     for (std::size_t k = 0; k < n; ++k) {
-      out_->triangles.push_back({c, ring[k], ring[(k + 1) % n]});
-      out_->faceLabels.push_back(sides);
+      stage_.addTriangle({c, ring[k], ring[(k + 1) % n]}, sides);
     }
   }
 
@@ -396,6 +429,7 @@ class LabelKernel {
   std::array<Plane<TopCell>, 2> top_;   // per crossed cell: [0] the layer below, [1] this layer
   std::vector<std::size_t> topSet_;     // the crossed cells of this layer
   LabelCellCache cells_;
+  RowStage stage_;
   bool allocated_ = false;
   MeshChunk* out_ = nullptr;
   std::vector<CacheSlot>* foreign_ = nullptr;

@@ -97,7 +97,20 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
   std::pair<std::int32_t, std::int32_t> lastPair{0, 0};
   Interface* lastInterface = nullptr;
   sides_.clear();
-  for (std::size_t t = 0; t < chunk.triangles.size(); ++t) {
+  if (!perLabel_ && !measures_) {  // only each label's triangles, counted by runs of equal sides
+    for (std::size_t t = 0; t < chunk.triangles.size();) {
+      const LabelPair sides = chunk.faceLabels[t];
+      std::size_t end = t + 1;
+      while (end < chunk.triangles.size() && chunk.faceLabels[end] == sides) ++end;
+      for (const std::int32_t label : sides) {
+        if (label == 0) continue;
+        const std::uint32_t k = streamOf(label);
+        if (k != kNoStream) streams_[k].measures.triangles += end - t;
+      }
+      t = end;
+    }
+  }
+  for (std::size_t t = 0; t < chunk.triangles.size() && (perLabel_ || measures_); ++t) {
     const Triangle& tri = chunk.triangles[t];
     const LabelPair sides = chunk.faceLabels[t];
     double area = 0, volume = 0;
