@@ -121,6 +121,12 @@ CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept {
     if (copyOfRoot[root] == 0xff) copyOfRoot[root] = out.count++;
     out.edge[static_cast<std::size_t>(e)] = copyOfRoot[root];
   }
+  constexpr std::array<std::size_t, 4> kTop{2, 3, 6, 7};
+  for (std::size_t k = 0; k < 4; ++k) {
+    if (out.edge[kTop[k]] == 0xff) continue;
+    out.topCrossed = static_cast<std::uint8_t>(out.topCrossed | (1u << k));
+    out.topCopies = static_cast<std::uint8_t>(out.topCopies | (out.edge[kTop[k]] << (2 * k)));
+  }
   return out;
 }
 

@@ -58,6 +58,10 @@ struct CellGroups {
   std::array<std::uint8_t, 12> edge{};
   /// Per face f (kLabelFaceCorners), faceSplit() of its labels in bits 2f and 2f + 1.
   std::uint16_t faceSplits = 0;
+  /// The top edges (2, 3, 6, 7, in that order, as k = 0..3): their copies, 2 bits each (0 where
+  /// not crossed), and bit k set where edge k is crossed.
+  std::uint8_t topCopies = 0;
+  std::uint8_t topCrossed = 0;
 
   int faceSplitOf(int face) const noexcept { return (faceSplits >> (2 * face)) & 3; }
 };

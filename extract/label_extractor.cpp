@@ -22,8 +22,6 @@ constexpr VertexId kUnsetId = std::numeric_limits<VertexId>::max();
 // stitcher of a threaded run; the plane itself keeps a TopCell a cell, from which every slot's id
 // follows.
 constexpr std::size_t kTopSlots = 12;
-// The top edges, by slot k = 0..3.
-constexpr std::array<std::size_t, 4> kTopEdges{2, 3, 6, 7};
 
 // A crossed cell as the layer above reads it (8 bytes, so that a slice's plane stays in cache):
 // its first vertex; each top edge's copy (2 bits a slot) and which top edges are crossed; its
@@ -269,20 +267,15 @@ class LabelKernel {
     next_ += g.count;
     if (g.count > 1) appendSplits(labels, g, out_->labelSplits);
     const auto cellIndex = static_cast<std::size_t>(j * cx_ + i);
-    for (std::size_t e = 0; e < 12; ++e) {
-      if (g.edge[e] != 0xff) ids[e] = first + g.edge[e];
-    }
-    TopCell top{first, 0, 0, g.count, 0};
-    for (std::size_t k = 0; k < 4; ++k) {
-      const std::uint8_t copy = g.edge[kTopEdges[k]];
-      if (copy == 0xff) continue;
-      top.crossed = static_cast<std::uint8_t>(top.crossed | (1u << k));
-      top.copies = static_cast<std::uint8_t>(top.copies | (copy << (2 * k)));
-    }
+    // Every edge's id, without a branch: an edge that is not crossed gets a value that nothing reads
+    // (its neighbours read only crossed edges, which are crossed in both cells).
+    for (std::size_t e = 0; e < 12; ++e) ids[e] = first + g.edge[e];
+    TopCell top{first, g.topCopies, g.topCrossed, g.count, 0};
     // Split faces: two vertices at the face's centre, one per copy of its mesh edge, so that the
     // copies stay two edges even where both cells join them into one vertex copy.
     VertexId owned = 0;
-    for (std::size_t f = 0; f < 3; ++f) {
+    constexpr std::uint16_t kOwnedSplits = 0x333;  // faceSplits' bits of faces 0, 2 and 4
+    for (std::size_t f = 0; f < 3 && (g.faceSplits & kOwnedSplits) != 0; ++f) {
       const int split = g.faceSplitOf(kOwnedFaces[f]);
       if (split == 0) continue;
       owned |= VertexId{1} << f;
