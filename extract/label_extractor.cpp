@@ -161,6 +161,9 @@ class LabelKernel {
     for (std::int64_t j = 0; j < cy_; ++j) walkRow(j);
   }
 
+  // A slab worker's kernel: takeTop() is called after a run.
+  void trackTop() noexcept { tracksTop_ = true; }
+
   // After a following layer: its top plane is the next layer's plane below.
   void rollCaches() noexcept { std::swap(top_[0], top_[1]); }
 
@@ -291,7 +294,7 @@ class LabelKernel {
       }
     }
     top_[1][cellIndex] = top;
-    topSet_.push_back(cellIndex);
+    if (tracksTop_) topSet_.push_back(cellIndex);
     ids[24] = owned;
     emitQuads(i, j, labels, g, ids, below);
   }
@@ -420,7 +423,8 @@ class LabelKernel {
   std::vector<std::uint8_t> column_;  // per cell of a row: crossed
   std::array<Plane<VertexId>, 2> row_;  // per cell of rows j and j - 1 (alternating): the id of each edge's copy
   std::array<Plane<TopCell>, 2> top_;   // per crossed cell: [0] the layer below, [1] this layer
-  std::vector<std::size_t> topSet_;     // the crossed cells of this layer
+  std::vector<std::size_t> topSet_;     // the crossed cells of this layer (for takeTop)
+  bool tracksTop_ = false;
   LabelCellCache cells_;
   RowStage stage_;
   bool allocated_ = false;
@@ -431,7 +435,7 @@ class LabelKernel {
 
 class LabelSlabWorker final : public SlabWorker {
  public:
-  explicit LabelSlabWorker(const LabelKernel& like) : kernel_(like.dims(), like.frame()) {}
+  explicit LabelSlabWorker(const LabelKernel& like) : kernel_(like.dims(), like.frame()) { kernel_.trackTop(); }
 
   void extract(std::span<const SlabView> slabs, SlabPart& part,
                const std::function<void(const SlabView&)>& before) override {
