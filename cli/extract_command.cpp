@@ -261,6 +261,7 @@ ExtractSettings extractSettings(const ExtractArgs& args, RankGroup* ranks) {
   s.reportPath = args.report;
   s.labelTopology = !args.report.empty();
   s.labelMeasures = !args.report.empty();
+  s.measureDecimation = !args.report.empty();
   s.space = parseOutputSpace(args.space).value_or(OutputSpace::kPhysical);
   if (args.iso.find(',') != std::string::npos) {
     for (std::size_t at = 0; at <= args.iso.size();) {

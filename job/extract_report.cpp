@@ -21,7 +21,7 @@ const char* smoothMethodName(SmoothMethod m) {
 
 Json decimationJson(const ExtractReport::Decimation& dec) {
   const DecimationReport& d = dec.result;
-  return {{"ratio", dec.ratio},
+  Json j = {{"ratio", dec.ratio},
           {"max_error", dec.maxError},
           {"triangles_before", d.trianglesIn},
           {"triangles_after", d.trianglesOut},
@@ -33,12 +33,15 @@ Json decimationJson(const ExtractReport::Decimation& dec) {
           {"regions_repaired", d.repairedRegions},
           {"triangles_frozen", d.frozenTriangles},
           {"regions_kept_whole", d.keptRegions},
-          {"simplify_calls", d.attempts},
-          {"distance_mean", d.distanceMean},
-          {"distance_max", d.distanceMax},
-          {"distance_mean_voxels", d.distanceMean / dec.voxelSize},
-          {"distance_max_voxels", d.distanceMax / dec.voxelSize},
-          {"distance_samples", d.samples}};
+          {"simplify_calls", d.attempts}};
+  if (d.measured) {  // the one-sided distance to the original surface, when it was measured
+    j.update(Json{{"distance_mean", d.distanceMean},
+                  {"distance_max", d.distanceMax},
+                  {"distance_mean_voxels", d.distanceMean / dec.voxelSize},
+                  {"distance_max_voxels", d.distanceMax / dec.voxelSize},
+                  {"distance_samples", d.samples}});
+  }
+  return j;
 }
 
 Json outputJson(const ExtractReport& report) {

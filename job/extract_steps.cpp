@@ -224,6 +224,7 @@ DecimateOptions decimateOptions(const ExtractSettings& settings, double voxelSiz
   // Every decimated triangle stays within the error bound of the surface, or half a voxel.
   d.maxDistance = settings.maxError > 0 ? settings.maxError : 0.5;
   d.voxelSize = voxelSize;
+  d.measure = settings.measureDecimation;
   return d;
 }
 

@@ -166,6 +166,7 @@ DecimationSink::DecimationSink(MeshSink& next, const DecimateOptions& options) :
 void DecimationSink::begin(const MeshHeader& header) {
   header_ = header;
   report_ = DecimationReport{};
+  report_.measured = options_.measure;
   distanceSum_ = 0;
   base_ = 0;
   positions_.clear();
@@ -534,69 +535,93 @@ DecimationSink::ChunkRange DecimationSink::rangeAround(const std::vector<Triangl
   return {std::max(chunkBase_, first > 0 ? first - 1 : 0), std::min(chunks_, chunkOfVertex(highest) + 2)};
 }
 
-// The original triangles of chunks [range.first, range.end) in a grid of cells two voxels wide,
-// for distances to the original surface.
+// The original triangles of chunks [range.first, range.end) in a dense grid over their bounding
+// box, for distances to the original surface: cells two voxels wide, or wider where the box would
+// hold more than about two cells a triangle (the answers do not depend on the cell size, only the
+// time). Built in three passes over the triangles (the box; each cell's count; the lists), a
+// counting sort with no search.
 DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range) const {
   OriginalSurface surface;
   surface.sink = this;
-  surface.cell = 2.0 * options_.voxelSize;
   const std::size_t lo = std::max(chunkBase_, range.first);
   const std::size_t hi = std::min(chunks_, range.end);
-  // The cells that each triangle's bounding box meets, in three passes over the triangles (each
-  // array allocated once, at its size): the cells' keys, their triangle counts, the lists.
   const auto forEach = [&](auto&& visit) {
-    std::uint32_t index = 0;
     for (std::size_t c = lo; c < hi; ++c) {
       for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
         if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
-        const std::array<Vec3d, 3> p{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))};
-        std::array<std::int64_t, 3> a{}, b{};
-        for (std::size_t d = 0; d < 3; ++d) {
-          a[d] = surface.cellOf(std::min({p[0][d], p[1][d], p[2][d]}));
-          b[d] = surface.cellOf(std::max({p[0][d], p[1][d], p[2][d]}));
-        }
-        for (std::int64_t x = a[0]; x <= b[0]; ++x)
-          for (std::int64_t y = a[1]; y <= b[1]; ++y)
-            for (std::int64_t z = a[2]; z <= b[2]; ++z) visit(t, index, OriginalSurface::key(x, y, z));
-        ++index;
+        visit(t, std::array<Vec3d, 3>{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))});
       }
     }
   };
-  std::size_t entries = 0, triangles = 0;
-  forEach([&](const Triangle&, std::uint32_t index, std::uint64_t) {
-    ++entries;
-    triangles = index + std::size_t{1};
+  Vec3d low{INFINITY, INFINITY, INFINITY}, high{-INFINITY, -INFINITY, -INFINITY};
+  std::size_t count = 0;
+  forEach([&](const Triangle&, const std::array<Vec3d, 3>& p) {
+    ++count;
+    for (std::size_t d = 0; d < 3; ++d) {
+      low[d] = std::min({low[d], p[0][d], p[1][d], p[2][d]});
+      high[d] = std::max({high[d], p[0][d], p[1][d], p[2][d]});
+    }
   });
-  surface.triangles.reserve(triangles);
-  surface.cellKeys.reserve(entries);
-  forEach([&](const Triangle& t, std::uint32_t index, std::uint64_t key) {
-    if (index == surface.triangles.size()) surface.triangles.push_back(t);
-    surface.cellKeys.push_back(key);
-  });
-  std::sort(surface.cellKeys.begin(), surface.cellKeys.end());
-  surface.cellKeys.erase(std::unique(surface.cellKeys.begin(), surface.cellKeys.end()), surface.cellKeys.end());
-  surface.cellKeys.shrink_to_fit();
-  const auto cellIndex = [&](std::uint64_t key) {
-    return static_cast<std::size_t>(std::lower_bound(surface.cellKeys.begin(), surface.cellKeys.end(), key) -
-                                    surface.cellKeys.begin());
+  if (count == 0) return surface;
+  surface.origin = low;
+  surface.cell = 2.0 * options_.voxelSize;
+  const double most = 2.0 * static_cast<double>(count) + 4096.0;
+  for (;;) {
+    double cells = 1;
+    for (std::size_t d = 0; d < 3; ++d) {
+      surface.dims[d] = static_cast<std::int64_t>(std::floor((high[d] - low[d]) / surface.cell)) + 1;
+      cells *= static_cast<double>(surface.dims[d]);
+    }
+    if (cells <= most) break;
+    surface.cell *= 2;
+  }
+  const auto cellRange = [&](const std::array<Vec3d, 3>& p, std::array<std::int64_t, 3>& a,
+                             std::array<std::int64_t, 3>& b) {
+    for (std::size_t d = 0; d < 3; ++d) {
+      a[d] = surface.cellOf(std::min({p[0][d], p[1][d], p[2][d]}), d);
+      b[d] = std::min(surface.cellOf(std::max({p[0][d], p[1][d], p[2][d]}), d), surface.dims[d] - 1);
+    }
   };
-  surface.cellStart.assign(surface.cellKeys.size() + 1, 0);
-  forEach([&](const Triangle&, std::uint32_t, std::uint64_t key) { ++surface.cellStart[cellIndex(key) + 1]; });
-  for (std::size_t i = 0; i + 1 < surface.cellStart.size(); ++i) surface.cellStart[i + 1] += surface.cellStart[i];
-  surface.cellTriangles.resize(entries);
-  std::vector<std::uint32_t> fill(surface.cellStart.begin(), surface.cellStart.end() - 1);
-  forEach([&](const Triangle&, std::uint32_t index, std::uint64_t key) {
-    surface.cellTriangles[fill[cellIndex(key)]++] = index;
+  const auto cells = static_cast<std::size_t>(surface.dims[0] * surface.dims[1] * surface.dims[2]);
+  // Counts at [cell + 1], summed into starts; the lists filled by advancing each cell's start,
+  // which leaves start[cell] at the next cell's start: shifted back by one place at the end.
+  surface.cellStart.assign(cells + 1, 0);
+  std::size_t entries = 0;
+  forEach([&](const Triangle&, const std::array<Vec3d, 3>& p) {
+    std::array<std::int64_t, 3> a{}, b{};
+    cellRange(p, a, b);
+    for (std::int64_t z = a[2]; z <= b[2]; ++z)
+      for (std::int64_t y = a[1]; y <= b[1]; ++y)
+        for (std::int64_t x = a[0]; x <= b[0]; ++x) {
+          ++surface.cellStart[static_cast<std::size_t>(surface.index(x, y, z)) + 1];
+          ++entries;
+        }
   });
+  for (std::size_t k = 0; k < cells; ++k) surface.cellStart[k + 1] += surface.cellStart[k];
+  surface.triangles.reserve(count);
+  surface.cellTriangles.resize(entries);
+  forEach([&](const Triangle& t, const std::array<Vec3d, 3>& p) {
+    const auto index = static_cast<std::uint32_t>(surface.triangles.size());
+    surface.triangles.push_back(t);
+    std::array<std::int64_t, 3> a{}, b{};
+    cellRange(p, a, b);
+    for (std::int64_t z = a[2]; z <= b[2]; ++z)
+      for (std::int64_t y = a[1]; y <= b[1]; ++y)
+        for (std::int64_t x = a[0]; x <= b[0]; ++x) {
+          surface.cellTriangles[surface.cellStart[static_cast<std::size_t>(surface.index(x, y, z))]++] = index;
+        }
+  });
+  for (std::size_t k = cells; k > 0; --k) surface.cellStart[k] = surface.cellStart[k - 1];
+  surface.cellStart[0] = 0;
   return surface;
 }
 
-double DecimationSink::OriginalSurface::nearestInCell(std::uint64_t cellKey, const Vec3d& p) const {
-  const auto it = std::lower_bound(cellKeys.begin(), cellKeys.end(), cellKey);
-  if (it == cellKeys.end() || *it != cellKey) return INFINITY;
-  const auto i = static_cast<std::size_t>(it - cellKeys.begin());
+double DecimationSink::OriginalSurface::nearestInCell(std::int64_t x, std::int64_t y, std::int64_t z,
+                                                      const Vec3d& p) const {
+  const std::int64_t i = index(x, y, z);
+  if (i < 0) return INFINITY;
   double best = INFINITY;
-  for (std::uint32_t k = cellStart[i]; k < cellStart[i + 1]; ++k) {
+  for (std::uint32_t k = cellStart[static_cast<std::size_t>(i)]; k < cellStart[static_cast<std::size_t>(i) + 1]; ++k) {
     const Triangle& t = triangles[cellTriangles[k]];
     best = std::min(best, distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
                                           toDouble(sink->position(t[2]))));
@@ -610,28 +635,28 @@ double DecimationSink::OriginalSurface::nearestInCell(std::uint64_t cellKey, con
 // can hold a nearer one.
 double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
   if (triangles.empty()) return 0;
-  const std::int64_t cx = cellOf(p[0]), cy = cellOf(p[1]), cz = cellOf(p[2]);
-  double best = nearestInCell(key(cx, cy, cz), p);
+  const std::int64_t cx = cellOf(p[0], 0), cy = cellOf(p[1], 1), cz = cellOf(p[2], 2);
+  double best = nearestInCell(cx, cy, cz, p);
   if (best < INFINITY) {
     const double r = std::sqrt(best);
     std::int64_t lo[3], hi[3];
     for (std::size_t a = 0; a < 3; ++a) {
-      lo[a] = cellOf(p[a] - r);
-      hi[a] = cellOf(p[a] + r);
+      lo[a] = std::max<std::int64_t>(0, cellOf(p[a] - r, a));
+      hi[a] = std::min(dims[a] - 1, cellOf(p[a] + r, a));
     }
-    for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
+    for (std::int64_t z = lo[2]; z <= hi[2]; ++z)
       for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
-        for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-          if (x != cx || y != cy || z != cz) best = std::min(best, nearestInCell(key(x, y, z), p));
+        for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
+          if (x != cx || y != cy || z != cz) best = std::min(best, nearestInCell(x, y, z, p));
         }
     return std::sqrt(best);
   }
   for (std::int64_t ring = 1;; ++ring) {
-    for (std::int64_t x = cx - ring; x <= cx + ring; ++x) {
+    for (std::int64_t z = cz - ring; z <= cz + ring; ++z) {
       for (std::int64_t y = cy - ring; y <= cy + ring; ++y) {
-        for (std::int64_t z = cz - ring; z <= cz + ring; ++z) {
+        for (std::int64_t x = cx - ring; x <= cx + ring; ++x) {
           if (std::max({std::abs(x - cx), std::abs(y - cy), std::abs(z - cz)}) != ring) continue;
-          best = std::min(best, nearestInCell(key(x, y, z), p));
+          best = std::min(best, nearestInCell(x, y, z, p));
         }
       }
     }
@@ -640,8 +665,8 @@ double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
     double reach = INFINITY;
     const std::int64_t centre[3] = {cx, cy, cz};
     for (std::size_t a = 0; a < 3; ++a) {
-      const double low = p[a] - static_cast<double>(centre[a] - ring) * cell;
-      const double high = static_cast<double>(centre[a] + ring + 1) * cell - p[a];
+      const double low = p[a] - (origin[a] + static_cast<double>(centre[a] - ring) * cell);
+      const double high = origin[a] + static_cast<double>(centre[a] + ring + 1) * cell - p[a];
       reach = std::min({reach, low, high});
     }
     if (best <= reach * reach || ring > 64) return std::sqrt(best);
@@ -664,15 +689,13 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const
   const double limit2 = limit * limit;
   std::int64_t lo[3], hi[3];
   for (std::size_t a = 0; a < 3; ++a) {
-    lo[a] = cellOf(p[a] - limit);
-    hi[a] = cellOf(p[a] + limit);
+    lo[a] = std::max<std::int64_t>(0, cellOf(p[a] - limit, a));
+    hi[a] = std::min(dims[a] - 1, cellOf(p[a] + limit, a));
   }
   const auto search = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
-    const std::uint64_t k = key(x, y, z);
-    const auto it = std::lower_bound(cellKeys.begin(), cellKeys.end(), k);
-    if (it == cellKeys.end() || *it != k) return false;
-    const auto cellIndex = static_cast<std::size_t>(it - cellKeys.begin());
-    for (std::uint32_t e = cellStart[cellIndex]; e < cellStart[cellIndex + 1]; ++e) {
+    const std::int64_t i = index(x, y, z);
+    if (i < 0) return false;
+    for (std::uint32_t e = cellStart[static_cast<std::size_t>(i)]; e < cellStart[static_cast<std::size_t>(i) + 1]; ++e) {
       const Triangle& t = triangles[cellTriangles[e]];
       if (distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
                           toDouble(sink->position(t[2]))) <= limit2) {
@@ -681,11 +704,11 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const
     }
     return false;
   };
-  const std::int64_t cx = cellOf(p[0]), cy = cellOf(p[1]), cz = cellOf(p[2]);
+  const std::int64_t cx = cellOf(p[0], 0), cy = cellOf(p[1], 1), cz = cellOf(p[2], 2);
   if (search(cx, cy, cz)) return true;
-  for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
+  for (std::int64_t z = lo[2]; z <= hi[2]; ++z)
     for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
-      for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+      for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
         if ((x != cx || y != cy || z != cz) && search(x, y, z)) return true;
       }
   return false;
@@ -729,7 +752,11 @@ void DecimationSink::measure(const std::vector<Triangle>& triangles, ChunkRange 
 // Sends a final region on as one chunk: its vertices that no earlier chunk sent, in the order the
 // triangles first use them.
 void DecimationSink::emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals) {
-  measure(triangles, originals);
+  if (options_.measure) {
+    measure(triangles, originals);
+  } else {
+    surface_.reset();  // the grid a try kept for the measure: not held while the region goes on
+  }
   out_.clear();
   out_.slab = slab;
   out_.firstVertex = nextId_;

@@ -52,6 +52,9 @@ struct DecimateOptions {
   /// The most triangles given to one meshoptimizer call: a larger input goes in batches of whole
   /// connected components (its working set is about 160 bytes a triangle).
   std::size_t batchTriangles = 1 << 17;
+  /// Measure the one-sided distance of every output triangle to the original surface, for the
+  /// report (DecimationReport::distanceMean, distanceMax, samples); false leaves them 0.
+  bool measure = true;
 };
 
 /// Checks the options; returns an error message naming the option, or empty when they are valid.
@@ -74,6 +77,8 @@ struct DecimationReport {
   double distanceMean = 0;
   double distanceMax = 0;
   std::uint64_t samples = 0;
+  /// Whether the distance was measured (DecimateOptions::measure).
+  bool measured = true;
 };
 
 class DecimationSink final : public MeshSink {
@@ -105,23 +110,27 @@ class DecimationSink final : public MeshSink {
                                       std::vector<unsigned>& local);
   struct OriginalSurface {
     using Vec3d = std::array<double, 3>;
+    // A dense grid over the triangles' bounding box: cell (x, y, z) spans origin + cell * [x, x + 1)
+    // and so on; the triangles whose bounding boxes meet cell i are
+    // cellTriangles[cellStart[i] .. cellStart[i + 1]).
     double cell = 1;
+    Vec3d origin{};
+    std::array<std::int64_t, 3> dims{};
     // The original triangles (12 bytes each), read through the sink's positions.
     const DecimationSink* sink = nullptr;
     std::vector<Triangle> triangles;
-    // The cells that some triangle's bounding box meets, sorted, and the triangles of cell i:
-    // cellTriangles[cellStart[i] .. cellStart[i + 1]) (sorted arrays: 8 + 4 bytes a cell and 4
-    // a triangle's entry, against a hash map's node and vector per cell).
-    std::vector<std::uint64_t> cellKeys;
     std::vector<std::uint32_t> cellStart, cellTriangles;
 
-    std::int64_t cellOf(double x) const { return static_cast<std::int64_t>(std::floor(x / cell)); }
-    static std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z) {
-      return (static_cast<std::uint64_t>(x & 0x1fffff) << 42) | (static_cast<std::uint64_t>(y & 0x1fffff) << 21) |
-             static_cast<std::uint64_t>(z & 0x1fffff);
+    std::int64_t cellOf(double x, std::size_t axis) const {
+      return static_cast<std::int64_t>(std::floor((x - origin[axis]) / cell));
+    }
+    // The cell's index, or -1 outside the grid.
+    std::int64_t index(std::int64_t x, std::int64_t y, std::int64_t z) const {
+      if (x < 0 || y < 0 || z < 0 || x >= dims[0] || y >= dims[1] || z >= dims[2]) return -1;
+      return x + dims[0] * (y + dims[1] * z);
     }
     // The squared distance from p to the nearest triangle in the cell, or infinity.
-    double nearestInCell(std::uint64_t cellKey, const Vec3d& p) const;
+    double nearestInCell(std::int64_t x, std::int64_t y, std::int64_t z, const Vec3d& p) const;
     double distance(const Vec3d& p) const;
     bool within(const Vec3d& p, double limit) const;
   };

@@ -256,6 +256,23 @@ TEST(Decimation, MaxErrorAloneDecimatesFlatPartsAndBoundsTheDistance) {
   EXPECT_EQ(r.stats.nonManifoldEdges, 0u);
 }
 
+// Without the measure (the program's run without --report), the output is the same and the
+// report says the distance was not measured.
+TEST(Decimation, WithoutTheMeasureTheOutputIsTheSame) {
+  DecimateOptions measured = smallBlocks(0.25);
+  DecimateOptions quiet = measured;
+  quiet.measure = false;
+  const Decimated a = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, measured);
+  const Decimated b = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, quiet);
+  EXPECT_TRUE(a.decimated.positions == b.decimated.positions);
+  EXPECT_TRUE(a.decimated.triangles == b.decimated.triangles);
+  EXPECT_TRUE(a.report.measured);
+  EXPECT_GT(a.report.samples, 0u);
+  EXPECT_FALSE(b.report.measured);
+  EXPECT_EQ(b.report.samples, 0u);
+  EXPECT_EQ(b.report.distanceMax, 0.0);
+}
+
 TEST(Decimation, RefusesBadOptions) {
   DecimateOptions o;
   o.ratio = 0;
