@@ -133,7 +133,7 @@ struct SinkChain {
   MeshSink* head = nullptr;
 
   SinkChain(const ExtractSettings& settings, MeshFileSink* writer, const std::optional<Sphere>& sphere,
-            bool listComponents, double voxelSize, std::vector<bool>* keepPart) {
+            bool listComponents, double voxelSize, std::vector<bool>* keepPart, int threads) {
     std::vector<MeshSink*> sinks{&stats};
     if (writer != nullptr) sinks.insert(sinks.begin(), writer);
     // The report lists the connected components (memory: the live front and the components).
@@ -150,7 +150,11 @@ struct SinkChain {
     head = &tee.emplace(sinks);
     // Decimation, last before the writer and the measures: on the smoothed surface.
     if (settings.decimate != 1.0 || settings.maxError != 0) {
-      head = &decimation.emplace(*head, decimateOptions(settings, voxelSize));
+      DecimateOptions d = decimateOptions(settings, voxelSize);
+      // Decimation's second block in flight may take half of the threads' memory budget.
+      d.threads = threads;
+      d.pairBytes = (static_cast<std::size_t>(settings.maxMemoryMiB) << 20) / 2;
+      head = &decimation.emplace(*head, d);
     }
     // Smoothing runs on what the filter keeps; its output feeds the writer and the measures.
     if (settings.smoothing.iterations > 0) head = &smoothing.emplace(*head, settings.smoothing);
@@ -355,7 +359,7 @@ ExtractReport runExtract(const ExtractSettings& settings, ExtractObserver& obser
     extractor = makeExtractor(options, info, frame);
   }
   SinkChain chain(settings, writer.get(), sphere, !settings.reportPath.empty() && !wantsComponents, writing.voxelSize,
-                  wantsComponents ? &keepPart : nullptr);
+                  wantsComponents ? &keepPart : nullptr, threads);
   pipelineOptions.onSlab = reporting.slabHook(wantsComponents ? 1 : 0, "extract");
   const PipelineResult run = runPipeline(*source, *extractor, *chain.head, header, pipelineOptions);
   if (chain.preview && primary) {

@@ -9,6 +9,8 @@
 #include <array>
 #include <cfloat>
 #include <cmath>
+#include <exception>
+#include <thread>
 #include <utility>
 
 #include "core/error.h"
@@ -180,6 +182,8 @@ void DecimationSink::begin(const MeshHeader& header) {
   chunkTriangles_.clear();
   chunks_ = 0;
   blockStart_ = 0;
+  queued_.clear();
+  scheduleBase_ = 0;
   blockTriangles_ = 0;
   hasPending_ = false;
   pendingUpper_.clear();
@@ -208,14 +212,22 @@ void DecimationSink::consume(const MeshChunk& chunk) {
   blockTriangles_ += static_cast<std::int64_t>(chunk.triangles.size());
   if (static_cast<std::int64_t>(chunks_ - blockStart_) >= options_.blockSlabs &&
       blockTriangles_ >= options_.blockTriangles) {
-    closeBlock();
+    queueBlock();
+    // A second block is taken only with a thread for it and memory for the first one's pair.
+    const Block& first = queued_.front();
+    std::size_t firstTriangles = 0;
+    for (std::size_t c = first.start; c < first.end; ++c) firstTriangles += chunkTriangles_[c - chunkBase_].size();
+    const bool pair = options_.threads > 1 && firstTriangles * kPairBytesPerTriangle <= options_.pairBytes;
+    if (!pair || queued_.size() >= 2) processQueued();
   }
 }
 
 void DecimationSink::finish() {
-  if (chunks_ > blockStart_) closeBlock();
+  if (chunks_ > blockStart_) queueBlock();
+  processQueued();
   if (hasPending_) {
-    emit(pendingUpper_, chunkSlab_.back(), rangeAround(pendingUpper_));
+    Scope scope;
+    emit(pendingUpper_, chunkSlab_.back(), rangeAround(pendingUpper_, chunkBase_, chunks_), scope);
     hasPending_ = false;
   }
   if (report_.samples > 0) report_.distanceMean = distanceSum_ / static_cast<double>(report_.samples);
@@ -228,61 +240,131 @@ std::size_t DecimationSink::chunkOfVertex(VertexId v) const {
   return chunkBase_ + static_cast<std::size_t>(it - chunkFirst_.begin()) - 1;
 }
 
-void DecimationSink::closeBlock() {
-  ++report_.blocks;
-  std::vector<Triangle> block;
-  std::int64_t original = 0;
-  for (std::size_t c = blockStart_; c < chunks_; ++c) {
-    const auto& t = chunkTriangles_[c - chunkBase_];
-    block.insert(block.end(), t.begin(), t.end());
-    original += static_cast<std::int64_t>(t.size());
-  }
-  const ChunkRange blockRange = rangeAround(block);
-  const std::vector<Triangle> decimated = simplify(block, original, blockRange);
-  // Split at the middle chunk: a triangle with a vertex below it is the lower half.
+// Closes the open block: it waits in queued_ until processQueued().
+void DecimationSink::queueBlock() {
   const std::size_t middle = std::max(blockStart_ + 1, (blockStart_ + chunks_) / 2);
-  const VertexId middleFirst =
-      middle < chunks_ ? chunkFirst_[middle - chunkBase_] : base_ + static_cast<VertexId>(positions_.size());
-  std::vector<Triangle> lower, upper;
-  for (const Triangle& t : decimated) {
-    (std::min({t[0], t[1], t[2]}) < middleFirst ? lower : upper).push_back(t);
-  }
-  if (!hasPending_) {
-    emit(lower, chunkSlab_[middle - 1 - chunkBase_], blockRange);
-  } else {
-    // The region across the old seam: the last block's upper half and this block's lower half.
-    std::vector<Triangle> region = std::move(pendingUpper_);
-    region.insert(region.end(), lower.begin(), lower.end());
-    std::int64_t regionOriginal = 0;
-    for (std::size_t c = pendingMiddle_; c < middle; ++c) {
-      regionOriginal += static_cast<std::int64_t>(chunkTriangles_[c - chunkBase_].size());
-    }
-    ++report_.regions;
-    const ChunkRange regionRange = rangeAround(region);
-    emit(simplify(region, regionOriginal, regionRange), chunkSlab_[middle - 1 - chunkBase_], regionRange);
-  }
-  pendingUpper_ = std::move(upper);
-  pendingMiddle_ = middle;
-  hasPending_ = true;
-  blockStart_ = chunks_;
-  blockTriangles_ = 0;
+  queued_.push_back(Block{blockStart_, chunks_, middle, scheduleBase_});
   // Later regions use only vertices from the middle chunk on; the error measure also reads the
   // original triangles of the chunk below it, which use the vertices of the chunk below that.
-  trim(middle >= 2 ? middle - 2 : 0);
+  scheduleBase_ = std::max(scheduleBase_, middle >= 2 ? middle - 2 : 0);
+  blockStart_ = chunks_;
+  blockTriangles_ = 0;
 }
 
-const DecimationSink::OriginalSurface& DecimationSink::surfaceFor(ChunkRange range) {
-  if (!surface_ || !(surfaceRange_ == range)) {
-    surface_.reset();  // the old grid goes before the new one is built
-    surface_.emplace(originalSurface(range));
-    surfaceRange_ = range;
+// Each work's simplify call, side by side when there are threads for it: the calls only read the
+// sink's vertices and chunks (nothing is consumed meanwhile) and keep their own scopes.
+void DecimationSink::runAll(std::vector<Work>& works) {
+  std::vector<Work*> todo;
+  for (Work& w : works) {
+    if (w.simplify) todo.push_back(&w);
   }
-  return *surface_;
+  const auto run = [this](Work& w) { w.output = simplify(w.input, w.original, w.range, w.scope); };
+  if (options_.threads < 2 || todo.size() < 2) {
+    for (Work* w : todo) run(*w);
+    return;
+  }
+  std::vector<std::exception_ptr> errors(todo.size());
+  std::vector<std::thread> helpers;
+  for (std::size_t k = 0; k + 1 < todo.size(); ++k) {
+    helpers.emplace_back([&, k] {
+      try {
+        run(*todo[k]);
+      } catch (...) {
+        errors[k] = std::current_exception();
+      }
+    });
+  }
+  try {
+    run(*todo.back());
+  } catch (...) {
+    errors.back() = std::current_exception();
+  }
+  for (std::thread& t : helpers) t.join();
+  for (const std::exception_ptr& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
+}
+
+// Simplifies the queued blocks (side by side), then the regions across their seams (side by
+// side), and sends them on in stream order. Every range is clamped to what the one-block-at-a-time
+// schedule would hold at that point, so the output is the same however many blocks are queued.
+void DecimationSink::processQueued() {
+  if (queued_.empty()) return;
+  std::vector<Work> blocks(queued_.size());
+  for (std::size_t k = 0; k < queued_.size(); ++k) {
+    const Block& b = queued_[k];
+    Work& w = blocks[k];
+    for (std::size_t c = b.start; c < b.end; ++c) {
+      const auto& t = chunkTriangles_[c - chunkBase_];
+      w.input.insert(w.input.end(), t.begin(), t.end());
+      w.original += static_cast<std::int64_t>(t.size());
+    }
+    w.range = rangeAround(w.input, b.base, b.end);
+  }
+  report_.blocks += blocks.size();
+  runAll(blocks);
+  // Split each block at its middle chunk (a triangle with a vertex below it is the lower half); the
+  // lower half goes out alone (the first block) or with the pending upper half as a region.
+  std::vector<Work> out;
+  for (std::size_t k = 0; k < queued_.size(); ++k) {
+    const Block& b = queued_[k];
+    Work& block = blocks[k];
+    const VertexId middleFirst =
+        b.middle < chunks_ ? chunkFirst_[b.middle - chunkBase_] : base_ + static_cast<VertexId>(positions_.size());
+    std::vector<Triangle> lower, upper;
+    for (const Triangle& t : block.output) {
+      (std::min({t[0], t[1], t[2]}) < middleFirst ? lower : upper).push_back(t);
+    }
+    Work& w = out.emplace_back();
+    w.slab = chunkSlab_[b.middle - 1 - chunkBase_];
+    if (!hasPending_) {
+      w.simplify = false;
+      w.output = std::move(lower);
+      w.range = block.range;
+      w.scope.surface = std::move(block.scope.surface);  // the measure's grid, when the range is the same
+      w.scope.surfaceRange = block.scope.surfaceRange;
+    } else {
+      w.input = std::move(pendingUpper_);
+      w.input.insert(w.input.end(), lower.begin(), lower.end());
+      for (std::size_t c = pendingMiddle_; c < b.middle; ++c) {
+        w.original += static_cast<std::int64_t>(chunkTriangles_[c - chunkBase_].size());
+      }
+      ++report_.regions;
+      w.range = rangeAround(w.input, b.base, b.end);
+    }
+    block.scope.surface.reset();
+    pendingUpper_ = std::move(upper);
+    pendingMiddle_ = b.middle;
+    hasPending_ = true;
+  }
+  runAll(out);
+  for (std::vector<Work>* group : {&blocks, &out}) {
+    for (Work& w : *group) {
+      report_.repairedRegions += w.scope.repairedRegions;
+      report_.frozenTriangles += w.scope.frozenTriangles;
+      report_.keptRegions += w.scope.keptRegions;
+      report_.attempts += w.scope.attempts;
+    }
+  }
+  for (Work& w : out) {
+    emit(w.output, w.slab, w.range, w.scope);
+    w = Work{};
+  }
+  trim(scheduleBase_);
+  queued_.clear();
+}
+
+const DecimationSink::OriginalSurface& DecimationSink::surfaceFor(ChunkRange range, Scope& scope) const {
+  if (!scope.surface || !(scope.surfaceRange == range)) {
+    scope.surface.reset();  // the old grid goes before the new one is built
+    scope.surface.emplace(originalSurface(range));
+    scope.surfaceRange = range;
+  }
+  return *scope.surface;
 }
 
 void DecimationSink::trim(std::size_t firstChunk) {
   if (firstChunk <= chunkBase_) return;
-  surface_.reset();
   const std::size_t drop = firstChunk - chunkBase_;
   const VertexId newBase = chunkFirst_[drop];
   const std::size_t vertices = newBase - base_;
@@ -301,7 +383,8 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // than options_.batchTriangles, each with its share of the target (less what earlier batches kept
 // beyond theirs): components share no vertex, so a batch's collapses are those it would make among
 // the others, and only the stopping point moves.
-std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles) {
+std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& triangles,
+                                               std::size_t targetTriangles) const {
   // Local ids by vertex (relative to base_), ~0u where unused: one array for every batch, each
   // batch resetting the entries it set.
   std::vector<unsigned> local(positions_.size(), ~0u);
@@ -352,7 +435,7 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
 
 // meshopt_simplify on `triangles` with their border locked, as far as the target; nothing else.
 std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
-                                                    std::vector<unsigned>& local) {
+                                                    std::vector<unsigned>& local) const {
   if (triangles.empty()) return triangles;
   // Local ids in order of first use; ids[local] is the global id.
   std::vector<VertexId> ids;
@@ -401,7 +484,7 @@ std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>&
 // left out of the next try, so that their outline becomes a locked border, and kept as they are.
 // After a few tries the region is kept whole.
 std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
-                                               ChunkRange originals) {
+                                               ChunkRange originals, Scope& scope) const {
   if (triangles.empty()) return triangles;
   const Shape before = shapeOf(triangles);
   const std::size_t target =
@@ -445,7 +528,7 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     for (std::size_t t = 0; t < triangles.size(); ++t) (frozen[t] ? out : input).push_back(triangles[t]);
     // Frozen triangles count towards the target: the rest is simplified a little further.
     const std::size_t share = target > frozenCount ? target - frozenCount : 0;
-    surface_.reset();  // not kept through meshoptimizer's working set: memory stays as it was
+    scope.surface.reset();  // not kept through meshoptimizer's working set: memory stays as it was
     const std::vector<Triangle> simplified = collapse(input, share);
     out.insert(out.end(), simplified.begin(), simplified.end());
     // The edges the result should not have.
@@ -472,15 +555,15 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     // Triangles that moved the surface too far, against the grid of the original triangles, which
     // the distance measure of the try that succeeds reuses.
     if (limit > 0) {
-      const OriginalSurface& original = surfaceFor(originals);
+      const OriginalSurface& original = surfaceFor(originals, scope);
       for (const Triangle& t : simplified) {
         if (!triangleWithin(t, original, limit)) bad.insert(bad.end(), t.begin(), t.end());
       }
     }
     if (bad.empty() && border == before.border.size() && before.nonManifold == 0 && before.inconsistent == 0) {
-      if (attempt > 0) ++report_.repairedRegions;
-      report_.attempts += static_cast<std::uint64_t>(attempt) + 1;
-      report_.frozenTriangles += frozenCount - sharedRing;
+      if (attempt > 0) ++scope.repairedRegions;
+      scope.attempts += static_cast<std::uint64_t>(attempt) + 1;
+      scope.frozenTriangles += frozenCount - sharedRing;
       return out;
     }
     if (before.nonManifold > 0 || before.inconsistent > 0) break;  // not a surface to start with
@@ -517,22 +600,23 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
       ring = std::move(next);
     }
   }
-  ++report_.keptRegions;
+  ++scope.keptRegions;
   return triangles;
 }
 
 // The chunks whose original triangles a region is measured against: those that use the vertices of
 // its triangles, and one more on either side. The same for the checks and for the report, whatever
 // the collapses left.
-DecimationSink::ChunkRange DecimationSink::rangeAround(const std::vector<Triangle>& triangles) const {
-  if (triangles.empty()) return {chunkBase_, chunkBase_};
+DecimationSink::ChunkRange DecimationSink::rangeAround(const std::vector<Triangle>& triangles, std::size_t firstChunk,
+                                                      std::size_t end) const {
+  if (triangles.empty()) return {firstChunk, firstChunk};
   VertexId lowest = triangles.front()[0], highest = lowest;
   for (const Triangle& t : triangles) {
     lowest = std::min({lowest, t[0], t[1], t[2]});
     highest = std::max({highest, t[0], t[1], t[2]});
   }
   const std::size_t first = chunkOfVertex(lowest);
-  return {std::max(chunkBase_, first > 0 ? first - 1 : 0), std::min(chunks_, chunkOfVertex(highest) + 2)};
+  return {std::max(firstChunk, first > 0 ? first - 1 : 0), std::min(end, chunkOfVertex(highest) + 2)};
 }
 
 // The original triangles of chunks [range.first, range.end) in a dense grid over their bounding
@@ -740,22 +824,23 @@ double DecimationSink::triangleDistance(const Triangle& t, const OriginalSurface
 }
 
 // The one-sided distance from the final triangles to the original surface, for the report.
-void DecimationSink::measure(const std::vector<Triangle>& triangles, ChunkRange originals) {
+void DecimationSink::measure(const std::vector<Triangle>& triangles, ChunkRange originals, Scope& scope) {
   if (triangles.empty()) return;
-  const OriginalSurface& surface = surfaceFor(originals);
+  const OriginalSurface& surface = surfaceFor(originals, scope);
   for (const Triangle& t : triangles) {
     report_.distanceMax = std::max(report_.distanceMax, triangleDistance(t, surface, &distanceSum_, &report_.samples));
   }
-  surface_.reset();  // not held while the region goes on downstream
+  scope.surface.reset();  // not held while the region goes on downstream
 }
 
 // Sends a final region on as one chunk: its vertices that no earlier chunk sent, in the order the
 // triangles first use them.
-void DecimationSink::emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals) {
+void DecimationSink::emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals,
+                          Scope& scope) {
   if (options_.measure) {
-    measure(triangles, originals);
+    measure(triangles, originals, scope);
   } else {
-    surface_.reset();  // the grid a try kept for the measure: not held while the region goes on
+    scope.surface.reset();  // the grid a try kept for the measure: not held while the region goes on
   }
   out_.clear();
   out_.slab = slab;

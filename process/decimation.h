@@ -34,6 +34,10 @@
 
 namespace isoslab {
 
+/// About what a block's simplification holds per triangle (its copy, meshoptimizer's working set,
+/// the grid of its original triangles), measured on the Philips head at 2 threads.
+inline constexpr std::size_t kPairBytesPerTriangle = 256;
+
 struct DecimateOptions {
   /// Keep this fraction of the triangles, in (0, 1]; 1 with maxError set: as few as the error
   /// allows.
@@ -55,6 +59,12 @@ struct DecimateOptions {
   /// Measure the one-sided distance of every output triangle to the original surface, for the
   /// report (DecimationReport::distanceMean, distanceMax, samples); false leaves them 0.
   bool measure = true;
+  /// Threads for the blocks and regions: with two or more, blocks are taken two at a time and
+  /// simplified side by side (then their regions), while the first block's triangles times
+  /// kPairBytesPerTriangle fit in `pairBytes` (the second block and its working set). The output is
+  /// the same for every thread count and budget.
+  int threads = 1;
+  std::size_t pairBytes = std::size_t{128} << 20;
 };
 
 /// Checks the options; returns an error message naming the option, or empty when they are valid.
@@ -97,17 +107,6 @@ class DecimationSink final : public MeshSink {
     std::size_t first = 0, end = 0;
     bool operator==(const ChunkRange&) const = default;
   };
-  struct Region {
-    std::vector<Triangle> triangles;  // global ids
-    std::int64_t originalTriangles = 0;
-  };
-
-  void closeBlock();
-  std::vector<Triangle> simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
-                                 ChunkRange originals);
-  std::vector<Triangle> collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles);
-  std::vector<Triangle> collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
-                                      std::vector<unsigned>& local);
   struct OriginalSurface {
     using Vec3d = std::array<double, 3>;
     // A dense grid over the triangles' bounding box: cell (x, y, z) spans origin + cell * [x, x + 1)
@@ -135,14 +134,46 @@ class DecimationSink final : public MeshSink {
     bool within(const Vec3d& p, double limit) const;
   };
 
-  void emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals);
-  void measure(const std::vector<Triangle>& triangles, ChunkRange originals);
-  ChunkRange rangeAround(const std::vector<Triangle>& triangles) const;
+  // What one simplify call keeps for itself, so that calls can run side by side: its grid of the
+  // original triangles (the range it was built for) and its counters.
+  struct Scope {
+    std::optional<OriginalSurface> surface;
+    ChunkRange surfaceRange;
+    std::uint64_t repairedRegions = 0, frozenTriangles = 0, keptRegions = 0, attempts = 0;
+  };
+  // A block waiting to be simplified: chunks [start, end), split at `middle`; `base` is the first
+  // chunk that the one-block-at-a-time schedule would still hold then (its ranges are clamped to
+  // it, so that the output does not depend on how many blocks are taken at once).
+  struct Block {
+    std::size_t start = 0, end = 0, middle = 0, base = 0;
+  };
+  // A simplify call's input and output (or, with simplify false, triangles already final).
+  struct Work {
+    std::vector<Triangle> input, output;
+    std::int64_t original = 0;
+    ChunkRange range;
+    std::int64_t slab = 0;
+    bool simplify = true;
+    Scope scope;
+  };
+
+  void queueBlock();
+  void processQueued();
+  void runAll(std::vector<Work>& works);
+  std::vector<Triangle> simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
+                                 ChunkRange originals, Scope& scope) const;
+  std::vector<Triangle> collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles) const;
+  std::vector<Triangle> collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
+                                      std::vector<unsigned>& local) const;
+  void emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals, Scope& scope);
+  void measure(const std::vector<Triangle>& triangles, ChunkRange originals, Scope& scope);
+  // The chunks whose original triangles measure `triangles`, within chunks [firstChunk, end).
+  ChunkRange rangeAround(const std::vector<Triangle>& triangles, std::size_t firstChunk, std::size_t end) const;
   OriginalSurface originalSurface(ChunkRange range) const;
-  // The original surface of `range`, kept for the next caller with the same range: the try that
-  // succeeds and the distance measure of its output share it (a try drops it before meshoptimizer
-  // runs, and trim() drops it).
-  const OriginalSurface& surfaceFor(ChunkRange range);
+  // The original surface of `range`, kept in the scope for the next caller with the same range: the
+  // try that succeeds and the distance measure of its output share it (a try drops it before
+  // meshoptimizer runs).
+  const OriginalSurface& surfaceFor(ChunkRange range, Scope& scope) const;
   double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
   bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const;
   using Vec3d = std::array<double, 3>;
@@ -171,15 +202,17 @@ class DecimationSink final : public MeshSink {
   std::vector<std::vector<Triangle>> chunkTriangles_;
   std::size_t chunks_ = 0;  // chunks seen
 
-  // The open block: chunks [blockStart_, chunks_); the pending upper half of the last block.
+  // The open block: chunks [blockStart_, chunks_); the blocks closed and not yet simplified; the
+  // chunk where the one-block-at-a-time schedule's data would start now; the pending upper half of
+  // the last block simplified.
   std::size_t blockStart_ = 0;
+  std::vector<Block> queued_;
+  std::size_t scheduleBase_ = 0;
   std::int64_t blockTriangles_ = 0;
   bool hasPending_ = false;
   std::vector<Triangle> pendingUpper_;
   std::size_t pendingMiddle_ = 0;  // the chunk where the pending upper half starts
   MeshChunk out_;
-  ChunkRange surfaceRange_;
-  std::optional<OriginalSurface> surface_;
 };
 
 }  // namespace isoslab

@@ -273,6 +273,34 @@ TEST(Decimation, WithoutTheMeasureTheOutputIsTheSame) {
   EXPECT_EQ(b.report.distanceMax, 0.0);
 }
 
+// With threads, blocks are simplified two at a time (then their regions): the same triangles, the
+// same vertices and the same report as one block at a time, whether or not the budget lets a
+// block pair up, and on the threads of the extraction too.
+TEST(Decimation, BlocksSideBySideGiveTheSameOutputAndReport) {
+  DecimateOptions one = smallBlocks(0.25);
+  one.blockSlabs = 3;  // many blocks: pairs, and an odd one at the end
+  one.blockTriangles = 500;
+  DecimateOptions two = one;
+  two.threads = 2;
+  DecimateOptions tight = two;
+  tight.pairBytes = 3000 * kPairBytesPerTriangle;  // some blocks pair up, larger ones go alone
+  const Decimated a = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, one);
+  ASSERT_GT(a.report.blocks, 5u);
+  for (const auto& [options, threads] : {std::pair{two, 1}, std::pair{two, 3}, std::pair{tight, 2}}) {
+    const Decimated b = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, options, threads);
+    EXPECT_TRUE(a.decimated.positions == b.decimated.positions);
+    EXPECT_TRUE(a.decimated.triangles == b.decimated.triangles);
+    EXPECT_EQ(a.report.blocks, b.report.blocks);
+    EXPECT_EQ(a.report.regions, b.report.regions);
+    EXPECT_EQ(a.report.attempts, b.report.attempts);
+    EXPECT_EQ(a.report.frozenTriangles, b.report.frozenTriangles);
+    EXPECT_EQ(a.report.distanceMax, b.report.distanceMax);
+    EXPECT_EQ(a.report.distanceMean, b.report.distanceMean);
+    EXPECT_EQ(b.stats.boundaryEdges, 0u);
+    EXPECT_EQ(b.stats.nonManifoldEdges, 0u);
+  }
+}
+
 TEST(Decimation, RefusesBadOptions) {
   DecimateOptions o;
   o.ratio = 0;
