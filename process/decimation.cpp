@@ -10,6 +10,7 @@
 #include <cfloat>
 #include <cmath>
 #include <exception>
+#include <system_error>
 #include <thread>
 #include <utility>
 
@@ -265,19 +266,26 @@ void DecimationSink::runAll(std::vector<Work>& works) {
   }
   std::vector<std::exception_ptr> errors(todo.size());
   std::vector<std::thread> helpers;
-  for (std::size_t k = 0; k + 1 < todo.size(); ++k) {
-    helpers.emplace_back([&, k] {
-      try {
-        run(*todo[k]);
-      } catch (...) {
-        errors[k] = std::current_exception();
-      }
-    });
+  std::size_t started = 0;  // works [0, started) run on helpers, the rest here
+  for (; started + 1 < todo.size(); ++started) {
+    try {
+      helpers.emplace_back([&, k = started] {
+        try {
+          run(*todo[k]);
+        } catch (...) {
+          errors[k] = std::current_exception();
+        }
+      });
+    } catch (const std::system_error&) {
+      break;  // no thread to be had: the rest run here
+    }
   }
-  try {
-    run(*todo.back());
-  } catch (...) {
-    errors.back() = std::current_exception();
+  for (std::size_t k = started; k < todo.size(); ++k) {
+    try {
+      run(*todo[k]);
+    } catch (...) {
+      errors[k] = std::current_exception();
+    }
   }
   for (std::thread& t : helpers) t.join();
   for (const std::exception_ptr& e : errors) {
