@@ -59,6 +59,9 @@ std::vector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(const std::vector<Tria
       if (a != b) uses[fill[std::min(a, b) - low]++] = {std::max(a, b), a < b ? 1u : 0u};
     }
   }
+  // Each vertex's uses sorted by the larger id (few: an insertion sort), and the distinct edges
+  // counted, so that the list is made at its size.
+  std::size_t distinct = 0;
   for (std::size_t v = 0; v + 1 < offsets.size(); ++v) {
     const std::uint32_t first = offsets[v], last = offsets[v + 1];
     for (std::uint32_t k = first + 1; k < last; ++k) {
@@ -67,6 +70,11 @@ std::vector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(const std::vector<Tria
       for (; m > first && u.first < uses[m - 1].first; --m) uses[m] = uses[m - 1];
       uses[m] = u;
     }
+    for (std::uint32_t k = first; k < last; ++k) distinct += (k == first || uses[k].first != uses[k - 1].first) ? 1 : 0;
+  }
+  edges.reserve(distinct);
+  for (std::size_t v = 0; v + 1 < offsets.size(); ++v) {
+    const std::uint32_t first = offsets[v], last = offsets[v + 1];
     const std::uint64_t lo = low + static_cast<VertexId>(v);
     for (std::uint32_t k = first; k < last;) {
       std::uint32_t end = k;
@@ -418,6 +426,7 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
   parent = {};
   std::sort(order.begin(), order.end());
   std::vector<Triangle> out, batch;
+  batch.reserve(std::min(triangles.size(), options_.batchTriangles));
   std::size_t done = 0;
   const auto flush = [&] {
     if (batch.empty()) return;
@@ -532,12 +541,21 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
   // The largest distance allowed from the original surface, in output units.
   const double limit = options_.maxDistance * options_.voxelSize;
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
+    // Every array at its size (growing one would copy it and leave slack).
     std::vector<Triangle> input, out;
-    for (std::size_t t = 0; t < triangles.size(); ++t) (frozen[t] ? out : input).push_back(triangles[t]);
+    input.reserve(triangles.size() - frozenCount);
+    for (std::size_t t = 0; t < triangles.size(); ++t) {
+      if (!frozen[t]) input.push_back(triangles[t]);
+    }
     // Frozen triangles count towards the target: the rest is simplified a little further.
     const std::size_t share = target > frozenCount ? target - frozenCount : 0;
     scope.surface.reset();  // not kept through meshoptimizer's working set: memory stays as it was
-    const std::vector<Triangle> simplified = collapse(input, share);
+    std::vector<Triangle> simplified = collapse(input, share);
+    input = {};
+    out.reserve(frozenCount + simplified.size());
+    for (std::size_t t = 0; t < triangles.size(); ++t) {
+      if (frozen[t]) out.push_back(triangles[t]);
+    }
     out.insert(out.end(), simplified.begin(), simplified.end());
     // The edges the result should not have.
     std::vector<VertexId> bad;
