@@ -22,18 +22,18 @@ const char* smoothMethodName(SmoothMethod m) {
 Json decimationJson(const ExtractReport::Decimation& dec) {
   const DecimationReport& d = dec.result;
   Json j = {{"ratio", dec.ratio},
-          {"max_error", dec.maxError},
-          {"triangles_before", d.trianglesIn},
-          {"triangles_after", d.trianglesOut},
-          {"kept_fraction",
-           d.trianglesIn > 0 ? static_cast<double>(d.trianglesOut) / static_cast<double>(d.trianglesIn) : 1.0},
-          {"distance_bound_voxels", dec.distanceBoundVoxels},
-          {"blocks", d.blocks},
-          {"regions", d.regions},
-          {"regions_repaired", d.repairedRegions},
-          {"triangles_frozen", d.frozenTriangles},
-          {"regions_kept_whole", d.keptRegions},
-          {"simplify_calls", d.attempts}};
+            {"max_error", dec.maxError},
+            {"triangles_before", d.trianglesIn},
+            {"triangles_after", d.trianglesOut},
+            {"kept_fraction",
+             d.trianglesIn > 0 ? static_cast<double>(d.trianglesOut) / static_cast<double>(d.trianglesIn) : 1.0},
+            {"distance_bound_voxels", dec.distanceBoundVoxels},
+            {"blocks", d.blocks},
+            {"regions", d.regions},
+            {"regions_repaired", d.repairedRegions},
+            {"triangles_frozen", d.frozenTriangles},
+            {"regions_kept_whole", d.keptRegions},
+            {"simplify_calls", d.attempts}};
   if (d.measured) {  // the one-sided distance to the original surface, when it was measured
     j.update(Json{{"distance_mean", d.distanceMean},
                   {"distance_max", d.distanceMax},

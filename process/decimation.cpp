@@ -634,7 +634,7 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
 // its triangles, and one more on either side. The same for the checks and for the report, whatever
 // the collapses left.
 DecimationSink::ChunkRange DecimationSink::rangeAround(const std::vector<Triangle>& triangles, std::size_t firstChunk,
-                                                      std::size_t end) const {
+                                                       std::size_t end) const {
   if (triangles.empty()) return {firstChunk, firstChunk};
   VertexId lowest = triangles.front()[0], highest = lowest;
   for (const Triangle& t : triangles) {
@@ -805,7 +805,8 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const
   const auto search = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
     const std::int64_t i = index(x, y, z);
     if (i < 0) return false;
-    for (std::uint32_t e = cellStart[static_cast<std::size_t>(i)]; e < cellStart[static_cast<std::size_t>(i) + 1]; ++e) {
+    for (std::uint32_t e = cellStart[static_cast<std::size_t>(i)]; e < cellStart[static_cast<std::size_t>(i) + 1];
+         ++e) {
       const Triangle& t = triangles[cellTriangles[e]];
       if (distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
                           toDouble(sink->position(t[2]))) <= limit2) {

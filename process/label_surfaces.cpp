@@ -121,7 +121,8 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
         lastPair = key;
       }
       const auto position = [&](VertexId v) -> const Vec3f& {
-        return v >= chunk.firstVertex ? chunk.positions[v - chunk.firstVertex] : previousPositions_[v - previous_.first];
+        return v >= chunk.firstVertex ? chunk.positions[v - chunk.firstVertex]
+                                      : previousPositions_[v - previous_.first];
       };
       std::tie(area, volume) = measure(position(tri[0]), position(tri[1]), position(tri[2]));
       ++lastInterface->triangles;
