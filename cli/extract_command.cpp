@@ -120,7 +120,8 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
                    "MiB for what grows with --threads: half for slices in flight and each thread's caches "
                    "(shorter runs, then fewer extraction threads, when it runs short), half for .glb encoders on "
                    "threads of their own (about 100 MiB "
-                   "each at the default --chunk-triangles; none fits under 200, and chunks then encode in turn)")
+                   "each at the default --chunk-triangles; none fits under 200, and chunks then encode in turn); "
+                   "--decimate takes a second block at a time while it fits in half (about 256 bytes a triangle)")
       ->check(integerIn(16, 1 << 20))
       ->capture_default_str();
   // The cost model's smallest volume for threads; a hidden hook for the tests, which check the

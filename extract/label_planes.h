@@ -45,9 +45,9 @@ constexpr VertexId topVertex(const TopCell& c, std::size_t k) noexcept {
   return id + (second ? 1u : 0u);
 }
 
-// Ids by slot, left uninitialised: a slot is read only for a crossed edge, whose cell wrote it in
-// the same pass (or, for the top plane, the layer before), so stale values are never read; pages
-// that no crossed cell touches are never mapped.
+// Items left uninitialised: an item is read only where a crossed cell wrote it in the same pass
+// (or, for the top plane, the layer before), so stale values are never read; pages that no
+// crossed cell touches are never mapped.
 template <class T>
 class Plane {
  public:
@@ -60,8 +60,8 @@ class Plane {
 };
 
 // A row's output, written through raw pointers and appended to the chunk once a row: at most
-// kRowVertices vertices and kRowTriangles triangles a crossed cell (four copies, three split faces'
-// two vertices each, three fanned quads' centres; three quads of at most eight triangles).
+// kCellVertices vertices and kCellTriangles triangles a crossed cell (four copies, three split
+// faces' two vertices each, three fanned quads' centres; three quads of at most eight triangles).
 constexpr std::size_t kCellVertices = 13;
 constexpr std::size_t kCellTriangles = 24;
 struct RowStage {

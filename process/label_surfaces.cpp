@@ -83,6 +83,21 @@ VertexId LabelSplitSink::idFor(std::uint32_t stream, VertexId v, const MeshChunk
   return id;
 }
 
+// Each label's triangles, counted by runs of equal sides (a quad's two triangles, a row of faces).
+void LabelSplitSink::countTriangles(const MeshChunk& chunk) {
+  for (std::size_t t = 0; t < chunk.triangles.size();) {
+    const LabelPair sides = chunk.faceLabels[t];
+    std::size_t end = t + 1;
+    while (end < chunk.triangles.size() && chunk.faceLabels[end] == sides) ++end;
+    for (const std::int32_t label : sides) {
+      if (label == 0) continue;
+      const std::uint32_t k = streamOf(label);
+      if (k != kNoStream) streams_[k].measures.triangles += end - t;
+    }
+    t = end;
+  }
+}
+
 void LabelSplitSink::consume(const MeshChunk& chunk) {
   if (perLabel_) {
     std::swap(previous_, current_);
@@ -97,20 +112,10 @@ void LabelSplitSink::consume(const MeshChunk& chunk) {
   std::pair<std::int32_t, std::int32_t> lastPair{0, 0};
   Interface* lastInterface = nullptr;
   sides_.clear();
-  if (!perLabel_ && !measures_) {  // only each label's triangles, counted by runs of equal sides
-    for (std::size_t t = 0; t < chunk.triangles.size();) {
-      const LabelPair sides = chunk.faceLabels[t];
-      std::size_t end = t + 1;
-      while (end < chunk.triangles.size() && chunk.faceLabels[end] == sides) ++end;
-      for (const std::int32_t label : sides) {
-        if (label == 0) continue;
-        const std::uint32_t k = streamOf(label);
-        if (k != kNoStream) streams_[k].measures.triangles += end - t;
-      }
-      t = end;
-    }
-  }
-  for (std::size_t t = 0; t < chunk.triangles.size() && (perLabel_ || measures_); ++t) {
+  // Without per-label chunks or measures, only each label's triangles are counted.
+  if (!perLabel_ && !measures_) countTriangles(chunk);
+  const std::size_t walked = perLabel_ || measures_ ? chunk.triangles.size() : 0;
+  for (std::size_t t = 0; t < walked; ++t) {
     const Triangle& tri = chunk.triangles[t];
     const LabelPair sides = chunk.faceLabels[t];
     double area = 0, volume = 0;

@@ -103,6 +103,7 @@ class LabelSplitSink final : public MeshSink {
   };
 
   std::uint32_t streamOf(std::int32_t label);
+  void countTriangles(const MeshChunk& chunk);
   VertexId idFor(std::uint32_t stream, VertexId v, const MeshChunk& chunk);
 
   SinkFor sinkFor_;

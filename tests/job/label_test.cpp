@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <random>
 #include <set>
@@ -624,16 +625,29 @@ namespace {
 
 // Without topology (the program's runs without --report) the complex .ply and every label's
 // counts, area, volume and interfaces are those of the full split; only the topology is left out.
-TEST(LabelSplit, WithoutTopologyTheComplexAndMeasuresAreTheSame) {
-  const std::string dir = testing::tempDir();
+// The 7-label checker phantom run twice: as it is, to full.ply, and with `lighten` applied to
+// the settings, to light.ply; the second run's settings are left in `s`.
+struct LightRun {
+  std::string dir = testing::tempDir();
   ExtractSettings s;
-  s.inputs = {"phantom:checker?n=21,18,15&b=3&labels=7"};
-  s.output = dir + "/full.ply";
-  const ExtractReport full = runExtract(s);
-  s.output = dir + "/light.ply";
-  s.labelTopology = false;
-  const ExtractReport light = runExtract(s);
-  EXPECT_EQ(testing::slurp(dir + "/full.ply"), testing::slurp(dir + "/light.ply"));
+  ExtractReport full, light;
+};
+LightRun runFullAndLight(const std::function<void(ExtractSettings&)>& lighten) {
+  LightRun r;
+  r.s.inputs = {"phantom:checker?n=21,18,15&b=3&labels=7"};
+  r.s.output = r.dir + "/full.ply";
+  r.full = runExtract(r.s);
+  r.s.output = r.dir + "/light.ply";
+  lighten(r.s);
+  r.light = runExtract(r.s);
+  return r;
+}
+
+TEST(LabelSplit, WithoutTopologyTheComplexAndMeasuresAreTheSame) {
+  const LightRun r = runFullAndLight([](ExtractSettings& s) { s.labelTopology = false; });
+  const ExtractReport& full = r.full;
+  const ExtractReport& light = r.light;
+  EXPECT_EQ(testing::slurp(r.dir + "/full.ply"), testing::slurp(r.dir + "/light.ply"));
   ASSERT_EQ(light.labels.size(), full.labels.size());
   ASSERT_EQ(light.labels.size(), 7u);
   for (std::size_t n = 0; n < full.labels.size(); ++n) {
@@ -659,15 +673,14 @@ TEST(LabelSplit, WithoutTopologyTheComplexAndMeasuresAreTheSame) {
 // Without measures (the program's run without --report), the complex and the triangle counts are
 // the same, and the report leaves out what was not measured rather than printing zeros.
 TEST(LabelSplit, WithoutMeasuresTheComplexAndCountsAreTheSameAndTheReportSaysNothingElse) {
-  const std::string dir = testing::tempDir();
-  ExtractSettings s;
-  s.inputs = {"phantom:checker?n=21,18,15&b=3&labels=7"};
-  s.output = dir + "/full.ply";
-  const ExtractReport full = runExtract(s);
-  s.output = dir + "/light.ply";
-  s.labelTopology = false;
-  s.labelMeasures = false;
-  const ExtractReport light = runExtract(s);
+  LightRun r = runFullAndLight([](ExtractSettings& s) {
+    s.labelTopology = false;
+    s.labelMeasures = false;
+  });
+  const ExtractReport& full = r.full;
+  const ExtractReport& light = r.light;
+  ExtractSettings& s = r.s;
+  const std::string& dir = r.dir;
   EXPECT_EQ(testing::slurp(dir + "/full.ply"), testing::slurp(dir + "/light.ply"));
   ASSERT_EQ(light.labels.size(), 7u);
   ASSERT_EQ(full.labels.size(), 7u);
