@@ -47,6 +47,10 @@ struct VolumeInfo {
     int layer = 0;
   };
   std::vector<Label> labels;
+  /// Planes per slice: a segmentation read with every layer at once (kEveryLayer) hands out each
+  /// slice as `layers` planes of dims[0] x dims[1] values one after another, layer 0 first, each
+  /// holding that layer's label values. Every other source has one.
+  int layers = 1;
   /// The analytic surface at suggestedIso, where there is one.
   std::optional<AnalyticSphere> sphere;
   /// The physical frame the coordinates are in: "physical" (unspecified), or "lps" (DICOM patient
@@ -63,7 +67,25 @@ struct VolumeInfo {
   std::string modality;
 
   std::int64_t sliceVoxels() const noexcept { return dims[0] * dims[1]; }
+  /// The values of one slice as readSlice() hands it out: its voxels times its layers.
+  std::int64_t sliceValues() const noexcept { return sliceVoxels() * layers; }
 };
+
+/// The most layers read in one pass (every label key then fits in 32 bits).
+constexpr int kMaxLayers = 31;
+
+/// A label of a layered segmentation as one number, unique over the layers: its value (within
+/// +-2^24) plus its layer times 2^26. Layer 0's labels keep their values.
+constexpr std::int32_t layeredLabel(int layer, std::int32_t value) noexcept {
+  return value + layer * (1 << 26);
+}
+/// The layer and the value of a layeredLabel().
+constexpr int labelLayer(std::int32_t key) noexcept {
+  return (key + (1 << 25)) >> 26;
+}
+constexpr std::int32_t labelValue(std::int32_t key) noexcept {
+  return key - labelLayer(key) * (1 << 26);
+}
 
 /// A box of lattice points given by index, inclusive on both ends (as vtkExtractVOI's VOI): points
 /// lo[a] .. hi[a] on axis a, hi[a] - lo[a] + 1 of them.

@@ -92,10 +92,13 @@ bool CropSource::readSlice(std::span<float> slice) {
   ++next_;
   const VolumeInfo& in = inner_->info();
   const auto nx = static_cast<std::size_t>(info_.dims[0]);
-  for (std::int64_t j = 0; j < info_.dims[1]; ++j) {
-    const auto from = full_.begin() + static_cast<std::ptrdiff_t>((j + box_.lo[1]) * in.dims[0] + box_.lo[0]);
-    std::copy(from, from + static_cast<std::ptrdiff_t>(nx),
-              slice.begin() + static_cast<std::ptrdiff_t>(j) * static_cast<std::ptrdiff_t>(nx));
+  for (std::int64_t layer = 0; layer < info_.layers; ++layer) {  // each plane cropped on its own
+    for (std::int64_t j = 0; j < info_.dims[1]; ++j) {
+      const auto from = full_.begin() + static_cast<std::ptrdiff_t>(layer * in.sliceVoxels() +
+                                                                    (j + box_.lo[1]) * in.dims[0] + box_.lo[0]);
+      std::copy(from, from + static_cast<std::ptrdiff_t>(nx),
+                slice.begin() + static_cast<std::ptrdiff_t>((layer * info_.dims[1] + j) * info_.dims[0]));
+    }
   }
   return true;
 }

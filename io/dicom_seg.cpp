@@ -416,12 +416,10 @@ std::map<std::uint16_t, int> layersOf(const SegLayout& s,
 
 class DicomSegSource final : public SliceSource {
  public:
+  /// `planeOf`: the plane of a slice that each segment read goes to (every other is left out).
   DicomSegSource(std::unique_ptr<DcmFileFormat> file, SegLayout layout, DcmElement* pixels,
-                 std::set<std::uint16_t> layerSegments)
-      : file_(std::move(file)),
-        layout_(std::move(layout)),
-        reader_(layout_, pixels),
-        layerSegments_(std::move(layerSegments)) {}
+                 std::map<std::uint16_t, int> planeOf)
+      : file_(std::move(file)), layout_(std::move(layout)), reader_(layout_, pixels), planeOf_(std::move(planeOf)) {}
 
   const VolumeInfo& info() const noexcept override { return layout_.info; }
 
@@ -431,10 +429,12 @@ class DicomSegSource final : public SliceSource {
     for (const std::uint32_t f : layout_.framesOfSlice[static_cast<std::size_t>(next_)]) {
       if (layout_.kind != SegKind::kLabelMap) {
         const std::uint16_t segment = layout_.segmentOfFrame[f];
-        if (layerSegments_.count(segment) == 0) continue;
+        const auto plane = planeOf_.find(segment);
+        if (plane == planeOf_.end()) continue;
         reader_.read(f, mask_);
+        float* out = slice.data() + static_cast<std::size_t>(plane->second) * mask_.size();
         for (std::size_t p = 0; p < mask_.size(); ++p) {
-          if (mask_[p] != 0) slice[p] = segment;
+          if (mask_[p] != 0) out[p] = segment;
         }
         continue;
       }
@@ -464,7 +464,7 @@ class DicomSegSource final : public SliceSource {
   std::unique_ptr<DcmFileFormat> file_;
   SegLayout layout_;
   FrameReader reader_;
-  std::set<std::uint16_t> layerSegments_;
+  std::map<std::uint16_t, int> planeOf_;
   std::vector<std::uint16_t> mask_;
   std::int64_t next_ = 0;
 };
@@ -513,7 +513,12 @@ std::unique_ptr<SliceSource> openDicomSegmentation(const std::string& path, int 
   std::map<std::uint16_t, int> layerOf;
   int layers = 1;
   if (s.kind != SegKind::kLabelMap) layerOf = layersOf(s, overlaps(s, reader), layers);
-  if (layers > 1 && layer < 0) {
+  const bool everyLayer = layers > 1 && layer == kEveryLayer;
+  if (everyLayer && layers > kMaxLayers) {
+    fail(path, fmt::format("{} segmentation layers; one pass reads at most {}: choose one with `channel`", layers,
+                           kMaxLayers));
+  }
+  if (layers > 1 && layer < 0 && !everyLayer) {
     fail(path, fmt::format("{} segmentation layers (segments of different layers overlap); a run meshes one: "
                            "choose it with `channel` 0..{}",
                            layers, layers - 1));
@@ -523,16 +528,17 @@ std::unique_ptr<SliceSource> openDicomSegmentation(const std::string& path, int 
          fmt::format("`channel` {} is past the segmentation's {} layer{}", layer, layers, layers == 1 ? "" : "s"));
   }
   const int chosen = std::max(layer, 0);
-  std::set<std::uint16_t> layerSegments;
+  std::map<std::uint16_t, int> planeOf;  // the segments read, and the plane of each
   VolumeInfo& info = s.info;
   std::uint16_t largest = 0;
   for (auto& [number, segment] : s.segments) {
     segment.label.layer = layerOf.count(number) != 0 ? layerOf[number] : 0;
-    if (segment.label.layer != chosen) continue;
-    layerSegments.insert(number);
+    if (segment.label.layer != chosen && !everyLayer) continue;
+    planeOf[number] = everyLayer ? segment.label.layer : 0;
     info.labels.push_back(segment.label);
     largest = std::max(largest, number);
   }
+  if (everyLayer) info.layers = layers;
   info.labelMap = true;
   info.type = largest > 255 ? VoxelType::kU16 : VoxelType::kU8;
   info.valueRange = std::array<double, 2>{0, static_cast<double>(largest)};
@@ -544,12 +550,13 @@ std::unique_ptr<SliceSource> openDicomSegmentation(const std::string& path, int 
     const char* kind = s.kind == SegKind::kBinary       ? "binary"
                        : s.kind == SegKind::kFractional ? "fractional"
                                                         : "label map";
-    notes->push_back(fmt::format(
-        "{}: a {} DICOM Segmentation of {} segment{} in {} frame{}{}", path, kind, s.segments.size(),
-        s.segments.size() == 1 ? "" : "s", frames, frames == 1 ? "" : "s",
-        layers > 1 ? fmt::format("; layer {} of {} holds {}", chosen, layers, layerSegments.size()) : std::string()));
+    notes->push_back(fmt::format("{}: a {} DICOM Segmentation of {} segment{} in {} frame{}{}", path, kind,
+                                 s.segments.size(), s.segments.size() == 1 ? "" : "s", frames, frames == 1 ? "" : "s",
+                                 everyLayer   ? fmt::format("; {} layers, read in one pass", layers)
+                                 : layers > 1 ? fmt::format("; layer {} of {} holds {}", chosen, layers, planeOf.size())
+                                              : std::string()));
   }
-  return std::make_unique<DicomSegSource>(std::move(file), std::move(s), pixels, std::move(layerSegments));
+  return std::make_unique<DicomSegSource>(std::move(file), std::move(s), pixels, std::move(planeOf));
 }
 
 }  // namespace isoslab

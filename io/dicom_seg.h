@@ -8,7 +8,8 @@
 // on the scan the segmentation was drawn on; slices no frame covers are background. A fractional
 // segment holds a voxel where its value is at least half MaximumFractionalValue. Segments that
 // overlap go to separate layers (a greedy colouring of the overlap graph in segment order), and a
-// run reads one layer, as a 4-D .seg.nrrd is read (`channel`).
+// run reads one layer (`channel`) or every layer in one pass (kEveryLayer), as a 4-D .seg.nrrd is
+// read.
 //
 // Pixel data is read frame by frame from the file (never whole); bits are unpacked here, not by
 // DCMTK 3.6.7's dcmseg, whose binary frames are wrong when Rows x Columns is not a multiple of 8
@@ -28,7 +29,8 @@ namespace isoslab {
 bool isDicomSegmentation(const std::string& path);
 
 /// Opens a DICOM Segmentation object as a label volume (VolumeInfo::labelMap and labels set).
-/// `layer` picks the layer of a file whose segments overlap (-1: the file must have one layer).
+/// `layer` picks the layer of a file whose segments overlap (-1: the file must have one layer;
+/// kEveryLayer: all of them, a plane each).
 /// Throws isoslab::Error naming the file for anything it cannot place or read: an unsupported
 /// transfer syntax, frames off one slice lattice or with other orientations or spacings, a frame
 /// naming a segment the file does not describe, pixel data of the wrong length.

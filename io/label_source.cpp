@@ -33,33 +33,39 @@ void LabelSource::count(std::int32_t label, std::int64_t n) {
 
 bool LabelSource::readSlice(std::span<float> slice) {
   if (!inner_->readSlice(slice)) return false;
-  const std::int64_t nx = inner_->info().dims[0];
-  const auto voxels = static_cast<std::int64_t>(slice.size());
+  const VolumeInfo& in = inner_->info();
+  const std::int64_t nx = in.dims[0];
+  const std::int64_t voxels = in.sliceVoxels();
   const bool counted = slice_ >= countFirst_ && slice_ < countEnd_;
-  // Runs of equal values: a run is checked, counted and selected once.
-  std::int64_t i = 0;
-  while (i < voxels) {
-    const float v = slice[static_cast<std::size_t>(i)];
-    std::int64_t end = i + 1;
-    while (end < voxels && slice[static_cast<std::size_t>(end)] == v) ++end;
-    if (!(std::abs(v) <= kLargestLabel) || std::trunc(v) != v) {
-      const std::string value = std::isnan(v) ? "NaN" : fmt::format("{}", v);
-      const std::string why = std::abs(v) > kLargestLabel && std::isfinite(v)
-                                  ? "beyond the labels read exactly (whole numbers up to 16777216)"
-                                  : "which is not a label (a label map holds whole numbers)";
-      throw Error(fmt::format("{}: voxel ({}, {}, {}) holds {}, {}; for a scalar volume give --iso", what_, i % nx,
-                              i / nx, slice_, value, why));
+  for (int layer = 0; layer < in.layers; ++layer) {
+    const std::span<float> plane =
+        slice.subspan(static_cast<std::size_t>(layer * voxels), static_cast<std::size_t>(voxels));
+    // Runs of equal values: a run is checked, counted and selected once.
+    std::int64_t i = 0;
+    while (i < voxels) {
+      const float v = plane[static_cast<std::size_t>(i)];
+      std::int64_t end = i + 1;
+      while (end < voxels && plane[static_cast<std::size_t>(end)] == v) ++end;
+      if (!(std::abs(v) <= kLargestLabel) || std::trunc(v) != v) {
+        const std::string value = std::isnan(v) ? "NaN" : fmt::format("{}", v);
+        const std::string why = std::abs(v) > kLargestLabel && std::isfinite(v)
+                                    ? "beyond the labels read exactly (whole numbers up to 16777216)"
+                                    : "which is not a label (a label map holds whole numbers)";
+        throw Error(fmt::format("{}: voxel ({}, {}, {}){} holds {}, {}; for a scalar volume give --iso", what_, i % nx,
+                                i / nx, slice_, in.layers > 1 ? fmt::format(" of layer {}", layer) : std::string(),
+                                value, why));
+      }
+      const std::int32_t label = layeredLabel(layer, static_cast<std::int32_t>(v));
+      if (counted) count(label, end - i);
+      if (keep_ && v != 0) {
+        const std::int64_t k = std::int64_t{label} - kDenseLow;
+        const bool kept = k >= 0 && k < static_cast<std::int64_t>(keepDense_.size())
+                              ? keepDense_[static_cast<std::size_t>(k)] != 0
+                              : keep_->count(label) != 0;
+        if (!kept) std::fill(plane.begin() + i, plane.begin() + end, 0.0f);
+      }
+      i = end;
     }
-    const auto label = static_cast<std::int32_t>(v);
-    if (counted) count(label, end - i);
-    if (keep_ && label != 0) {
-      const std::int64_t k = std::int64_t{label} - kDenseLow;
-      const bool kept = k >= 0 && k < static_cast<std::int64_t>(keepDense_.size())
-                            ? keepDense_[static_cast<std::size_t>(k)] != 0
-                            : keep_->count(label) != 0;
-      if (!kept) std::fill(slice.begin() + i, slice.begin() + end, 0.0f);
-    }
-    i = end;
   }
   ++slice_;
   return true;
@@ -90,7 +96,8 @@ void LabelSource::addCounts(const std::string& text) {
   std::int64_t label = 0;
   std::int64_t n = 0;
   while (in >> label >> n) {
-    if (std::abs(static_cast<double>(label)) > kLargestLabel || n < 0) {
+    if (label < -static_cast<std::int64_t>(kLargestLabel) ||
+        label > layeredLabel(kMaxLayers - 1, static_cast<std::int32_t>(kLargestLabel)) || n < 0) {
       throw Error(what_ + ": a rank's label counts are damaged");
     }
     count(static_cast<std::int32_t>(label), n);

@@ -22,7 +22,8 @@ constexpr double kLargestLabel = 16777216.0;
 class LabelSource final : public SliceSource {
  public:
   /// `what` names the input in messages. `keep`: the labels to keep, all others become 0; empty
-  /// optional: keep every label.
+  /// optional: keep every label. In a layered source (VolumeInfo::layers) labels are counted and
+  /// kept by their layeredLabel().
   LabelSource(std::unique_ptr<SliceSource> inner, std::string what, std::optional<std::set<std::int32_t>> keep);
 
   const VolumeInfo& info() const noexcept override { return inner_->info(); }

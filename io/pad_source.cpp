@@ -54,8 +54,11 @@ bool PadSource::readSlice(std::span<float> slice) {
     if (!readSliceInto(*inner_, inner_slice_)) return false;
     const std::int64_t nx = info_.dims[0];
     const std::int64_t innerNx = nx - 2;
-    for (std::int64_t j = 0; j + 2 < info_.dims[1]; ++j) {
-      std::copy_n(inner_slice_.begin() + j * innerNx, innerNx, slice.begin() + (j + 1) * nx + 1);
+    const std::int64_t innerNy = info_.dims[1] - 2;
+    for (std::int64_t layer = 0; layer < info_.layers; ++layer) {  // each plane padded on its own
+      const auto from = inner_slice_.begin() + layer * innerNx * innerNy;
+      const auto to = slice.begin() + layer * info_.sliceVoxels();
+      for (std::int64_t j = 0; j < innerNy; ++j) std::copy_n(from + j * innerNx, innerNx, to + (j + 1) * nx + 1);
     }
   }
   ++next_;

@@ -23,7 +23,7 @@ std::int64_t SliceSource::skipSlices(std::int64_t n) {
 
 bool readSliceInto(SliceSource& source, std::vector<float>& slice) {
   if (!source.fetchSlice()) return false;
-  slice.resize(static_cast<std::size_t>(source.info().sliceVoxels()));
+  slice.resize(static_cast<std::size_t>(source.info().sliceValues()));
   return source.readSlice(slice);
 }
 

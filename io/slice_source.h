@@ -16,6 +16,11 @@
 
 namespace isoslab {
 
+/// The `channel` that asks a segmentation whose segments lie in several layers (a 4-D .seg.nrrd, a
+/// DICOM SEG with overlapping segments) for all of them in one pass: its slices then hold
+/// VolumeInfo::layers planes. Any other input takes it as no channel (-1).
+constexpr int kEveryLayer = -2;
+
 class SliceSource {
  public:
   virtual ~SliceSource() = default;
@@ -26,8 +31,9 @@ class SliceSource {
   virtual const VolumeInfo& info() const noexcept = 0;
 
   /// Reads the next slice into `slice`, which the caller owns and which must hold exactly
-  /// info().sliceVoxels() values, x fastest. Returns false, leaving `slice` untouched, once all
-  /// info().dims[2] slices have been read. Throws isoslab::Error if the data is short or unreadable.
+  /// info().sliceValues() values, x fastest (one plane per layer, VolumeInfo::layers). Returns false, leaving `slice`
+  /// untouched, once all info().dims[2] slices have been read. Throws isoslab::Error if the data is short or
+  /// unreadable.
   virtual bool readSlice(std::span<float> slice) = 0;
 
   /// Reads the next slice's stored data ahead of readSlice(), so that data that ends early fails
@@ -65,7 +71,7 @@ class SliceSource {
   virtual std::vector<std::string> warnings() { return {}; }
 };
 
-/// Fetches the next slice of `source`, then sizes `slice` to info().sliceVoxels() values and reads
+/// Fetches the next slice of `source`, then sizes `slice` to info().sliceValues() values and reads
 /// the slice into it: the buffer is allocated only once the slice's data is there. Returns false,
 /// leaving `slice` untouched, at the end of the data. Throws isoslab::Error as readSlice() does.
 bool readSliceInto(SliceSource& source, std::vector<float>& slice);

@@ -347,18 +347,22 @@ class VolumeFileSource final : public SliceSource {
       if (component_.empty()) {
         try {
           component_.resize(
-              static_cast<std::size_t>(info_.sliceVoxels() * static_cast<std::int64_t>(voxelSize(layout_.type))));
+              static_cast<std::size_t>(info_.sliceValues() * static_cast<std::int64_t>(voxelSize(layout_.type))));
         } catch (const std::exception&) {  // std::bad_alloc, std::length_error
           throw Error(fmt::format("{}: out of memory for one slice of {} bytes", layout_.files.front(), sliceBytes_));
         }
       }
+      // One component, or (component -1) every one as a plane of its own.
       const std::size_t size = voxelSize(layout_.type);
-      for (std::int64_t v = 0; v < info_.sliceVoxels(); ++v) {
-        std::memcpy(component_.data() + static_cast<std::size_t>(v) * size,
-                    bytes_.get() + (static_cast<std::size_t>(v) * static_cast<std::size_t>(layout_.components) +
-                                    static_cast<std::size_t>(layout_.component)) *
-                                       size,
-                    size);
+      const auto voxels = static_cast<std::size_t>(info_.sliceVoxels());
+      const auto components = static_cast<std::size_t>(layout_.components);
+      const std::size_t first = layout_.component < 0 ? 0 : static_cast<std::size_t>(layout_.component);
+      const std::size_t end = layout_.component < 0 ? components : first + 1;
+      for (std::size_t c = first; c < end; ++c) {
+        std::byte* plane = component_.data() + (c - first) * voxels * size;
+        for (std::size_t v = 0; v < voxels; ++v) {
+          std::memcpy(plane + v * size, bytes_.get() + (v * components + c) * size, size);
+        }
       }
       data = component_;
     }

@@ -29,7 +29,7 @@ struct VolumeFileLayout {
   VoxelType type = VoxelType::kU8;
   ByteOrder byteOrder = ByteOrder::kLittle;
   int components = 1;  // interleaved components per voxel
-  int component = 0;   // the one to keep
+  int component = 0;   // the one to keep; -1: every one, each a plane (VolumeInfo::layers)
   double slope = 1;    // value = stored * slope + intercept
   double intercept = 0;
   /// What the header that described this data is called, for messages ("raw", "NRRD header", ...).

@@ -383,19 +383,31 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
     }
     info.labels.push_back(std::move(label));
   }
+  bool everyLayer = false;
   if (!info.labels.empty()) {
     info.labelMap = true;
-    if (components > 1 && channel < 0) {
+    everyLayer = components > 1 && channel == kEveryLayer;
+    if (everyLayer && components > kMaxLayers) {
+      throw Error(fmt::format("{}: {} segmentation layers; one pass reads at most {}: choose one with `channel`", path,
+                              components, kMaxLayers));
+    }
+    if (components > 1 && channel < 0 && !everyLayer) {
       throw Error(
           fmt::format("{}: {} segmentation layers (segments of different layers may overlap); a run meshes "
                       "one: choose it with `channel` 0..{}",
                       path, components, components - 1));
     }
-    // The segments of the layer read.
+    // The segments of the layer read (of every layer, each plane of a slice holding one).
     const int layer = components > 1 ? channel : 0;
-    std::erase_if(info.labels, [&](const VolumeInfo::Label& l) { return l.layer != layer; });
+    if (!everyLayer) std::erase_if(info.labels, [&](const VolumeInfo::Label& l) { return l.layer != layer; });
   }
-  pickComponent(layout, components, channel, path);
+  if (everyLayer) {
+    layout.components = static_cast<int>(components);
+    layout.component = -1;
+    info.layers = layout.components;
+  } else {
+    pickComponent(layout, components, channel, path);
+  }
   const std::string encoding = lower(fields.count("encoding") ? fields["encoding"] : "raw");
   if (encoding == "gzip" || encoding == "gz") {
     layout.compression = Compression::kDeflate;

@@ -85,8 +85,10 @@ void addLabelsJson(Json& r, const ExtractReport& report) {
   Json interfaces = Json::array();
   for (const ExtractInterface& i : report.interfaces) {
     interfaces.push_back({{"labels", {i.a, i.b}}, {"triangles", i.triangles}, {"area", i.area}});
+    if (report.layers > 1) interfaces.back()["layer"] = i.layer;
   }
   r["label_interfaces"] = interfaces;
+  if (report.layers > 1) r["layers"] = report.layers;
 }
 
 }  // namespace

@@ -71,6 +71,7 @@ struct ExtractInterface {
   std::int32_t a = 0, b = 0;
   std::uint64_t triangles = 0;
   double area = 0;
+  int layer = 0;  // the layer of both (a segmentation read with every layer)
 };
 
 struct ExtractReport {
@@ -134,6 +135,7 @@ struct ExtractReport {
   std::vector<ExtractLabel> labels;
   std::vector<ExtractInterface> interfaces;
   bool labelRun = false;
+  int layers = 1;  // label runs: the layers read in one pass (a layered segmentation)
 };
 
 /// The report as the JSON text of `isoslab extract --report` (two-space indent, no final newline).

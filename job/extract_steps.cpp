@@ -131,7 +131,11 @@ double asFloat(double value) {
 OpenedInput openInput(const ExtractSettings& settings, ExtractObserver* observer, ExtractReport& report) {
   std::vector<std::string> notes;
   OpenedInput opened;
-  opened.source = settings.openVolume ? settings.openVolume() : openSource(settings.inputs, settings.source, &notes);
+  // A run that may mesh labels reads a segmentation's layers in one pass when no channel picks one.
+  SourceOptions source = settings.source;
+  const bool labelRun = settings.labels.has_value() || (!settings.iso && settings.isos.empty());
+  if (labelRun && source.dicom.channel < 0) source.dicom.channel = kEveryLayer;
+  opened.source = settings.openVolume ? settings.openVolume() : openSource(settings.inputs, source, &notes);
   // The mesh's coordinates are float32: a physical box they cannot hold is refused before the
   // first slice (voxel coordinates always fit).
   if (settings.space != OutputSpace::kVoxel) {

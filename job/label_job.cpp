@@ -19,7 +19,7 @@
 #include "encode/mesh_writer.h"
 #include "encode/ply_writer.h"
 #include "extract/label_extractor.h"
-#include "extract/multi_iso_extractor.h"
+#include "extract/surface_set_extractor.h"
 #include "io/label_source.h"
 #include "io/label_table.h"
 #include "io/pad_source.h"
@@ -34,13 +34,20 @@ namespace isoslab {
 namespace {
 
 // The labels that a request keeps (nothing: every label), with names resolved through the table.
+// In a volume of several layers a value selects its label in every layer, and a name the label
+// it names: `tableKeys` says whether the table's entries are the file's own layered labels.
 std::optional<std::set<std::int32_t>> selectedLabels(const LabelRequest& request, const LabelTable* table,
-                                                     const std::string& tableName) {
+                                                     const std::string& tableName, int layers, bool tableKeys) {
   if (request.all) return std::nullopt;
   std::set<std::int32_t> keep;
+  const auto keepValue = [&](std::int32_t value) {
+    for (int layer = 0; layer < layers; ++layer) keep.insert(layeredLabel(layer, value));
+  };
   for (const auto& [lo, hi] : request.ranges) {
     if (static_cast<std::int64_t>(hi) - lo > 16777216) throw SettingError("`labels` range is too wide");
-    for (std::int64_t v = lo; v <= hi; ++v) keep.insert(static_cast<std::int32_t>(v));
+    for (std::int64_t v = lo; v <= hi; ++v) {
+      if (v != 0) keepValue(static_cast<std::int32_t>(v));
+    }
   }
   for (const std::string& name : request.names) {
     if (table == nullptr) {
@@ -52,7 +59,11 @@ std::optional<std::set<std::int32_t>> selectedLabels(const LabelRequest& request
       throw SettingError(fmt::format("`labels` names '{}', which {} does not hold; the nearest is '{}' ({})", name,
                                      tableName, near->name, near->value));
     }
-    keep.insert(e->value);
+    if (tableKeys) {
+      keep.insert(e->value);
+    } else if (e->value != 0) {
+      keepValue(e->value);
+    }
   }
   keep.erase(0);
   return keep;
@@ -124,16 +135,21 @@ class SurfaceSetRun {
     if (!settings_.labelTable.empty()) {
       table_ = readLabelTable(settings_.labelTable);
     } else if (!info_.labels.empty()) {
+      // The file's own names, by layered label where it has several layers.
       table_.emplace();
-      for (const VolumeInfo::Label& l : info_.labels) table_->entries.push_back(LabelEntry{l.value, l.name, l.color});
+      for (const VolumeInfo::Label& l : info_.labels) {
+        table_->entries.push_back(
+            LabelEntry{info_.layers > 1 ? layeredLabel(l.layer, l.value) : l.value, l.name, l.color});
+      }
       tableName = info_.source;
+      tableKeys_ = true;
     }
     request_ = settings_.labels.value_or(LabelRequest{});
-    keep_ = selectedLabels(request_, table_ ? &*table_ : nullptr, tableName);
+    keep_ = selectedLabels(request_, table_ ? &*table_ : nullptr, tableName, info_.layers, tableKeys_);
     frame_ = LatticeFrame::forSpace(info_, std::string(outputSpaceName(settings_.space)));
     if (isoSet_) {
       // The field as it is (padded with NaN for --close-boundary); each value's surface a "label"
-      // from 1, extracted in turn slab by slab (extract/multi_iso_extractor.h), so on one thread.
+      // from 1, all extracted slab by slab (extract/surface_set_extractor.h).
       ExtractOptions o;
       o.method = settings_.method;
       o.closeBoundary = settings_.closeBoundary;
@@ -143,14 +159,14 @@ class SurfaceSetRun {
       header_.labels = true;
       source_ = std::move(input.source);
       if (settings_.closeBoundary) source_ = std::make_unique<PadSource>(std::move(source_));
-      threads = 1;
+      if (!extractor_->makeWorker()) threads = 1;
     } else {
-      // Labels: checked and counted, padded with background.
+      // Labels: checked and counted, padded with background; each layer a label complex.
       const std::string what = settings_.inputs.empty() ? info_.source : settings_.inputs.front();
       auto labels = std::make_unique<LabelSource>(std::move(input.source), what, keep_);
       counter_ = labels.get();
       source_ = std::make_unique<PadSource>(std::move(labels), 0.0f);
-      extractor_ = makeLabelExtractor(info_, frame_);
+      extractor_ = makeLayeredLabelExtractor(info_, frame_);
       header_ = labelHeader(info_, frame_);
     }
   }
@@ -183,14 +199,16 @@ class SurfaceSetRun {
     if (settings_.sequentialVoxels >= 0) options.sequentialVoxels = settings_.sequentialVoxels;
     options.onSlab = onSlab;
     if (ranked()) {
-      // Each rank counts the voxels of its own slabs' top slices (slab z's is slice z of the
-      // input), so that every slice is counted once; rank 0 adds the others' counts.
-      RankGroup& group = *settings_.ranks;
-      const SlabRange range = rankSlabs(source_->info().dims[2] - 1, group.rank(), group.size());
-      counter_->countOnly(range.first, range.end);
-      options.ranks = &group;
-      options.rankSummary = [this] { return counter_->countsText(); };
-      options.mergeRankSummary = [this](int, const std::string& counts) { counter_->addCounts(counts); };
+      options.ranks = settings_.ranks;
+      if (counter_ != nullptr) {
+        // Each rank counts the voxels of its own slabs' top slices (slab z's is slice z of the
+        // input), so that every slice is counted once; rank 0 adds the others' counts.
+        RankGroup& group = *settings_.ranks;
+        const SlabRange range = rankSlabs(source_->info().dims[2] - 1, group.rank(), group.size());
+        counter_->countOnly(range.first, range.end);
+        options.rankSummary = [this] { return counter_->countsText(); };
+        options.mergeRankSummary = [this](int, const std::string& counts) { counter_->addCounts(counts); };
+      }
     }
     return runPipeline(*source_, *extractor_, tee, header_, options);
   }
@@ -212,8 +230,10 @@ class SurfaceSetRun {
     for (auto& [value, chain] : chains_) report_.labels.push_back(describeLabel(value, chain, counts, measures));
     for (const auto& [pair, face] : split_->interfaces()) {
       if (pair.first == 0) continue;  // a label's boundary with the background is in its own area
-      report_.interfaces.push_back(ExtractInterface{pair.first, pair.second, face.triangles, face.area});
+      report_.interfaces.push_back(ExtractInterface{labelValue(pair.first), labelValue(pair.second), face.triangles,
+                                                    face.area, labelLayer(pair.first)});
     }
+    report_.layers = info_.layers;
     if (!primary()) return;
     warnAbsent(counts);
     for (std::string& w : source_->warnings()) report_.warnings.push_back(std::move(w));
@@ -235,6 +255,7 @@ class SurfaceSetRun {
       for (std::size_t k = 0; k < report_.labels.size() && k < scene_->meshes().size(); ++k) {
         const ExtractLabel& l = report_.labels[k];
         scene_->meshes()[k].extras = {{"label", l.value},
+                                      {"layer", l.layer},
                                       {"voxels", l.voxels},
                                       {"voxel_volume", l.voxelVolume},
                                       {"mesh_volume", l.stats.volume},
@@ -255,14 +276,19 @@ class SurfaceSetRun {
   bool ranked() const { return settings_.ranks != nullptr && settings_.ranks->size() > 1; }
   bool primary() const { return !ranked() || settings_.ranks->rank() == 0; }
 
-  std::string nameOf(std::int32_t value) const {
-    if (isoSet_) return fmt::format("{}", settings_.isos[static_cast<std::size_t>(value - 1)]);
-    const LabelEntry* e = table_ ? table_->find(value) : nullptr;
-    return e != nullptr ? e->name : std::to_string(value);
+  // A label's entry in the table: the file's own by its layered label, a table given by value.
+  const LabelEntry* entryOf(std::int32_t label) const {
+    if (!table_) return nullptr;
+    return table_->find(tableKeys_ ? label : labelValue(label));
   }
-  std::array<std::uint8_t, 3> colorOf(std::int32_t value) const {
-    const LabelEntry* e = table_ ? table_->find(value) : nullptr;
-    return e != nullptr && e->color ? *e->color : defaultLabelColor(value);
+  std::string nameOf(std::int32_t label) const {
+    if (isoSet_) return fmt::format("{}", settings_.isos[static_cast<std::size_t>(label - 1)]);
+    const LabelEntry* e = entryOf(label);
+    return e != nullptr ? e->name : std::to_string(labelValue(label));
+  }
+  std::array<std::uint8_t, 3> colorOf(std::int32_t label) const {
+    const LabelEntry* e = entryOf(label);
+    return e != nullptr && e->color ? *e->color : defaultLabelColor(labelValue(label));
   }
 
   // A label's sinks, when its first triangle arrives: its writer (a pattern's file or the .glb's
@@ -271,7 +297,7 @@ class SurfaceSetRun {
     LabelChain& chain = chains_[label];
     std::vector<MeshSink*> sinks;
     if (pattern_) {
-      chain.path = expandPattern(settings_.output, label, nameOf(label), isoSet_ ? nameOf(label) : "");
+      chain.path = expandPattern(settings_.output, labelValue(label), nameOf(label), isoSet_ ? nameOf(label) : "");
       const auto [it, fresh] = paths_.emplace(chain.path, label);
       if (!fresh) {
         throw SettingError(fmt::format("`output` pattern '{}' gives '{}' to labels {} and {}", settings_.output,
@@ -291,14 +317,18 @@ class SurfaceSetRun {
                              const std::map<std::int32_t, std::int64_t>& counts,
                              const std::map<std::int32_t, LabelSplitSink::Measures>& measures) const {
     ExtractLabel l;
-    l.value = value;
+    l.value = labelValue(value);
     l.name = nameOf(value);
     if (isoSet_) l.iso = settings_.isos[static_cast<std::size_t>(value - 1)];
-    const LabelEntry* e = table_ ? table_->find(value) : nullptr;
+    const LabelEntry* e = entryOf(value);
     l.colorFromTable = e != nullptr && e->color.has_value();
     l.color = colorOf(value);
-    for (const VolumeInfo::Label& named : info_.labels) {
-      if (named.value == value) l.layer = named.layer;
+    if (info_.layers > 1) {
+      l.layer = labelLayer(value);
+    } else {
+      for (const VolumeInfo::Label& named : info_.labels) {
+        if (named.value == value) l.layer = named.layer;
+      }
     }
     const auto n = counts.find(value);
     l.voxels = n != counts.end() ? n->second : 0;
@@ -325,9 +355,12 @@ class SurfaceSetRun {
   // Requested labels that the volume lacks: one warning each, or one for many.
   void warnAbsent(const std::map<std::int32_t, std::int64_t>& counts) {
     if (keep_) {
+      // A label is absent when no layer holds it.
+      std::map<std::int32_t, bool> present;  // by value
+      for (const std::int32_t key : *keep_) present[labelValue(key)] |= counts.count(key) != 0;
       std::vector<std::int32_t> absent;
-      for (std::int32_t value : *keep_) {
-        if (counts.count(value) == 0) absent.push_back(value);
+      for (const auto& [id, found] : present) {
+        if (!found) absent.push_back(id);
       }
       if (absent.size() <= 8) {
         for (std::int32_t value : absent) {
@@ -335,7 +368,7 @@ class SurfaceSetRun {
         }
       } else {
         report_.warnings.push_back(fmt::format("{} of the {} requested labels are not in the volume (the first: {})",
-                                               absent.size(), keep_->size(), absent.front()));
+                                               absent.size(), present.size(), absent.front()));
       }
     }
     if (chains_.empty()) {
@@ -351,6 +384,7 @@ class SurfaceSetRun {
   const bool isoSet_;
   VolumeInfo info_;
   std::optional<LabelTable> table_;
+  bool tableKeys_ = false;  // the table is the file's own, by layered label
   LabelRequest request_;
   std::optional<std::set<std::int32_t>> keep_;
   LatticeFrame frame_;
@@ -374,9 +408,6 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
                      ExtractReport& report, const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads,
                      const WriterOptions& writing) {
   checkLabelSettings(settings);
-  if (settings.ranks != nullptr && settings.ranks->size() > 1 && !settings.isos.empty()) {
-    throw SettingError("iso lists under mpirun are not supported yet: run one process");
-  }
   report.labelRun = true;
   SurfaceSetRun run(settings, report, writing);
   run.open(std::move(input), threads);

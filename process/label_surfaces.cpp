@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "core/error.h"
+#include "core/volume_info.h"
 
 namespace isoslab {
 namespace {
@@ -49,7 +50,7 @@ std::uint32_t LabelSplitSink::streamOf(std::int32_t label) {
       s.label = label;
       s.sink = sink;
       MeshHeader h = header_;
-      h.iso = label;
+      h.iso = labelValue(label);  // a layered label (core/volume_info.h) as its value
       sink->begin(h);
     }
   }

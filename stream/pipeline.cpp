@@ -51,7 +51,7 @@ class SliceFeed {
   /// Reads the next slice into the ring as slice k; false at the end of the data.
   bool next(SlabRing& ring, std::int64_t k) {
     throwIfInterrupted();  // a slice boundary: unwinding joins the threads and removes temporaries
-    const auto n = static_cast<std::size_t>(source_.info().sliceVoxels());
+    const auto n = static_cast<std::size_t>(source_.info().sliceValues());
     if (!source_.lendsSlices()) {
       // The slice's data first, then its slot: the ring grows a slice at a time as data arrives.
       if (!source_.fetchSlice()) return false;
@@ -110,7 +110,7 @@ class PipelineRun {
         plan_(stagedPlan(info_, source.lendsSlices(), 3 * extractor.sliceSlots() * sizeof(VertexId), options,
                          range.has_value())),
         // Slab z needs slices z - below .. z + 1 + above; the runs in flight need their slabs' too.
-        ring_(info_.sliceVoxels(), below_ + 1 + above_ + inFlightSlabs()),
+        ring_(info_.sliceValues(), below_ + 1 + above_ + inFlightSlabs()),
         progress_("extract", info_.dims[2] - 1, options.progress && !partOut_),
         onSlab_(partOut_ ? nullptr : options.onSlab),
         feed_(source, !staged()),
@@ -263,8 +263,8 @@ class PipelineRun {
         const auto t = Clock::now();
         const bool extracted = attempt([&] {
           worker.extract(views, place.part, [&](const SlabView& v) {
-            if (v.z == 0) range.add(v.slices[1], sliceVoxels());
-            range.add(v.slices[2], sliceVoxels());
+            if (v.z == 0) range.add(v.slices[1], sliceValues());
+            range.add(v.slices[2], sliceValues());
           });
         });
         const double took = since(t);
@@ -299,7 +299,7 @@ class PipelineRun {
     ready_.notify_all();
   }
 
-  std::size_t sliceVoxels() const noexcept { return static_cast<std::size_t>(info_.sliceVoxels()); }
+  std::size_t sliceValues() const noexcept { return static_cast<std::size_t>(info_.sliceValues()); }
 
   // The next run's length: plan_.runSlabs, or fewer when the slabs emitted last held so many
   // triangles that the runs in flight would hold more than options.runTriangles each (each run's
@@ -391,7 +391,7 @@ class PipelineRun {
 ThreadPlan planThreads(const VolumeInfo& info, bool lends, std::size_t cacheBytes, const PipelineOptions& options) {
   ThreadPlan plan;
   const std::int64_t slabs = info.dims[2] - 1;
-  const std::int64_t sliceVoxels = std::max<std::int64_t>(1, info.sliceVoxels());
+  const std::int64_t sliceVoxels = std::max<std::int64_t>(1, info.sliceValues());
   int workers = std::max(1, options.threads);
   if (workers == 1 || slabs < 2 || sliceVoxels * info.dims[2] < options.sequentialVoxels) return plan;
   std::int64_t runSlabs = (std::max<std::int64_t>(1, options.runVoxels) + sliceVoxels - 1) / sliceVoxels;

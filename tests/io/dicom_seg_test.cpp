@@ -181,7 +181,8 @@ TEST(DicomSeg, ObliqueFramesLandWhereTheFileSays) {
 TEST(DicomSeg, OverlappingSegmentsGoToLayers) {
   const std::string dir = testing::tempDir();
   const std::string seg = makeSeg(kNested, "--overlap", dir + "/s.dcm");
-  const auto refused = testing::runCli("extract " + seg + " -o " + dir + "/{name}.ply -q");
+  // A threshold reads one layer's values: a channel must choose it.
+  const auto refused = testing::runCli("extract " + seg + " --iso 1 -o " + dir + "/x.ply -q");
   EXPECT_EQ(refused.exitCode, 1);
   EXPECT_EQ(refused.err, "isoslab: error: " + seg +
                              ": 2 segmentation layers (segments of different layers overlap); a run meshes one: "
@@ -196,6 +197,19 @@ TEST(DicomSeg, OverlappingSegmentsGoToLayers) {
   std::int64_t all = 0;
   for (const ExtractLabel& l : phantom.labels) all += l.voxels;
   EXPECT_EQ(top.labels[0].voxels, all);
+  // Every layer in one pass: each label's file holds the bytes of its own layer's run.
+  const ExtractReport both = meshLabels(seg, dir + "/all");
+  EXPECT_EQ(both.layers, 2);
+  ASSERT_EQ(both.labels.size(), phantom.labels.size() + 1);
+  EXPECT_EQ(both.labels.back().name, "union");
+  EXPECT_EQ(both.labels.back().layer, 1);
+  EXPECT_EQ(both.labels.back().voxels, all);
+  EXPECT_EQ(testing::fileCount(dir + "/all"), testing::fileCount(dir + "/o0") + testing::fileCount(dir + "/o1"));
+  for (const ExtractLabel& l : both.labels) {
+    const std::string own = fmt::format("{}/o{}/{}.ply", dir, l.layer, l.value);
+    EXPECT_TRUE(std::filesystem::exists(own)) << own;
+    EXPECT_TRUE(testing::slurp(fmt::format("{}/all/{}.ply", dir, l.value)) == testing::slurp(own)) << l.name;
+  }
   const auto past = testing::runCli("extract " + seg + " --channel 2 -o " + dir + "/{name}.ply -q");
   EXPECT_EQ(past.err, "isoslab: error: " + seg + ": --channel 2 is past the segmentation's 2 layers\n");
   const auto info = testing::runCli("info " + seg);
@@ -209,7 +223,7 @@ TEST(DicomSeg, OverlappingSegmentsGoToLayers) {
 TEST(DicomSeg, ThreeSegmentsOnAVoxelGiveThreeLayers) {
   const std::string dir = testing::tempDir();
   const std::string seg = makeSeg("phantom:boxes?n=12", "--overlap --overlap", dir + "/s.dcm");
-  const auto refused = testing::runCli("extract " + seg + " -o " + dir + "/{name}.ply -q");
+  const auto refused = testing::runCli("extract " + seg + " --iso 1 -o " + dir + "/x.ply -q");
   EXPECT_NE(refused.err.find(": 3 segmentation layers"), std::string::npos) << refused.err;
   const std::vector<std::vector<std::string>> layers{{"label 1", "label 2", "label 3"}, {"union"}, {"union 2"}};
   for (std::size_t l = 0; l < layers.size(); ++l) {
@@ -218,6 +232,11 @@ TEST(DicomSeg, ThreeSegmentsOnAVoxelGiveThreeLayers) {
     for (const ExtractLabel& label : r.labels) names.push_back(label.name);
     EXPECT_EQ(names, layers[l]) << "layer " << l;
   }
+  // In one pass, the three layers' labels in layer order.
+  const ExtractReport all = meshLabels(seg, dir + "/all");
+  std::vector<std::string> names;
+  for (const ExtractLabel& label : all.labels) names.push_back(label.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"label 1", "label 2", "label 3", "union", "union 2"}));
 }
 
 // Without SpacingBetweenSlices, positions rounded to 0.01 mm on 0.625 mm slices, some slices left

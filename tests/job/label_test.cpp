@@ -9,6 +9,7 @@
 #include <map>
 #include <random>
 #include <set>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
@@ -551,18 +552,58 @@ TEST(LabelInputs, SlicerSegNrrdGivesNamesColoursAndPositions) {
   EXPECT_NEAR(r.interfaces[0].area, 6 * 0.75 * 2, 1e-9);
 }
 
-TEST(LabelInputs, ALayeredSegNrrdMeshesTheLayerThatChannelChooses) {
+TEST(LabelInputs, ALayeredSegNrrdMeshesEveryLayerInOnePass) {
   const std::string dir = testing::tempDir();
   const std::string seg = writeSegNrrd(dir + "/l.seg.nrrd", 2);
-  const auto refused = testing::runCli("extract " + seg + " -o " + dir + "/{name}.ply -q");
+  // A threshold takes one layer's values: a channel must choose it.
+  const auto refused = testing::runCli("extract " + seg + " --iso 1 -o " + dir + "/x.ply -q");
   EXPECT_EQ(refused.exitCode, 1);
   EXPECT_EQ(refused.err, "isoslab: error: " + seg +
                              ": 2 segmentation layers (segments of different layers may overlap); a run meshes one: "
                              "choose it with --channel 0..1\n");
-  const auto r = testing::runCli("extract " + seg + " --channel 1 -o " + dir + "/{name}.ply -q");
-  EXPECT_EQ(r.exitCode, 0) << r.err;
-  EXPECT_TRUE(std::filesystem::exists(dir + "/Tumour.ply"));
-  EXPECT_FALSE(std::filesystem::exists(dir + "/Liver.ply"));
+  // One pass over both layers: each surface is the bytes of its own layer's run, at 1 and 2 threads.
+  const auto run = [&](const std::string& folder, const std::string& options) {
+    std::filesystem::create_directories(dir + "/" + folder);
+    const auto r = testing::runCli("extract " + seg + " " + options + " -o '" + dir + "/" + folder +
+                                   "/{name}.ply' --report " + dir + "/" + folder + ".json -q");
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    return nlohmann::json::parse(testing::slurp(dir + "/" + folder + ".json"));
+  };
+  run("c0", "--channel 0");
+  run("c1", "--channel 1");
+  const auto all = run("all", "--threads 1");
+  run("threads", "--threads 2 --sequential-voxels 0");
+  EXPECT_EQ(testing::fileCount(dir + "/all"), 3);
+  for (const auto& [name, layer] : {std::pair{"Liver", "c0"}, std::pair{"Kidney", "c0"}, std::pair{"Tumour", "c1"}}) {
+    const std::string own = testing::slurp(dir + "/" + layer + "/" + name + ".ply");
+    EXPECT_FALSE(own.empty()) << name;
+    EXPECT_TRUE(testing::slurp(dir + "/all/" + name + ".ply") == own) << name;
+    EXPECT_TRUE(testing::slurp(dir + "/threads/" + name + ".ply") == own) << name;
+  }
+  // The report: each label's value and layer, voxels counted by layer, interfaces within a layer.
+  EXPECT_EQ(all["layers"], 2);
+  ASSERT_EQ(all["labels"].size(), 3u);
+  const std::vector<std::tuple<std::string, int, int>> labels{{"Liver", 1, 0}, {"Kidney", 2, 0}, {"Tumour", 1, 1}};
+  for (std::size_t n = 0; n < labels.size(); ++n) {
+    const auto& l = all["labels"][n];
+    EXPECT_EQ(l["name"], std::get<0>(labels[n]));
+    EXPECT_EQ(l["value"], std::get<1>(labels[n]));
+    EXPECT_EQ(l["layer"], std::get<2>(labels[n]));
+    EXPECT_EQ(l["voxels"], 12) << l["name"];  // 2 x 3 x 2 voxels each
+  }
+  ASSERT_EQ(all["label_interfaces"].size(), 1u);
+  EXPECT_EQ(all["label_interfaces"][0]["labels"], nlohmann::json::array({1, 2}));
+  EXPECT_EQ(all["label_interfaces"][0]["layer"], 0);
+  // A value selects its label in every layer; a name, the label it names.
+  const auto byValue = run("value", "--labels 1");
+  ASSERT_EQ(byValue["labels"].size(), 2u);
+  EXPECT_EQ(byValue["labels"][0]["name"], "Liver");
+  EXPECT_EQ(byValue["labels"][1]["name"], "Tumour");
+  EXPECT_EQ(byValue["warnings"].size(), 0u) << byValue["warnings"];
+  const auto byName = run("name", "--labels Tumour");
+  ASSERT_EQ(byName["labels"].size(), 1u);
+  EXPECT_EQ(byName["labels"][0]["layer"], 1);
+  EXPECT_TRUE(testing::slurp(dir + "/name/Tumour.ply") == testing::slurp(dir + "/c1/Tumour.ply"));
 }
 
 }  // namespace
@@ -606,6 +647,17 @@ TEST(SeveralIsoValues, OnePassGivesEachValuesOwnSurface) {
       EXPECT_EQ(entry["triangles"], one.triangles.size());
       EXPECT_EQ(entry["closed"], true);
     }
+    // Threads run every value's slab workers side by side: the same bytes.
+    const auto threaded = testing::runCli(
+        std::string("extract 'phantom:head?n=48' --iso skin,300 --close-boundary --threads 2 --sequential-voxels 0 "
+                    "--method ") +
+        method + " -o " + dir + "/threads.glb -q");
+    ASSERT_EQ(threaded.exitCode, 0) << threaded.err;
+    const auto single = testing::runCli(std::string("extract 'phantom:head?n=48' --iso skin,300 --close-boundary "
+                                                    "--threads 1 --method ") +
+                                        method + " -o " + dir + "/single.glb -q");
+    ASSERT_EQ(single.exitCode, 0) << single.err;
+    EXPECT_TRUE(testing::slurp(dir + "/threads.glb") == testing::slurp(dir + "/single.glb"));
   }
   const auto twice = testing::runCli("extract 'phantom:head?n=48' --iso 300,300 -o '" + dir + "/{iso}.ply' -q");
   EXPECT_EQ(twice.exitCode, 2);
