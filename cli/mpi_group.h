@@ -1,5 +1,6 @@
 // The ranks of `isoslab extract` under mpirun (issue 20): a RankGroup over MPI's world
-// communicator. Built when CMake finds MPI (ISOSLAB_MPI); otherwise joinRanks() gives nothing.
+// communicator, from the MPI module (cli/mpi_module.cpp, loaded only under mpirun). Built when
+// CMake finds MPI (ISOSLAB_MPI); otherwise joinRanks() gives nothing.
 #pragma once
 
 #include <memory>

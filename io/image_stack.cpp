@@ -11,7 +11,7 @@
 
 #include "core/error.h"
 #include "io/file_list.h"
-#include "io/oiio_module.h"
+#include "io/modules.h"
 
 namespace fs = std::filesystem;
 
@@ -100,7 +100,8 @@ std::unique_ptr<SliceSource> openImageStack(const std::vector<std::string>& inpu
   const auto files = stackFiles(inputs);
   if (files.empty()) throw Error(fmt::format("{}: no image file found", inputs.front()));
   std::string error;
-  const auto open = reinterpret_cast<OpenFunction>(oiioSymbol("isoslab_open_image_stack", "image stacks"));
+  const auto open =
+      reinterpret_cast<OpenFunction>(moduleSymbol(LoadableModule::kOiio, "isoslab_open_image_stack", "image stacks"));
   SliceSource* source = open(&files, &options, notes, &error);
   if (source == nullptr) throw Error(error);
   return std::unique_ptr<SliceSource>(source);

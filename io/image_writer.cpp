@@ -6,7 +6,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/interrupt.h"
-#include "io/oiio_module.h"
+#include "io/modules.h"
 
 namespace isoslab {
 
@@ -23,7 +23,8 @@ void writePng(const std::string& path, int width, int height, const std::vector<
   std::vector<std::uint8_t> pixels = rgb;
   if (!labels.empty()) {
     using Draw = bool (*)(int, int, std::uint8_t*, const std::vector<ImageLabel>*, std::string*);
-    const auto draw = reinterpret_cast<Draw>(oiioSymbol("isoslab_draw_labels", "labelled images"));
+    const auto draw =
+        reinterpret_cast<Draw>(moduleSymbol(LoadableModule::kOiio, "isoslab_draw_labels", "labelled images"));
     std::string error;
     if (!draw(width, height, pixels.data(), &labels, &error)) throw Error(fmt::format("{}: {}", path, error));
   }

@@ -126,15 +126,22 @@ ball = (1000 * ((x - 11.5) ** 2 + (y - 9.5) ** 2 + (z - 5.5) ** 2 < 25)).astype(
 for k, s in enumerate(ball):
     Image.fromarray(s).save(f"{sys.argv[1]}/slice{k:02d}.tif")
 EOF
-check_installed() {  # check_installed PROGRAM PYTHONPATH: the program, its OIIO module, the Python package
+# A DICOM series of the same kind of sphere, written by the build's sample (DCMTK), for the DICOM module.
+"$build/samples/make_dicom_series" 'phantom:sphere?n=16&r=5' "$work/dicom" >/dev/null ||
+  fail "make_dicom_series could not write a DICOM series"
+check_installed() {  # check_installed PROGRAM PYTHONPATH: the program, its modules, the Python package
   local prog=$1 pythonpath=$2
   (cd "$work" && "$prog" extract "$work/stack" --iso 500 -o "$work/stack.glb" -q) ||
     fail "$prog could not read a TIFF stack (the OpenImageIO module)"
-  env -u ISOSLAB_PROGRAM -u ISOSLAB_OIIO_MODULE PYTHONPATH="$pythonpath" /usr/bin/python3 -B - "$work" "$version" <<'EOF' ||
+  (cd "$work" && env -u ISOSLAB_DICOM_MODULE "$prog" extract "$work/dicom" --iso 950 -o "$work/dicom.ply" -q) ||
+    fail "$prog could not read a DICOM series (the DICOM module)"
+  env -u ISOSLAB_PROGRAM -u ISOSLAB_OIIO_MODULE -u ISOSLAB_DICOM_MODULE PYTHONPATH="$pythonpath" /usr/bin/python3 -B - "$work" "$version" <<'EOF' ||
 import os, sys
 import isoslab
 work, version = sys.argv[1], sys.argv[2]
 assert isoslab.__version__ == version, isoslab.__version__
+dicom = isoslab.extract(os.path.join(work, "dicom"), os.path.join(work, "py-dicom.ply"), iso=950)
+assert dicom["triangles"] > 0, dicom
 report = isoslab.extract(os.path.join(work, "stack"), os.path.join(work, "py.ply"), iso=500)
 slices = list(isoslab.iter_slices(os.path.join(work, "stack")))
 assert len(slices) == 12 and slices[0][0].shape == (20, 24), (len(slices), slices[0][0].shape)

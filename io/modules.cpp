@@ -1,0 +1,103 @@
+#include "io/modules.h"
+
+#include <dlfcn.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+
+namespace fs = std::filesystem;
+
+namespace isoslab {
+namespace {
+
+// An object of this file, whose address dladdr maps to the file that holds the code.
+const char anchor = 0;
+
+struct Module {
+  void* handle = nullptr;
+  std::string errors;
+};
+
+// The module's file name and the variable that may name its path.
+struct ModuleName {
+  const char* file;
+  const char* variable;
+  const char* library;  // what it holds, for messages
+};
+constexpr ModuleName kNames[] = {{"libisoslab_oiio.so", "ISOSLAB_OIIO_MODULE", "OpenImageIO"},
+                                 {"libisoslab_dicom.so", "ISOSLAB_DICOM_MODULE", "DICOM"},
+                                 {"libisoslab_mpi.so", "ISOSLAB_MPI_MODULE", "MPI"}};
+
+Module load(const ModuleName& name) {
+  Module m;
+  std::vector<std::string> candidates;
+  if (const char* env = std::getenv(name.variable)) candidates.emplace_back(env);
+  // Installed: relative to the file that holds this code (the program, libisoslab.so or the
+  // Python module), then to the program.
+  std::error_code ec;
+  std::vector<fs::path> places;
+  Dl_info self{};
+  if (::dladdr(&anchor, &self) != 0 && self.dli_fname != nullptr && fs::path(self.dli_fname).is_absolute()) {
+    places.push_back(fs::path(self.dli_fname).parent_path());
+  }
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) places.push_back(exe.parent_path());
+  for (const fs::path& place : places) {
+    for (const char* relative : {ISOSLAB_MODULE_RELATIVE_DIRS}) {
+      candidates.push_back((place / relative / name.file).lexically_normal().string());
+    }
+  }
+  // The build tree's module, for the build tree's own programs, tests and Python module only: an
+  // installed copy must not load a module of another build.
+  const fs::path build(ISOSLAB_BUILD_DIR);
+  for (const fs::path& place : places) {
+    const fs::path inside = place.lexically_normal().lexically_relative(build);
+    if (!inside.empty() && *inside.begin() != "..") {
+      candidates.push_back((fs::path(ISOSLAB_MODULE_BUILD_DIR) / name.file).string());
+      break;
+    }
+  }
+  for (const std::string& path : candidates) {
+    if (!fs::exists(path, ec)) continue;
+    m.handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (m.handle != nullptr) return m;
+    m.errors = ::dlerror();
+  }
+  return m;
+}
+
+const Module& module(LoadableModule which) {
+  switch (which) {
+    case LoadableModule::kOiio: {
+      static const Module oiio = load(kNames[0]);
+      return oiio;
+    }
+    case LoadableModule::kDicom: {
+      static const Module dicom = load(kNames[1]);
+      return dicom;
+    }
+    case LoadableModule::kMpi:
+      break;
+  }
+  static const Module mpi = load(kNames[2]);
+  return mpi;
+}
+
+}  // namespace
+
+void* moduleSymbol(LoadableModule which, const char* symbol, const char* what) {
+  const Module& m = module(which);
+  void* address = m.handle != nullptr ? ::dlsym(m.handle, symbol) : nullptr;
+  if (address == nullptr) {
+    const ModuleName& name = kNames[static_cast<std::size_t>(which)];
+    throw Error(std::string(what) + " need the " + name.library + " module " + name.file + ", which was not found" +
+                (m.errors.empty() ? std::string() : ": " + m.errors));
+  }
+  return address;
+}
+
+}  // namespace isoslab
