@@ -28,6 +28,10 @@
 
 #include "extract/slab_view.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace isoslab {
 
 /// Corner c of a cell is at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1). Edge e joins corners
@@ -89,6 +93,45 @@ void forEachPinch(const std::array<std::int32_t, 8>& labels, const CellGroups& g
 void appendSplits(const std::array<std::int32_t, 8>& labels, const CellGroups& groups,
                   std::vector<std::int32_t>& splits);
 
+/// A cell's eight labels, read from the four rows of samples around it (lower slice rows j and
+/// j + 1, upper slice rows j and j + 1) at columns i and i + 1: corner c of `value` is sample
+/// (i + (c & 1)) of row c / 2. With SSE2 also as two vectors, so that a label's corners are found
+/// in two compares.
+struct CellLabels {
+  std::array<std::int32_t, 8> value;
+#if defined(__SSE2__)
+  __m128i lo, hi;  // corners 0-3 and 4-7
+#endif
+
+  static CellLabels load(const std::array<const float*, 4>& rows, std::int64_t i) noexcept {
+    CellLabels c;
+#if defined(__SSE2__)
+    const auto pair = [i](const float* row) { return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(row + i)); };
+    c.lo = _mm_cvttps_epi32(_mm_castsi128_ps(_mm_unpacklo_epi64(pair(rows[0]), pair(rows[1]))));
+    c.hi = _mm_cvttps_epi32(_mm_castsi128_ps(_mm_unpacklo_epi64(pair(rows[2]), pair(rows[3]))));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(c.value.data()), c.lo);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(c.value.data() + 4), c.hi);
+#else
+    for (std::size_t c2 = 0; c2 < 8; ++c2) c.value[c2] = static_cast<std::int32_t>(rows[c2 / 2][i + (c2 & 1)]);
+#endif
+    return c;
+  }
+
+  /// Bit c set where corner c holds `label`.
+  std::uint32_t corners(std::int32_t label) const noexcept {
+#if defined(__SSE2__)
+    const __m128i l = _mm_set1_epi32(label);
+    const int low = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(lo, l)));
+    const int high = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(hi, l)));
+    return static_cast<std::uint32_t>(low | (high << 4));
+#else
+    std::uint32_t mask = 0;
+    for (std::size_t c = 0; c < 8; ++c) mask |= static_cast<std::uint32_t>(value[c] == label) << c;
+    return mask;
+#endif
+  }
+};
+
 /// The copies of cells, fast: a table for cells of two labels; for cells of three labels or more
 /// (few, and their patterns fewer), a cache by the ranks of their labels in connection order (3
 /// bits a corner), which also keeps their pinches.
@@ -96,15 +139,13 @@ class LabelCellCache {
  public:
   /// The copies of a crossed cell; appends its pinches (forEachPinch) to `pinches`, a label per
   /// extra fan.
-  const CellGroups& groups(const std::array<std::int32_t, 8>& labels, std::vector<std::int32_t>& pinches) {
+  const CellGroups& groups(const CellLabels& cell, std::vector<std::int32_t>& pinches) {
     // Two labels a and b: the mask of the corners of the one that connects later, from the table.
-    const std::int32_t a = labels[0];
-    std::uint32_t isA = 0;
-    for (std::size_t c = 0; c < 8; ++c) isA |= static_cast<std::uint32_t>(labels[c] == a) << c;
-    const std::int32_t b = labels[static_cast<std::size_t>(std::countr_one(isA) & 7)];
-    std::uint32_t isB = 0;
-    for (std::size_t c = 0; c < 8; ++c) isB |= static_cast<std::uint32_t>(labels[c] == b) << c;
-    if ((isA | isB) != 0xffu) return manyLabels(labels, pinches);
+    const std::int32_t a = cell.value[0];
+    const std::uint32_t isA = cell.corners(a);
+    const std::int32_t b = cell.value[static_cast<std::size_t>(std::countr_one(isA) & 7)];
+    const std::uint32_t isB = cell.corners(b);
+    if ((isA | isB) != 0xffu) return manyLabels(cell.value, pinches);
     return twoLabelGroups(static_cast<std::uint8_t>(connectsBefore(a, b) ? isB : isA));
   }
 

@@ -164,19 +164,14 @@ class LabelKernel {
       }
       const std::int64_t i = begin + static_cast<std::int64_t>(k);
       ++k;
-      const std::array<std::int32_t, 8> labels{
-          static_cast<std::int32_t>(rows[0][i]), static_cast<std::int32_t>(rows[0][i + 1]),
-          static_cast<std::int32_t>(rows[1][i]), static_cast<std::int32_t>(rows[1][i + 1]),
-          static_cast<std::int32_t>(rows[2][i]), static_cast<std::int32_t>(rows[2][i + 1]),
-          static_cast<std::int32_t>(rows[3][i]), static_cast<std::int32_t>(rows[3][i + 1])};
-      cell(i, j, labels, here + i * static_cast<std::int64_t>(kRowIds), below);
+      cell(i, j, CellLabels::load(rows, i), here + i * static_cast<std::int64_t>(kRowIds), below);
     }
     stage_.flush(*out_);
   }
 
-  void cell(std::int64_t i, std::int64_t j, const std::array<std::int32_t, 8>& labels, VertexId* ids,
-            const VertexId* below) {
-    const CellGroups& g = cells_.groups(labels, out_->labelPinches);
+  void cell(std::int64_t i, std::int64_t j, const CellLabels& corners, VertexId* ids, const VertexId* below) {
+    const std::array<std::int32_t, 8>& labels = corners.value;
+    const CellGroups& g = cells_.groups(corners, out_->labelPinches);
     // The copies' vertices, at the cell's centre: the corner of the voxels' boxes.
     const VertexId first = static_cast<VertexId>(next_);
     const Vec3d p =
