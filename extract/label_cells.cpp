@@ -51,6 +51,15 @@ std::array<CellGroups, 256> makeTwoLabelTable() noexcept {
   return table;
 }
 
+// kSpread[m]: bit 3c set for each bit c of the corner mask m (a rank of 1 at those corners).
+constexpr std::array<std::uint32_t, 256> kSpread = [] {
+  std::array<std::uint32_t, 256> t{};
+  for (std::uint32_t m = 0; m < 256; ++m) {
+    for (std::uint32_t c = 0; c < 8; ++c) t[m] |= ((m >> c) & 1u) << (3 * c);
+  }
+  return t;
+}();
+
 // A pattern key's first slot in a table of `size` (a power of two) slots: Fibonacci hashing, with
 // the high bits folded in.
 std::size_t slotOfKey(std::uint32_t key, std::size_t size) noexcept {
@@ -202,27 +211,42 @@ void appendSplits(const std::array<std::int32_t, 8>& labels, const CellGroups& g
   }
 }
 
-const CellGroups& LabelCellCache::manyLabels(const std::array<std::int32_t, 8>& labels,
+const CellGroups& LabelCellCache::manyLabels(const CellLabels& cell, std::uint32_t isA, std::uint32_t isB,
                                              std::vector<std::int32_t>& pinches) {
-  // The distinct labels in connection order (an insertion into at most eight), then each corner's
-  // rank among them.
+  // The distinct labels in connection order, and the pattern's key: each corner's rank among them
+  // (3 bits a corner).
+  const std::array<std::int32_t, 8>& labels = cell.value;
   std::array<std::int32_t, 8> distinct{};
-  std::size_t n = 0;
-  for (const std::int32_t l : labels) {
-    std::size_t at = 0;
-    while (at < n && distinct[at] != l && connectsBefore(distinct[at], l)) ++at;
-    if (at < n && distinct[at] == l) continue;
-    for (std::size_t k = n; k > at; --k) distinct[k] = distinct[k - 1];
-    distinct[at] = l;
-    ++n;
-  }
   std::uint32_t key = 0;
-  std::array<std::int32_t, 8> ranked{};
-  for (std::size_t c = 0; c < 8; ++c) {
-    std::uint32_t rank = 0;
-    while (distinct[rank] != labels[c]) ++rank;
-    key |= rank << (3 * c);
-    ranked[c] = static_cast<std::int32_t>(rank);
+  const std::uint32_t rest = ~(isA | isB) & 0xffu;
+  const std::int32_t c = labels[static_cast<std::size_t>(std::countr_zero(rest))];
+  const std::uint32_t isC = cell.corners(c);
+  if ((isA | isB | isC) == 0xffu) {
+    // Three labels, the usual case: sorted as three, the key from their corners' masks.
+    std::array<std::pair<std::int32_t, std::uint32_t>, 3> t{{{labels[0], isA}, {labels[0], isB}, {c, isC}}};
+    t[1].first = labels[static_cast<std::size_t>(std::countr_zero(isB))];
+    const auto before = [](const auto& x, const auto& y) { return connectsBefore(x.first, y.first); };
+    if (before(t[1], t[0])) std::swap(t[0], t[1]);
+    if (before(t[2], t[1])) std::swap(t[1], t[2]);
+    if (before(t[1], t[0])) std::swap(t[0], t[1]);
+    for (std::size_t k = 0; k < 3; ++k) distinct[k] = t[k].first;
+    key = kSpread[t[1].second] + 2 * kSpread[t[2].second];
+  } else {
+    // Four or more: an insertion into at most eight, then each corner's rank.
+    std::size_t n = 0;
+    for (const std::int32_t l : labels) {
+      std::size_t at = 0;
+      while (at < n && distinct[at] != l && connectsBefore(distinct[at], l)) ++at;
+      if (at < n && distinct[at] == l) continue;
+      for (std::size_t k = n; k > at; --k) distinct[k] = distinct[k - 1];
+      distinct[at] = l;
+      ++n;
+    }
+    for (std::size_t corner = 0; corner < 8; ++corner) {
+      std::uint32_t rank = 0;
+      while (distinct[rank] != labels[corner]) ++rank;
+      key |= rank << (3 * corner);
+    }
   }
   if (slots_.size() < 2 * (patterns_.size() + 1)) {  // grow, keeping every pattern's index
     std::vector<std::pair<std::uint32_t, std::uint32_t>> old(std::max<std::size_t>(1024, 2 * slots_.size()));
@@ -238,22 +262,25 @@ const CellGroups& LabelCellCache::manyLabels(const std::array<std::int32_t, 8>& 
   while (slots_[at].first != 0 && slots_[at].first != key + 1) at = (at + 1) & (slots_.size() - 1);
   const bool fresh = slots_[at].first == 0;
   if (fresh) slots_[at] = {key + 1, static_cast<std::uint32_t>(patterns_.size())};
-  Pattern& cell = fresh ? patterns_.emplace_back() : patterns_[slots_[at].second];
+  Pattern& found = fresh ? patterns_.emplace_back() : patterns_[slots_[at].second];
   if (fresh) {
     // Ranks keep the connection order (0 stays the background's rank only when 0 is there, and the
     // rule only compares labels), so the pattern's copies are the cell's.
     std::array<std::int32_t, 8> pattern{};
     const bool background = distinct.front() == 0;
-    for (std::size_t c = 0; c < 8; ++c) pattern[c] = background ? ranked[c] : ranked[c] + 1;
-    cell.groups = groupCell(pattern);
-    forEachPinch(pattern, cell.groups, [&](std::int32_t label, int extra) {
-      cell.pinches.emplace_back(static_cast<std::uint8_t>(background ? label : label - 1), extra);
+    for (std::size_t corner = 0; corner < 8; ++corner) {
+      const auto rank = static_cast<std::int32_t>((key >> (3 * corner)) & 7u);
+      pattern[corner] = background ? rank : rank + 1;
+    }
+    found.groups = groupCell(pattern);
+    forEachPinch(pattern, found.groups, [&](std::int32_t label, int extra) {
+      found.pinches.emplace_back(static_cast<std::uint8_t>(background ? label : label - 1), extra);
     });
   }
-  for (const auto& [rank, extra] : cell.pinches) {
+  for (const auto& [rank, extra] : found.pinches) {
     for (int k = 0; k < extra; ++k) pinches.push_back(distinct[rank]);
   }
-  return cell.groups;
+  return found.groups;
 }
 
 void classifyLabelRows(const float* slice, std::int64_t nx, std::int64_t ny, std::vector<RowSpan>& rows) {

@@ -145,7 +145,7 @@ class LabelCellCache {
     const std::uint32_t isA = cell.corners(a);
     const std::int32_t b = cell.value[static_cast<std::size_t>(std::countr_one(isA) & 7)];
     const std::uint32_t isB = cell.corners(b);
-    if ((isA | isB) != 0xffu) return manyLabels(cell.value, pinches);
+    if ((isA | isB) != 0xffu) return manyLabels(cell, isA, isB, pinches);
     return twoLabelGroups(static_cast<std::uint8_t>(connectsBefore(a, b) ? isB : isA));
   }
 
@@ -154,7 +154,9 @@ class LabelCellCache {
     CellGroups groups;
     std::vector<std::pair<std::uint8_t, int>> pinches;  // (rank, extra fans)
   };
-  const CellGroups& manyLabels(const std::array<std::int32_t, 8>& labels, std::vector<std::int32_t>& pinches);
+  // A cell of three labels or more; isA and isB: the corners of its first two labels.
+  const CellGroups& manyLabels(const CellLabels& cell, std::uint32_t isA, std::uint32_t isB,
+                               std::vector<std::int32_t>& pinches);
   // The patterns seen, and an open-addressed table of their keys (key + 1, 0: empty) and indices,
   // a power of two in size and at most half full.
   std::vector<Pattern> patterns_;
