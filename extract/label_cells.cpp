@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <bit>
 
+#include "core/float_runs.h"
+
 namespace isoslab {
 namespace {
 
@@ -288,13 +290,10 @@ void classifyLabelRows(const float* slice, std::int64_t nx, std::int64_t ny, std
   for (std::int64_t j = 0; j < ny; ++j) {
     const float* r = slice + j * nx;
     RowSpan span;
-    std::int64_t i = 1;
-    while (i < nx && r[i] == r[i - 1]) ++i;
+    const std::int64_t i = runEnd(r, 1, nx, r[0]);  // the first sample unlike the first
     if (i < nx) {
       span.first = i;
-      std::int64_t k = nx - 1;
-      while (r[k] == r[k - 1]) --k;
-      span.last = k;
+      span.last = runStart(r, 0, nx - 1, r[nx - 1]) + 1;  // after the last sample unlike the last
     }
     rows[static_cast<std::size_t>(j)] = span;
   }

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/float_runs.h"
 
 namespace isoslab {
 
@@ -44,8 +45,7 @@ bool LabelSource::readSlice(std::span<float> slice) {
     std::int64_t i = 0;
     while (i < voxels) {
       const float v = plane[static_cast<std::size_t>(i)];
-      std::int64_t end = i + 1;
-      while (end < voxels && plane[static_cast<std::size_t>(end)] == v) ++end;
+      const std::int64_t end = runEnd(plane.data(), i + 1, voxels, v);
       if (!(std::abs(v) <= kLargestLabel) || std::trunc(v) != v) {
         const std::string value = std::isnan(v) ? "NaN" : fmt::format("{}", v);
         const std::string why = std::abs(v) > kLargestLabel && std::isfinite(v)

@@ -48,17 +48,24 @@ bool PadSource::fetchSlice() {
 
 bool PadSource::readSlice(std::span<float> slice) {
   if (next_ >= info_.dims[2]) return false;
-  std::fill(slice.begin(), slice.end(), fill_);
   const bool padSlice = next_ == 0 || next_ == info_.dims[2] - 1;
-  if (!padSlice) {
+  if (padSlice) {
+    std::fill(slice.begin(), slice.end(), fill_);
+  } else {
     if (!readSliceInto(*inner_, inner_slice_)) return false;
     const std::int64_t nx = info_.dims[0];
+    const std::int64_t ny = info_.dims[1];
     const std::int64_t innerNx = nx - 2;
-    const std::int64_t innerNy = info_.dims[1] - 2;
     for (std::int64_t layer = 0; layer < info_.layers; ++layer) {  // each plane padded on its own
-      const auto from = inner_slice_.begin() + layer * innerNx * innerNy;
+      const auto from = inner_slice_.begin() + layer * innerNx * (ny - 2);
       const auto to = slice.begin() + layer * info_.sliceVoxels();
-      for (std::int64_t j = 0; j < innerNy; ++j) std::copy_n(from + j * innerNx, innerNx, to + (j + 1) * nx + 1);
+      std::fill_n(to, nx, fill_);  // the first and last rows, and each row's ends
+      std::fill_n(to + (ny - 1) * nx, nx, fill_);
+      for (std::int64_t j = 1; j + 1 < ny; ++j) {
+        to[j * nx] = fill_;
+        std::copy_n(from + (j - 1) * innerNx, innerNx, to + j * nx + 1);
+        to[j * nx + nx - 1] = fill_;
+      }
     }
   }
   ++next_;

@@ -89,7 +89,10 @@ void LabelSplitSink::countTriangles(const MeshChunk& chunk) {
   for (std::size_t t = 0; t < chunk.triangles.size();) {
     const LabelPair sides = chunk.faceLabels[t];
     std::size_t end = t + 1;
-    while (end < chunk.triangles.size() && chunk.faceLabels[end] == sides) ++end;
+    while (end < chunk.triangles.size() && chunk.faceLabels[end][0] == sides[0] &&
+           chunk.faceLabels[end][1] == sides[1]) {
+      ++end;
+    }
     for (const std::int32_t label : sides) {
       if (label == 0) continue;
       const std::uint32_t k = streamOf(label);

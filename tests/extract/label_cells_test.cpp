@@ -5,8 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <map>
+#include <random>
 #include <vector>
+
+#include "core/float_runs.h"
 
 namespace isoslab {
 namespace {
@@ -196,6 +200,39 @@ TEST(LabelCells, VoxelsTouchingAtACornerOrAnEdgeSplitTheVertex) {
   std::array<std::int32_t, 8> flat{2, 3, 3, 2, 3, 3, 3, 3};
   EXPECT_EQ(groupCell(flat).count, 1);
   EXPECT_EQ(groupCell({}).count, 0);
+}
+
+}  // namespace
+}  // namespace isoslab
+
+namespace isoslab {
+namespace {
+
+// runEnd and runStart (core/float_runs.h) against a plain scan, on random rows of a few values
+// with NaN among them, at every start, end and length (the vector loop and its scalar tail).
+TEST(FloatRuns, AgreeWithAPlainScan) {
+  std::mt19937 random(7);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<float> row(static_cast<std::size_t>(random() % 40));
+    for (float& v : row) {
+      const unsigned r = random() % 16;
+      v = r == 0 ? nan : static_cast<float>(r % 3);  // long runs of 1 and 2, some 0s and NaNs
+    }
+    const auto n = static_cast<std::int64_t>(row.size());
+    for (std::int64_t from = 0; from <= n; ++from) {
+      for (std::int64_t end = from; end <= n; ++end) {
+        for (const float v : {0.0f, 1.0f, 2.0f, nan}) {
+          std::int64_t forward = from;
+          while (forward < end && row[static_cast<std::size_t>(forward)] == v) ++forward;
+          ASSERT_EQ(runEnd(row.data(), from, end, v), forward) << trial << " " << from << " " << end;
+          std::int64_t back = end - 1;
+          while (back >= from && row[static_cast<std::size_t>(back)] == v) --back;
+          ASSERT_EQ(runStart(row.data(), from, end, v), back) << trial << " " << from << " " << end;
+        }
+      }
+    }
+  }
 }
 
 }  // namespace
