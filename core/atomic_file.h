@@ -65,6 +65,8 @@ class AtomicFile {
   std::FILE* file_ = nullptr;
   std::int64_t size_ = 0;
   std::int64_t position_ = 0;
+  std::int64_t written_ = 0;  // bytes before this were handed to the disk's write-behind
+  static constexpr std::int64_t kWriteBehindBytes = std::int64_t{4} << 20;
 };
 
 /// Outputs that appear together or not at all. While a group is active (it is process-wide; one at
