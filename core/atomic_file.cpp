@@ -270,9 +270,10 @@ void SpoolFile::read(void* data, std::size_t size) {
 
 void SpoolFile::copyTo(AtomicFile& out) {
   rewind();
-  // At most 1 MiB, no more than the spool holds, and not zeroed: a run with a file per label copies
-  // many small spools.
-  const auto capacity = static_cast<std::size_t>(std::clamp<std::int64_t>(size_, 1, 1 << 20));
+  // At most 64 KiB (under malloc's mmap threshold, so reused rather than mapped afresh, page by
+  // page), no more than the spool holds, and not zeroed: a run with a file per label copies many
+  // small spools.
+  const auto capacity = static_cast<std::size_t>(std::clamp<std::int64_t>(size_, 1, 1 << 16));
   const std::unique_ptr<char[]> buf(new char[capacity]);
   while (read_ < size_) {
     const std::size_t want =

@@ -60,14 +60,11 @@ void PlyWriter::begin(const MeshHeader& header) {
   file_->write(blank.data(), blank.size());
 }
 
-char* PlyWriter::buffer(std::size_t size) {
-  if (size > capacity_) {
-    capacity_ = std::max(size, capacity_ + capacity_ / 2);
-    buffer_.reset();
-    buffer_ = std::make_unique_for_overwrite<char[]>(capacity_);
-  }
-  return buffer_.get();
-}
+namespace {
+// Records go out in batches of at most this many bytes: a small buffer, allocated once and reused
+// (under malloc's mmap threshold), rather than one the size of the largest chunk.
+constexpr std::size_t kBatchBytes = std::size_t{64} << 10;
+}  // namespace
 
 void PlyWriter::consume(const MeshChunk& chunk) {
   throwIfInterrupted();
@@ -76,27 +73,33 @@ void PlyWriter::consume(const MeshChunk& chunk) {
   if (!normals) {  // the positions are the vertex records as they are
     file_->write(chunk.positions.data(), chunk.positions.size() * sizeof(Vec3f));
   } else {
-    const std::size_t size = chunk.positions.size() * 24;
-    char* out = buffer(size);
-    for (std::size_t v = 0; v < chunk.positions.size(); ++v, out += 24) {
-      throwIfInterruptedEvery(v);  // decode hands over the whole mesh as one chunk
-      std::memcpy(out, &chunk.positions[v], 12);
-      std::memcpy(out + 12, &chunk.normals[v], 12);
+    if (!buffer_) buffer_ = std::make_unique_for_overwrite<char[]>(kBatchBytes);
+    for (std::size_t first = 0; first < chunk.positions.size(); first += kBatchBytes / 24) {
+      throwIfInterrupted();  // decode hands over the whole mesh as one chunk
+      const std::size_t end = std::min(chunk.positions.size(), first + kBatchBytes / 24);
+      char* out = buffer_.get();
+      for (std::size_t v = first; v < end; ++v, out += 24) {
+        std::memcpy(out, &chunk.positions[v], 12);
+        std::memcpy(out + 12, &chunk.normals[v], 12);
+      }
+      file_->write(buffer_.get(), (end - first) * 24);
     }
-    file_->write(buffer_.get(), size);
   }
   vertices_ += chunk.positions.size();
   // Each face: its count (3), its ids and, in a label complex, its labels in front and behind.
   const std::size_t record = meshHeader_.labels ? 21 : 13;
-  const std::size_t size = chunk.triangles.size() * record;
-  char* out = buffer(size);
-  for (std::size_t n = 0; n < chunk.triangles.size(); ++n, out += record) {
-    throwIfInterruptedEvery(n);
-    *out = 3;
-    std::memcpy(out + 1, &chunk.triangles[n], 12);
-    if (record == 21) std::memcpy(out + 13, &chunk.faceLabels[n], 8);
+  if (!buffer_) buffer_ = std::make_unique_for_overwrite<char[]>(kBatchBytes);
+  for (std::size_t first = 0; first < chunk.triangles.size(); first += kBatchBytes / record) {
+    throwIfInterrupted();
+    const std::size_t end = std::min(chunk.triangles.size(), first + kBatchBytes / record);
+    char* out = buffer_.get();
+    for (std::size_t n = first; n < end; ++n, out += record) {
+      *out = 3;
+      std::memcpy(out + 1, &chunk.triangles[n], 12);
+      if (record == 21) std::memcpy(out + 13, &chunk.faceLabels[n], 8);
+    }
+    faces_->write(buffer_.get(), (end - first) * record);
   }
-  faces_->write(buffer_.get(), size);
   faceCount_ += chunk.triangles.size();
   if (vertices_ > kMaxCount || faceCount_ > kMaxCount) {
     throw Error(fmt::format("{}: the mesh exceeds PLY's 32-bit counts", path_));

@@ -38,10 +38,7 @@ class PlyWriter final : public MeshFileSink {
   std::uint64_t vertices_ = 0;
   std::uint64_t faceCount_ = 0;
   std::int64_t bytes_ = 0;
-  // Records of one chunk, filled in place (never zeroed first): buffer() makes it hold `size` bytes.
-  char* buffer(std::size_t size);
-  std::unique_ptr<char[]> buffer_;
-  std::size_t capacity_ = 0;
+  std::unique_ptr<char[]> buffer_;  // a batch of records, filled in place (never zeroed first)
 };
 
 }  // namespace isoslab

@@ -1,6 +1,8 @@
 // The DICOM readers as the program and the library see them: each call loads the DICOM module on
 // first use and goes through its table (io/dicom_module.h). The module holds the implementations
 // under the same names; this file is never linked into it.
+#include <filesystem>
+
 #include "io/dicom_module.h"
 #include "io/dicom_seg.h"
 #include "io/modules.h"
@@ -26,8 +28,10 @@ std::unique_ptr<SliceSource> openDicomSeries(const DicomSeries& series, const Di
 }
 
 bool isDicomSegmentation(const std::string& path) {
-  // Only a file that looks like DICOM loads the module to be asked.
-  return looksLikeDicom(path) && api().isSegmentation(path);
+  // Only a regular file (never a FIFO, whose reading would block) that looks like DICOM loads the
+  // module to be asked.
+  std::error_code ec;
+  return std::filesystem::is_regular_file(path, ec) && looksLikeDicom(path) && api().isSegmentation(path);
 }
 
 std::unique_ptr<SliceSource> openDicomSegmentation(const std::string& path, int layer,

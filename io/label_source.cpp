@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 
 #include "core/error.h"
@@ -12,9 +14,9 @@ namespace isoslab {
 
 LabelSource::LabelSource(std::unique_ptr<SliceSource> inner, std::string what,
                          std::optional<std::set<std::int32_t>> keep)
-    : inner_(std::move(inner)), what_(std::move(what)), keep_(std::move(keep)), dense_(65536 + 32768, 0) {
+    : inner_(std::move(inner)), what_(std::move(what)), keep_(std::move(keep)), dense_(65536 + 32768) {
   if (keep_) {
-    keepDense_.assign(dense_.size(), 0);
+    keepDense_ = ZeroedArray<std::uint8_t>(dense_.size());
     for (std::int32_t l : *keep_) {
       if (l >= kDenseLow && l - kDenseLow < static_cast<std::int32_t>(dense_.size())) {
         keepDense_[static_cast<std::size_t>(l - kDenseLow)] = 1;
@@ -27,6 +29,8 @@ void LabelSource::count(std::int32_t label, std::int64_t n) {
   const std::int64_t k = std::int64_t{label} - kDenseLow;
   if (k >= 0 && k < static_cast<std::int64_t>(dense_.size())) {
     dense_[static_cast<std::size_t>(k)] += n;
+    denseFirst_ = std::min(denseFirst_, static_cast<std::size_t>(k));
+    denseEnd_ = std::max(denseEnd_, static_cast<std::size_t>(k) + 1);
   } else {
     sparse_[label] += n;
   }
@@ -79,7 +83,7 @@ std::int64_t LabelSource::skipSlices(std::int64_t n) {
 
 std::map<std::int32_t, std::int64_t> LabelSource::voxelCounts() const {
   std::map<std::int32_t, std::int64_t> counts = sparse_;
-  for (std::size_t k = 0; k < dense_.size(); ++k) {
+  for (std::size_t k = denseFirst_; k < denseEnd_; ++k) {
     if (dense_[k] != 0) counts[static_cast<std::int32_t>(k) + kDenseLow] += dense_[k];
   }
   return counts;

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/zeroed_array.h"
 #include "io/slice_source.h"
 
 namespace isoslab {
@@ -58,9 +59,10 @@ class LabelSource final : public SliceSource {
   std::int64_t countEnd_ = std::numeric_limits<std::int64_t>::max();
   // Counts of labels -32768 .. 65535 (every 8- and 16-bit label) by index, the rest in a map.
   static constexpr std::int32_t kDenseLow = -32768;
-  std::vector<std::int64_t> dense_;
+  ZeroedArray<std::int64_t> dense_;                   // pages only where labels are counted
+  std::size_t denseFirst_ = SIZE_MAX, denseEnd_ = 0;  // the entries counted lie in [first, end)
   std::map<std::int32_t, std::int64_t> sparse_;
-  std::vector<std::uint8_t> keepDense_;  // per dense label: 1 kept
+  ZeroedArray<std::uint8_t> keepDense_;  // per dense label: 1 kept
 };
 
 }  // namespace isoslab

@@ -36,7 +36,7 @@ void LabelSplitSink::begin(const MeshHeader& header) {
 std::uint32_t LabelSplitSink::streamOf(std::int32_t label) {
   std::uint32_t* entry = nullptr;
   if (label >= 0 && label < kDirectLabels) {
-    if (direct_.empty()) direct_.assign(kDirectLabels, 0);
+    if (direct_.empty()) direct_ = ZeroedArray<std::uint32_t>(kDirectLabels);
     entry = &direct_[static_cast<std::size_t>(label)];
   } else {
     entry = &index_.try_emplace(label, 0).first->second;

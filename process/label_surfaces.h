@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/mesh_sink.h"
+#include "core/zeroed_array.h"
 
 namespace isoslab {
 
@@ -115,7 +116,7 @@ class LabelSplitSink final : public MeshSink {
   // label -> stream + 1 (0: not seen yet; kNoStream: dropped): by value for labels in
   // [0, kDirectLabels), in the map for the others.
   static constexpr std::int32_t kDirectLabels = 1 << 16;
-  std::vector<std::uint32_t> direct_;
+  ZeroedArray<std::uint32_t> direct_;  // pages only where labels are
   std::unordered_map<std::int32_t, std::uint32_t> index_;
   std::vector<std::uint32_t> touched_;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> sides_;  // (stream, triangle << 1 | back)

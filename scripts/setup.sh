@@ -6,7 +6,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git
   libgtest-dev libgmock-dev libbenchmark-dev libtinyobjloader-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev libpng-dev
-  libdcmtk-dev libopenjp2-7-dev libdraco-dev libeigen3-dev draco libmeshoptimizer-dev
+  libdcmtk-dev libopenjp2-7-dev libdraco-dev libeigen3-dev draco libmeshoptimizer-dev libisal-dev
   python3-matplotlib libopenimageio-dev fonts-dejavu-core
   python3-vtk9
   # Peers for bench/topology.py (scikit-image's Lewiner MC33, the DICOM read by pydicom).
