@@ -19,6 +19,8 @@ from timing import timed  # bench/timing.py
 VTK_SCRIPT = r"""
 import sys, time, json, vtk
 path, out = sys.argv[1], sys.argv[2]
+if len(sys.argv) > 3:  # VTK's threads (its SMP backend, TBB in Debian, uses every core by default)
+    vtk.vtkSMPTools.Initialize(int(sys.argv[3]))
 t0 = time.perf_counter()
 if path.startswith("phantom:"):
     # The checker phantom, made in VTK from the same rule as isoslab's: blocks of b voxels labelled
@@ -78,11 +80,13 @@ def isoslab(program, args, out, threads, repeat=3):
             "rss_report_mib": max(x[1] for x in runs), "triangles": r["triangles"]}
 
 
-def vtk_run(source, out, repeat=3):
-    """VTK's run `repeat` times: the best of each part, the largest peak."""
+def vtk_run(source, out, repeat=3, threads=None):
+    """VTK's run `repeat` times: the best of each part, the largest peak. `threads`: vtkSMPTools'
+    thread count (None: its default, every core)."""
     runs = []
     for _ in range(repeat):
-        wall, rss, stdout = timed(["/usr/bin/python3", "-c", VTK_SCRIPT, source, out])
+        extra = [str(threads)] if threads else []
+        wall, rss, stdout = timed(["/usr/bin/python3", "-c", VTK_SCRIPT, source, out, *extra])
         runs.append((wall, rss, json.loads(stdout)))
     return {"wall": min(x[0] for x in runs), "extract": min(x[2]["filter"] for x in runs),
             "file_to_mesh": min(x[2]["read"] + x[2]["filter"] + x[2]["write"] for x in runs),
@@ -111,6 +115,7 @@ def main():
                 isoslab(a.program, [aal], f"{a.out}/aal.ply", threads, repeat=7))
         row("isoslab mc --iso 1, aal, 1 thread, .ply", isoslab(a.program, [aal, "--iso", "1"], f"{a.out}/mc.ply", 1, repeat=7))
         row("VTK reader + discrete FE + PLY, aal", vtk_run(aal, f"{a.out}/vtk.ply", repeat=5))
+        row("VTK reader + discrete FE + PLY, aal, 1 thread", vtk_run(aal, f"{a.out}/vtk1.ply", repeat=5, threads=1))
     small = "phantom:checker?n=256&b=25&labels=1000"
     for threads in (1, 2):
         row(f"isoslab labels, checker 256^3, {threads} thread(s)", isoslab(a.program, [small], f"{a.out}/c256.ply", threads))
@@ -127,6 +132,10 @@ def main():
     aal1 = results.get("isoslab labels, aal, 1 thread(s), .ply")
     vtk = results.get("VTK reader + discrete FE + PLY, aal")
     mc = results.get("isoslab mc --iso 1, aal, 1 thread, .ply")
+    vtk1 = results.get("VTK reader + discrete FE + PLY, aal, 1 thread")
+    if aal1 and vtk1:
+        print(f"aal against VTK at one thread: extraction {vtk1['extract'] / aal1['extract']:.1f}x its filter; "
+              f"file to mesh {vtk1['file_to_mesh'] / aal1['wall']:.1f}x its reader, filter and writer")
     if aal1 and vtk and mc:
         print(f"aal: extraction {vtk['extract'] / aal1['extract']:.1f}x VTK's filter (goal 20x); file to mesh "
               f"{vtk['file_to_mesh'] / aal1['wall']:.1f}x VTK's reader, filter and writer (goal 8x; "
