@@ -17,6 +17,7 @@
 #include <openjpeg.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -433,6 +434,28 @@ TEST(Dicom, ADicomdirListsTheSeriesFiles) {
   EXPECT_EQ(scan.series.front().slices.size(), static_cast<std::size_t>(spec.slices));
   const testing::Extraction x = extractDicom(dir + "/DICOMDIR", "voxel");
   EXPECT_TRUE(x.mesh.positions == reference().mesh.positions);
+}
+
+// DCMTK and Open MPI come from modules loaded only when needed (io/modules.h): the dynamic
+// loader's own log (LD_DEBUG=files, on the program's stderr) names the libraries it maps. A run on
+// a phantom maps neither; a DICOM series maps the DICOM module and DCMTK, and still not MPI.
+TEST(Dicom, DcmtkAndMpiAreLoadedOnlyWhenNeeded) {
+  const std::string series = testing::tempDir();
+  writeSeries(series, SeriesSpec{});
+  const std::string dir = testing::tempDir();
+  ::setenv("LD_DEBUG", "files", 1);
+  const auto plain = testing::runCli("extract 'phantom:sphere?n=16' -o " + dir + "/p.ply -q");
+  const auto dicom = testing::runCli("extract " + series + " --iso 300 -o " + dir + "/d.ply -q");
+  ::unsetenv("LD_DEBUG");
+  ASSERT_EQ(plain.exitCode, 0) << plain.err;
+  ASSERT_EQ(dicom.exitCode, 0) << dicom.err;
+  EXPECT_NE(plain.err.find("file=libdraco"), std::string::npos) << "no loader log";  // the log is there
+  for (const char* library : {"libisoslab_dicom.so", "libdcmdata", "libisoslab_mpi.so", "libmpi"}) {
+    EXPECT_EQ(plain.err.find(library), std::string::npos) << library;
+  }
+  EXPECT_NE(dicom.err.find("libisoslab_dicom.so"), std::string::npos);
+  EXPECT_NE(dicom.err.find("libdcmdata"), std::string::npos);
+  EXPECT_EQ(dicom.err.find("libmpi"), std::string::npos);
 }
 
 TEST(Dicom, AMultiFrameFileWithTwoStacksBecomesTwoSeries) {
