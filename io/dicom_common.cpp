@@ -29,6 +29,14 @@ void initDcmtk() {
     DcmRLEDecoderRegistration::registerCodecs();
     DJDecoderRegistration::registerCodecs();
     DJLSDecoderRegistration::registerCodecs();
+    // Deregistered at exit, before DCMTK's own list goes: the codecs and their list entries are
+    // freed rather than left to the leak checker (this code is in the DICOM module, which is
+    // loaded after the checker registered its own exit handler, so this one runs first).
+    std::atexit([] {
+      DJLSDecoderRegistration::cleanup();
+      DJDecoderRegistration::cleanup();
+      DcmRLEDecoderRegistration::cleanup();
+    });
   });
 }
 
