@@ -86,6 +86,12 @@ void registerEncoders() {
     DcmRLEEncoderRegistration::registerCodecs();
     DJEncoderRegistration::registerCodecs();
     DJLSEncoderRegistration::registerCodecs();
+    // Deregistered (and freed) at exit, before the leak checker looks.
+    std::atexit([] {
+      DJLSEncoderRegistration::cleanup();
+      DJEncoderRegistration::cleanup();
+      DcmRLEEncoderRegistration::cleanup();
+    });
   });
 }
 
