@@ -3,7 +3,10 @@
 // meshopt_simplify with a locked border to TARGET triangles once, and prints one JSON line: the
 // seconds of the call alone, the triangles kept and meshoptimizer's error.
 //
-//   isoslab_simplify_whole MESH.ply TARGET_TRIANGLES
+//   isoslab_simplify_whole MESH.ply TARGET_TRIANGLES [meshopt|isoslab]
+//
+// With "isoslab", the call is isoslab's own simplifier (process/simplifier.h) instead, with no
+// error limit, for a paired comparison of the two on one mesh.
 #include <fmt/format.h>
 #include <meshoptimizer.h>
 
@@ -11,14 +14,17 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "core/error.h"
 #include "encode/mesh_reader.h"
+#include "process/simplifier.h"
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::fprintf(stderr, "usage: isoslab_simplify_whole MESH TARGET_TRIANGLES\n");
+  const bool own = argc == 4 && std::string(argv[3]) == "isoslab";
+  if (argc < 3 || argc > 4 || (argc == 4 && !own && std::string(argv[3]) != "meshopt")) {
+    std::fprintf(stderr, "usage: isoslab_simplify_whole MESH TARGET_TRIANGLES [meshopt|isoslab]\n");
     return 2;
   }
   try {
@@ -30,9 +36,17 @@ int main(int argc, char** argv) {
     std::vector<unsigned> out(indices.size());
     float error = 0;
     const auto start = std::chrono::steady_clock::now();
-    const std::size_t kept = meshopt_simplify(out.data(), indices.data(), indices.size(), &mesh.positions[0].x,
-                                              mesh.positions.size(), sizeof(isoslab::Vec3f), target * 3,
-                                              std::numeric_limits<float>::max(), meshopt_SimplifyLockBorder, &error);
+    std::size_t kept = 0;
+    if (own) {
+      isoslab::SimplifyLimits limits;
+      limits.targetTriangles = target;
+      limits.maxError = std::numeric_limits<double>::infinity();
+      kept = isoslab::simplifyTriangles(indices, &mesh.positions[0].x, mesh.positions.size(), limits);
+    } else {
+      kept = meshopt_simplify(out.data(), indices.data(), indices.size(), &mesh.positions[0].x, mesh.positions.size(),
+                              sizeof(isoslab::Vec3f), target * 3, std::numeric_limits<float>::max(),
+                              meshopt_SimplifyLockBorder, &error);
+    }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::printf("%s\n", fmt::format("{{\"seconds\": {}, \"triangles_in\": {}, \"triangles\": {}, \"error\": {}}}",
                                     seconds, mesh.triangles.size(), kept / 3, error)

@@ -238,7 +238,7 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
   const std::string decimateGroup = "Decimation";
   extract
       ->add_option("--decimate", args.decimate,
-                   "Keep this fraction of the triangles, in (0, 1], by quadric-error edge collapses (meshoptimizer), "
+                   "Keep this fraction of the triangles, in (0, 1], by quadric-error edge collapses, "
                    "in the stream; the mesh stays closed and the chunks join")
       ->group(decimateGroup);
   extract

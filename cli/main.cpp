@@ -112,7 +112,7 @@ static void printError(const std::string& message) {
 int main(int argc, char** argv) {
   using namespace isoslab;
 #if defined(__GLIBC__)
-  // Buffers of a slab, a chunk or a meshoptimizer batch come and go with the stream. glibc raises
+  // Buffers of a slab, a chunk or a decimation batch come and go with the stream. glibc raises
   // its mmap threshold to the largest buffer freed, after which such buffers come from the heap,
   // whose freed space stays in the process: on the 36-million-triangle foam that added a third to
   // the peak (docs/performance.md). A fixed threshold maps each large buffer and unmaps it when

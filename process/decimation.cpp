@@ -1,9 +1,6 @@
-// Streamed decimation by blocks and regions (see decimation.h), with meshoptimizer 0.18's
-// meshopt_simplify (edge collapses ordered by quadric error, Garland and Heckbert 1997) and its
-// meshopt_SimplifyLockBorder option.
+// Streamed decimation by blocks and regions (see decimation.h), with the edge collapses of
+// process/simplifier.h (ordered by quadric error, Garland and Heckbert 1997), borders locked.
 #include "process/decimation.h"
-
-#include <meshoptimizer.h>
 
 #include <algorithm>
 #include <array>
@@ -16,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/fans.h"
+#include "process/simplifier.h"
 
 namespace isoslab {
 namespace {
@@ -23,6 +21,11 @@ namespace {
 constexpr VertexId kNone = 0xffffffffu;
 // Tries to simplify a region before it is kept whole.
 constexpr int kAttempts = 12;
+// Collapses whose error (process/simplifier.h) is above this fraction of the distance bound are
+// measured against the original surface before they are made.
+constexpr double kCheckAbove = 0.05;
+// What a block keeps, as a multiple of the ratio (the regions bring it down).
+constexpr double kBlockSlack = 1.2;
 
 struct EdgeUse {
   std::uint32_t uses = 0;
@@ -166,7 +169,7 @@ std::string checkDecimateOptions(const DecimateOptions& o) {
   if (!(o.maxError >= 0) || !std::isfinite(o.maxError)) return "`max_error` must be 0 or more";
   if (!(o.voxelSize > 0)) return "the voxel size must be above 0";
   if (o.blockSlabs < 2) return "a block needs at least 2 slabs";
-  if (o.batchTriangles < 1) return "a meshoptimizer batch needs at least 1 triangle";
+  if (o.batchTriangles < 1) return "a simplifier batch needs at least 1 triangle";
   return {};
 }
 
@@ -235,8 +238,20 @@ void DecimationSink::finish() {
   if (chunks_ > blockStart_) queueBlock();
   processQueued();
   if (hasPending_) {
+    // The stream's last half block is a region of its own.
     Scope scope;
-    emit(pendingUpper_, chunkSlab_.back(), rangeAround(pendingUpper_, chunkBase_, chunks_), scope);
+    std::int64_t original = 0;
+    for (std::size_t c = pendingMiddle_; c < chunks_; ++c) {
+      original += static_cast<std::int64_t>(chunkTriangles_[c - chunkBase_].size());
+    }
+    const ChunkRange range = rangeAround(pendingUpper_, chunkBase_, chunks_);
+    ++report_.regions;
+    const std::vector<Triangle> last = simplify(pendingUpper_, original, range, scope);
+    report_.repairedRegions += scope.repairedRegions;
+    report_.frozenTriangles += scope.frozenTriangles;
+    report_.keptRegions += scope.keptRegions;
+    report_.attempts += scope.attempts;
+    emit(last, chunkSlab_.back(), range, scope);
     hasPending_ = false;
   }
   if (report_.samples > 0) report_.distanceMean = distanceSum_ / static_cast<double>(report_.samples);
@@ -316,6 +331,7 @@ void DecimationSink::processQueued() {
       w.original += static_cast<std::int64_t>(t.size());
     }
     w.range = rangeAround(w.input, b.base, b.end);
+    w.scope.block = true;
   }
   report_.blocks += blocks.size();
   runAll(blocks);
@@ -334,11 +350,13 @@ void DecimationSink::processQueued() {
     Work& w = out.emplace_back();
     w.slab = chunkSlab_[b.middle - 1 - chunkBase_];
     if (!hasPending_) {
-      w.simplify = false;
-      w.output = std::move(lower);
-      w.range = block.range;
-      w.scope.surface = std::move(block.scope.surface);  // the measure's grid, when the range is the same
-      w.scope.surfaceRange = block.scope.surfaceRange;
+      // The stream's first half block is a region of its own.
+      w.input = std::move(lower);
+      for (std::size_t c = b.start; c < b.middle; ++c) {
+        w.original += static_cast<std::int64_t>(chunkTriangles_[c - chunkBase_].size());
+      }
+      ++report_.regions;
+      w.range = rangeAround(w.input, b.base, b.end);
     } else {
       w.input = std::move(pendingUpper_);
       w.input.insert(w.input.end(), lower.begin(), lower.end());
@@ -395,16 +413,16 @@ void DecimationSink::trim(std::size_t firstChunk) {
   chunkBase_ = firstChunk;
 }
 
-// meshopt_simplify on `triangles`, in batches of whole connected components when there are more
+// The simplifier on `triangles`, in batches of whole connected components when there are more
 // than options_.batchTriangles, each with its share of the target (less what earlier batches kept
 // beyond theirs): components share no vertex, so a batch's collapses are those it would make among
 // the others, and only the stopping point moves.
-std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& triangles,
-                                               std::size_t targetTriangles) const {
+std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
+                                               const OriginalSurface* original) const {
   // Local ids by vertex (relative to base_), ~0u where unused: one array for every batch, each
   // batch resetting the entries it set.
   std::vector<unsigned> local(positions_.size(), ~0u);
-  if (triangles.size() <= options_.batchTriangles) return collapseBatch(triangles, targetTriangles, local);
+  if (triangles.size() <= options_.batchTriangles) return collapseBatch(triangles, targetTriangles, original, local);
   // Components: union-find over the vertices (ids relative to base_), the smaller root winning.
   std::vector<std::uint32_t> parent(positions_.size());
   for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
@@ -435,7 +453,8 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
     // error bound stopped short leaves the later ones to go further.
     const auto upTo = static_cast<std::size_t>(std::llround(
         static_cast<double>(targetTriangles) * static_cast<double>(done) / static_cast<double>(triangles.size())));
-    const std::vector<Triangle> simplified = collapseBatch(batch, upTo > out.size() ? upTo - out.size() : 0, local);
+    const std::vector<Triangle> simplified =
+        collapseBatch(batch, upTo > out.size() ? upTo - out.size() : 0, original, local);
     out.insert(out.end(), simplified.begin(), simplified.end());
     batch.clear();
   };
@@ -450,8 +469,9 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
   return out;
 }
 
-// meshopt_simplify on `triangles` with their border locked, as far as the target; nothing else.
+// The simplifier on `triangles` with their border locked, as far as the target and the bound.
 std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
+                                                    const OriginalSurface* original,
                                                     std::vector<unsigned>& local) const {
   if (triangles.empty()) return triangles;
   // Local ids in order of first use; ids[local] is the global id.
@@ -475,18 +495,25 @@ std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>&
     xyz[3 * i + 1] = p.y;
     xyz[3 * i + 2] = p.z;
   }
-  // meshoptimizer's own error bound: --max-error, else half the distance bound (its quadric error
+  // The collapses' own error bound: --max-error, else half the distance bound (the quadric error
   // underestimates how far a collapse moves the surface; fewer collapses then need undoing).
-  float targetError = FLT_MAX;
+  SimplifyLimits limits;
+  limits.targetTriangles = targetTriangles;
   const double bound = options_.maxError > 0 ? options_.maxError : 0.5 * options_.maxDistance;
-  if (bound > 0) {
-    const float scale = meshopt_simplifyScale(xyz.data(), ids.size(), 3 * sizeof(float));
-    targetError = scale > 0 ? static_cast<float>(bound * options_.voxelSize / scale) : 0.0f;
+  limits.maxError = bound > 0 ? bound * options_.voxelSize : INFINITY;
+  // A collapse that moves the surface at all is measured against the original surface before it is
+  // made, so that the region's check finds nothing to undo.
+  const double distanceLimit = options_.maxDistance * options_.voxelSize;
+  if (original != nullptr && distanceLimit > 0) {
+    limits.checkAbove = kCheckAbove * distanceLimit;
+    limits.check = [&](const std::vector<std::array<std::uint32_t, 3>>& made) {
+      for (const auto& t : made) {
+        if (!triangleWithin({ids[t[0]], ids[t[1]], ids[t[2]]}, *original, distanceLimit)) return false;
+      }
+      return true;
+    };
   }
-  // In place: meshoptimizer reads the indices before it writes the destination.
-  const std::size_t kept =
-      meshopt_simplify(indices.data(), indices.data(), indices.size(), xyz.data(), ids.size(), 3 * sizeof(float),
-                       std::min(3 * targetTriangles, indices.size()), targetError, meshopt_SimplifyLockBorder, nullptr);
+  const std::size_t kept = simplifyTriangles(indices, xyz.data(), ids.size(), limits);
   std::vector<Triangle> out(kept / 3);
   for (std::size_t t = 0; t < out.size(); ++t) {
     out[t] = {ids[indices[3 * t]], ids[indices[3 * t + 1]], ids[indices[3 * t + 2]]};
@@ -494,20 +521,23 @@ std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>&
   return out;
 }
 
-// Simplifies a region so that it stays as closed and manifold as it was. meshoptimizer 0.18 can
-// join two sheets at an edge (a non-manifold edge) where a surface is thin. Where the result has an
-// edge that the region did not (used more than twice, wound twice the same way, or a border edge
-// that was not one), the original triangles within a few rings of that edge's ends are frozen:
-// left out of the next try, so that their outline becomes a locked border, and kept as they are.
-// After a few tries the region is kept whole.
+// Simplifies a region so that it stays as closed and manifold as it was, and near the original
+// surface. The simplifier's own tests should leave nothing to find; the check stays as a net.
+// Where the result has an edge that the region did not (used more than twice, wound twice the same
+// way, or a border edge that was not one), a pinched vertex or a triangle beyond the bound, the
+// original triangles within a few rings of it are frozen: left out of the next try, so that their
+// outline becomes a locked border, and kept as they are. After a few tries the region is kept
+// whole.
 std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
                                                ChunkRange originals, Scope& scope) const {
   if (triangles.empty()) return triangles;
   const Shape before = shapeOf(triangles);
+  // A block keeps a little more than the ratio: its halves are simplified again in the regions
+  // across its seams, which bring them to the ratio. A half that is already below its region's
+  // share stays so (nothing can add triangles back), and the whole would fall short of the ratio.
+  const double keep = scope.block ? std::min(1.0, kBlockSlack * options_.ratio) : options_.ratio;
   const std::size_t target =
-      options_.ratio < 1
-          ? static_cast<std::size_t>(std::llround(options_.ratio * static_cast<double>(originalTriangles)))
-          : 0;
+      options_.ratio < 1 ? static_cast<std::size_t>(std::llround(keep * static_cast<double>(originalTriangles))) : 0;
   // The border vertices, which a neighbouring block or region may share. An edge between two of
   // them that the region did not have would be a chord that the neighbour may make too, from its
   // side: four triangles on one edge. So the triangles around them stay as they are (the next pass,
@@ -549,8 +579,8 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     }
     // Frozen triangles count towards the target: the rest is simplified a little further.
     const std::size_t share = target > frozenCount ? target - frozenCount : 0;
-    scope.surface.reset();  // not kept through meshoptimizer's working set: memory stays as it was
-    std::vector<Triangle> simplified = collapse(input, share);
+    const OriginalSurface* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
+    std::vector<Triangle> simplified = collapse(input, share, original);
     input = {};
     out.reserve(frozenCount + simplified.size());
     for (std::size_t t = 0; t < triangles.size(); ++t) {
@@ -580,10 +610,9 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     }
     // Triangles that moved the surface too far, against the grid of the original triangles, which
     // the distance measure of the try that succeeds reuses.
-    if (limit > 0) {
-      const OriginalSurface& original = surfaceFor(originals, scope);
+    if (original != nullptr) {
       for (const Triangle& t : simplified) {
-        if (!triangleWithin(t, original, limit)) bad.insert(bad.end(), t.begin(), t.end());
+        if (!triangleWithin(t, *original, limit)) bad.insert(bad.end(), t.begin(), t.end());
       }
     }
     if (bad.empty() && border == before.border.size() && before.nonManifold == 0 && before.inconsistent == 0) {

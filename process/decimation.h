@@ -1,5 +1,5 @@
-// Decimating a streamed mesh: quadric-error edge collapses (meshoptimizer's meshopt_simplify) on
-// blocks of slabs, with no full-resolution band left at the blocks' seams.
+// Decimating a streamed mesh: quadric-error edge collapses (process/simplifier.h) on blocks of
+// slabs, with no full-resolution band left at the blocks' seams.
 //
 // The stream is cut into blocks of at least `blockSlabs` (3) slabs and `blockTriangles` triangles
 // (closed at a slab boundary, so the cut is the same for every thread count).
@@ -9,17 +9,21 @@
 //      is its lower half, the rest its upper half. Once block b is done, the upper half of block
 //      b - 1 and the lower half of block b, which meet at the old seam, are decimated again as one
 //      region, with its own border locked: the split curves, which lie inside decimated blocks.
-//      The old seam is free now, so it is decimated like the rest.
+//      The old seam is free now, so it is decimated like the rest. A block keeps a little more
+//      than the ratio (kBlockSlack), which its regions take off; the stream's first and last half
+//      blocks are regions of their own.
 // A region is final after step 2 and leaves as one chunk. Its triangles use its own vertices and
 // those of the region before it (the split curve between them), so the streaming contract holds.
 // Memory: about two blocks of the mesh (and their original triangles, for the error measure), and
-// meshoptimizer's working set for at most `batchTriangles` triangles: a larger block or region goes
-// to it in batches of whole connected components.
+// the simplifier's working set for at most `batchTriangles` triangles: a larger block or region
+// goes to it in batches of whole connected components.
 //
-// A collapse that would break the mesh is undone by checking each simplified region: where an edge
-// is used by more than two triangles, wound twice the same way, or has become a border edge, the
-// original triangles a few rings around it are frozen (kept as they are, their outline a locked
-// border) and the region is simplified again; after six tries it is kept whole.
+// The simplifier makes no collapse that breaks the surface, and a collapse that moves it at all is
+// measured against the original triangles before it is made. Each simplified region is still
+// checked: where an edge is used by more than two triangles, wound twice the same way, has become
+// a border edge, or a triangle lies beyond the bound, the original triangles a few rings around it
+// are frozen (kept as they are, their outline a locked border) and the region is simplified again;
+// after kAttempts tries it is kept whole.
 #pragma once
 
 #include <array>
@@ -34,15 +38,16 @@
 
 namespace isoslab {
 
-/// About what a block's simplification holds per triangle (its copy, meshoptimizer's working set,
-/// the grid of its original triangles), measured on the Philips head at 2 threads.
+/// About what a block's simplification holds per triangle (its copy, the simplifier's working set,
+/// the grid of its original triangles), measured on the Philips head at 2 threads with
+/// meshoptimizer's simplifier (ours holds less).
 inline constexpr std::size_t kPairBytesPerTriangle = 256;
 
 struct DecimateOptions {
   /// Keep this fraction of the triangles, in (0, 1]; 1 with maxError set: as few as the error
   /// allows.
   double ratio = 1.0;
-  /// The largest error allowed, in voxels (0: none); meshoptimizer's measure, a bound on how far
+  /// The largest error allowed, in voxels (0: none); the collapses' quadric error, a bound on how far
   /// the surface moves.
   double maxError = 0;
   /// Output units per voxel, to turn maxError and the cells of the error measure into output units.
@@ -53,8 +58,8 @@ struct DecimateOptions {
   double maxDistance = 0.5;
   std::int64_t blockSlabs = 3;
   std::int64_t blockTriangles = 1 << 18;
-  /// The most triangles given to one meshoptimizer call: a larger input goes in batches of whole
-  /// connected components (its working set is about 160 bytes a triangle).
+  /// The most triangles given to one simplifier call: a larger input goes in batches of whole
+  /// connected components (its working set is about 90 bytes a triangle).
   std::size_t batchTriangles = 1 << 17;
   /// Measure the one-sided distance of every output triangle to the original surface, for the
   /// report (DecimationReport::distanceMean, distanceMax, samples); false leaves them 0.
@@ -80,7 +85,7 @@ struct DecimationReport {
   std::uint64_t repairedRegions = 0;
   std::uint64_t frozenTriangles = 0;
   std::uint64_t keptRegions = 0;
-  /// meshoptimizer calls, over the blocks and regions (a repair simplifies again).
+  /// Simplifier runs over the blocks and regions (a repair simplifies again).
   std::uint64_t attempts = 0;
   /// One-sided distance from the decimated surface to the original one, in output units, over
   /// sample points of every output triangle (its centroid and edge midpoints).
@@ -140,6 +145,7 @@ class DecimationSink final : public MeshSink {
     std::optional<OriginalSurface> surface;
     ChunkRange surfaceRange;
     std::uint64_t repairedRegions = 0, frozenTriangles = 0, keptRegions = 0, attempts = 0;
+    bool block = false;  // a block's simplification (which keeps kBlockSlack times the ratio)
   };
   // A block waiting to be simplified: chunks [start, end), split at `middle`; `base` is the first
   // chunk that the one-block-at-a-time schedule would still hold then (its ranges are clamped to
@@ -162,17 +168,17 @@ class DecimationSink final : public MeshSink {
   void runAll(std::vector<Work>& works);
   std::vector<Triangle> simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
                                  ChunkRange originals, Scope& scope) const;
-  std::vector<Triangle> collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles) const;
+  std::vector<Triangle> collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
+                                 const OriginalSurface* original) const;
   std::vector<Triangle> collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
-                                      std::vector<unsigned>& local) const;
+                                      const OriginalSurface* original, std::vector<unsigned>& local) const;
   void emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals, Scope& scope);
   void measure(const std::vector<Triangle>& triangles, ChunkRange originals, Scope& scope);
   // The chunks whose original triangles measure `triangles`, within chunks [firstChunk, end).
   ChunkRange rangeAround(const std::vector<Triangle>& triangles, std::size_t firstChunk, std::size_t end) const;
   OriginalSurface originalSurface(ChunkRange range) const;
   // The original surface of `range`, kept in the scope for the next caller with the same range: the
-  // try that succeeds and the distance measure of its output share it (a try drops it before
-  // meshoptimizer runs).
+  // tries, the simplifier's checks and the distance measure of the output share it.
   const OriginalSurface& surfaceFor(ChunkRange range, Scope& scope) const;
   double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
   bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const;

@@ -207,7 +207,7 @@ std::mutex gRunMutex;
 // `progress` and notices Ctrl-C. Returns the report's JSON text.
 std::string extract(const py::dict& settingsDict, const py::object& volume, const py::object& progress) {
 #if defined(__GLIBC__)
-  // As the program does (cli/main.cpp): buffers of a slab, a chunk or a meshoptimizer batch come
+  // As the program does (cli/main.cpp): buffers of a slab, a chunk or a decimation batch come
   // and go with the stream, and glibc's rising mmap threshold would keep their freed space in the
   // heap (a fifth more peak memory on a 512x512x1024 array, bench/python_extract_memory.py). A
   // fixed threshold maps each large buffer and unmaps it when freed. Process-wide, once.

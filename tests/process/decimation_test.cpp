@@ -314,7 +314,7 @@ TEST(Decimation, RefusesBadOptions) {
   EXPECT_THROW(DecimationSink(memory, o), Error);
   o.maxError = 0;
   o.batchTriangles = 0;
-  EXPECT_EQ(checkDecimateOptions(o), "a meshoptimizer batch needs at least 1 triangle");
+  EXPECT_EQ(checkDecimateOptions(o), "a simplifier batch needs at least 1 triangle");
 }
 
 }  // namespace

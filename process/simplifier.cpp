@@ -1,0 +1,358 @@
+// Half-edge collapses by quadric error, with the tests that keep a surface a surface (simplifier.h).
+#include "process/simplifier.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <utility>
+
+namespace isoslab {
+namespace {
+
+constexpr std::uint32_t kDead = 0xffffffffu;
+
+using Vec3 = std::array<double, 3>;
+
+// The sum over planes of w (n.u + d)^2, with u the offset from the vertex that holds it, |n| = 1 and
+// d the vertex's signed distance from the plane: u^T A u + 2 b.u + c (A = sum w n n^T,
+// b = sum w d n, c = sum w d^2), with the weights' sum. About the vertex's own position every term
+// stays as small as the error it measures, so floats hold it (11 of them a vertex).
+struct Quadric {
+  float xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0, x = 0, y = 0, z = 0, c = 0, w = 0;
+
+  // A plane through the vertex (d = 0).
+  void addPlaneThrough(const Vec3& n, double weight) {
+    xx += static_cast<float>(weight * n[0] * n[0]);
+    xy += static_cast<float>(weight * n[0] * n[1]);
+    xz += static_cast<float>(weight * n[0] * n[2]);
+    yy += static_cast<float>(weight * n[1] * n[1]);
+    yz += static_cast<float>(weight * n[1] * n[2]);
+    zz += static_cast<float>(weight * n[2] * n[2]);
+    w += static_cast<float>(weight);
+  }
+  // The weighted sum of the squared distances from the point at offset u to the planes.
+  double sum(const Vec3& u) const {
+    return u[0] * (xx * u[0] + 2 * (xy * u[1] + xz * u[2] + x)) + u[1] * (yy * u[1] + 2 * (yz * u[2] + y)) +
+           u[2] * (zz * u[2] + 2 * z) + c;
+  }
+  // Their weighted mean.
+  double error(const Vec3& u) const { return w > 0 ? std::max(sum(u), 0.0) / w : 0.0; }
+  // Adds q, which is about a point at offset -delta from this one (this vertex is q's at delta).
+  void addFrom(const Quadric& q, const Vec3& delta) {
+    const double bx = q.x + q.xx * delta[0] + q.xy * delta[1] + q.xz * delta[2];
+    const double by = q.y + q.xy * delta[0] + q.yy * delta[1] + q.yz * delta[2];
+    const double bz = q.z + q.xz * delta[0] + q.yz * delta[1] + q.zz * delta[2];
+    c += static_cast<float>(q.sum(delta));
+    x += static_cast<float>(bx), y += static_cast<float>(by), z += static_cast<float>(bz);
+    xx += q.xx, xy += q.xy, xz += q.xz, yy += q.yy, yz += q.yz, zz += q.zz, w += q.w;
+  }
+};
+
+Vec3 sub(const Vec3& a, const Vec3& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double dot(const Vec3& a, const Vec3& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+// Whether the triangles around v (each given as the pair (u, w) that follows v in it) form one
+// closed fan: every edge v-u used once each way, the pairs one cycle through all of them.
+bool isDisk(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
+  const std::size_t n = pairs.size();
+  if (n < 3) return false;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (pairs[i][0] == pairs[i][1]) return false;
+    for (std::size_t j = i + 1; j < n; ++j) {
+      if (pairs[i][0] == pairs[j][0] || pairs[i][1] == pairs[j][1]) return false;
+    }
+  }
+  std::size_t at = 0;
+  for (std::size_t step = 1; step <= n; ++step) {
+    std::size_t next = n;
+    for (std::size_t j = 0; j < n; ++j) {
+      if (pairs[j][0] == pairs[at][1]) {
+        next = j;
+        break;
+      }
+    }
+    if (next == n) return false;  // a border
+    at = next;
+    if (at == 0) return step == n;
+  }
+  return false;
+}
+
+// The working arrays, kept by each thread from call to call: a stream's calls then reuse pages
+// that are already mapped instead of faulting in fresh ones (a page fault costs microseconds in a
+// virtual machine, and every call's arrays are large enough to be mapped on their own).
+struct Scratch {
+  std::vector<Quadric> quadrics;
+  std::vector<std::uint8_t> free;
+  std::vector<std::uint32_t> mark, seen, first, fill, around;
+  std::vector<std::uint64_t> keys, spare;
+};
+
+class Simplifier {
+ public:
+  Simplifier(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount, Scratch& scratch)
+      : idx_(indices),
+        xyz_(xyz),
+        vertices_(vertexCount),
+        quadrics_(scratch.quadrics),
+        free_(scratch.free),
+        mark_(scratch.mark),
+        seen_(scratch.seen),
+        first_(scratch.first),
+        fill_(scratch.fill),
+        around_(scratch.around),
+        keys_(scratch.keys),
+        spare_(scratch.spare) {
+    live_ = idx_.size() / 3;
+    quadrics_.assign(vertexCount, Quadric{});
+    for (std::size_t t = 0; t < live_; ++t) {
+      const Vec3 a = at(idx_[3 * t]);
+      const Vec3 n = cross(sub(at(idx_[3 * t + 1]), a), sub(at(idx_[3 * t + 2]), a));
+      const double length = std::sqrt(dot(n, n));
+      if (!(length > 0)) continue;
+      const Vec3 unit{n[0] / length, n[1] / length, n[2] / length};
+      for (std::size_t k = 0; k < 3; ++k) quadrics_[idx_[3 * t + k]].addPlaneThrough(unit, 0.5 * length);
+    }
+    buildAdjacency();
+    free_.assign(vertexCount, 0);
+    std::vector<std::array<std::uint32_t, 2>> pairs;
+    for (std::uint32_t v = 0; v < vertexCount; ++v) {
+      pairs.clear();
+      for (std::uint32_t i = first_[v]; i < first_[v + 1]; ++i) {
+        const std::uint32_t* t = &idx_[3 * around_[i]];
+        const std::size_t k = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+        pairs.push_back({t[(k + 1) % 3], t[(k + 2) % 3]});
+      }
+      free_[v] = isDisk(pairs) ? 1 : 0;
+    }
+    mark_.assign(vertexCount, 0);
+    seen_.assign(vertexCount, 0);
+  }
+
+  std::size_t run(const SimplifyLimits& limits) {
+    const double limit = limits.maxError * limits.maxError;
+    sampleLimit_ = 4 * limit;  // twice the error, squared
+    if (limits.check) {
+      check_ = &limits.check;
+      checkAbove_ = limits.checkAbove * limits.checkAbove;
+    }
+    for (std::uint32_t pass = 1; live_ > limits.targetTriangles; ++pass) {
+      if (!collapsePass(pass, limits.targetTriangles, limit)) break;
+      compact();
+      buildAdjacency();
+    }
+    compact();
+    return idx_.size();
+  }
+
+ private:
+  // The triangles around each vertex: around_[first_[v] .. first_[v + 1]).
+  void buildAdjacency() {
+    first_.assign(vertices_ + 1, 0);
+    const std::size_t triangles = idx_.size() / 3;
+    for (std::size_t i = 0; i < 3 * triangles; ++i) ++first_[idx_[i] + 1];
+    for (std::size_t v = 0; v < vertices_; ++v) first_[v + 1] += first_[v];
+    around_.resize(3 * triangles);
+    fill_.assign(first_.begin(), first_.end() - 1);
+    for (std::size_t t = 0; t < triangles; ++t) {
+      for (std::size_t k = 0; k < 3; ++k) around_[fill_[idx_[3 * t + k]]++] = static_cast<std::uint32_t>(t);
+    }
+  }
+
+  void compact() {
+    std::size_t kept = 0;
+    for (std::size_t t = 0; t < idx_.size() / 3; ++t) {
+      if (idx_[3 * t] == kDead) continue;
+      if (kept != t) std::memmove(&idx_[3 * kept], &idx_[3 * t], 3 * sizeof(std::uint32_t));
+      ++kept;
+    }
+    idx_.resize(3 * kept);
+  }
+
+  // One pass: the candidates by error, each made where nothing around it has changed. Returns
+  // whether any collapse was made.
+  bool collapsePass(std::uint32_t pass, std::size_t target, double limit) {
+    keys_.clear();
+    const std::size_t triangles = idx_.size() / 3;
+    for (std::size_t t = 0; t < triangles; ++t) {
+      for (std::size_t k = 0; k < 3; ++k) {
+        const std::uint32_t a = idx_[3 * t + k], b = idx_[3 * t + (k + 1) % 3];
+        // Each edge between two triangles once (where it runs from the smaller id); a border
+        // edge's ends do not move.
+        if (a > b || (!free_[a] && !free_[b])) continue;
+        const Vec3 ab = sub(at(b), at(a));
+        const double abError = free_[a] ? quadrics_[a].error(ab) : INFINITY;
+        const double baError = free_[b] ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
+        const double e = std::min(abError, baError);
+        if (!(e <= limit)) continue;
+        const auto error = static_cast<float>(e);
+        std::uint32_t bits = 0;
+        std::memcpy(&bits, &error, sizeof bits);
+        // The candidate: its corner (which holds the edge's first end) and 1 when the second end
+        // moves.
+        keys_.push_back(static_cast<std::uint64_t>(bits) << 32 | (3 * t + k) << 1 | (abError <= baError ? 0u : 1u));
+      }
+    }
+    if (keys_.empty()) return false;
+    sortKeys();
+    // Most collapses remove two triangles: the pass goes as far as the error of the collapse that
+    // would meet the target, and half as far again (the skipped ones come back in the next pass),
+    // or further while it has made fewer than a quarter of those collapses (cheap ones that the
+    // tests refuse would otherwise stall it).
+    const std::size_t goal = (live_ - target + 1) / 2;
+    float passLimit = INFINITY;
+    // Near the target, the last few go in one pass, in order.
+    if (goal < keys_.size() && 16 * goal > live_) {
+      const auto bits = static_cast<std::uint32_t>(keys_[goal] >> 32);
+      std::memcpy(&passLimit, &bits, sizeof passLimit);
+      passLimit *= 1.5f;
+    }
+    std::size_t made = 0;
+    for (const std::uint64_t key : keys_) {
+      if (live_ <= target) break;
+      float error = 0;
+      const auto bits = static_cast<std::uint32_t>(key >> 32);
+      std::memcpy(&error, &bits, sizeof error);
+      if (error > passLimit && 4 * made >= goal) break;
+      // The edge as its triangle holds it now: a triangle that a collapse has rewritten holds that
+      // collapse's `to`, which waits for the next pass, or has died.
+      const auto corner = static_cast<std::uint32_t>(key & 0xffffffffu) >> 1;
+      const std::uint32_t t = corner / 3, k = corner % 3;
+      if (idx_[3 * t] == kDead) continue;
+      std::uint32_t from = idx_[3 * t + k], to = idx_[3 * t + (k + 1) % 3];
+      if (key & 1u) std::swap(from, to);
+      if (mark_[from] == pass || mark_[to] == pass) continue;
+      if (collapse(from, to, pass, error)) ++made;
+    }
+    const bool any = made > 0;
+    return any;
+  }
+
+  // The keys in order of error (their upper 32 bits, the bits of a float that is not negative),
+  // each error's keys in order of candidate (their lower bits, which they arrive in): a stable
+  // radix sort of the upper bits, 11, 11 and 10 at a time.
+  void sortKeys() {
+    spare_.resize(keys_.size());
+    for (int shift = 32; shift < 64; shift += 11) {
+      std::array<std::size_t, 2048> count{};
+      for (const std::uint64_t key : keys_) ++count[(key >> shift) & 2047];
+      std::size_t sum = 0;
+      for (std::size_t& c : count) sum += std::exchange(c, sum);
+      for (const std::uint64_t key : keys_) spare_[count[(key >> shift) & 2047]++] = key;
+      keys_.swap(spare_);
+    }
+  }
+
+  // Moves `from` onto `to` if the tests allow; marks what changed.
+  bool collapse(std::uint32_t from, std::uint32_t to, std::uint32_t pass, float error) {
+    // Neither end has changed in this pass, so their lists of triangles are whole (a triangle of
+    // theirs may have lost a neighbour to a collapse, which rewrote it in place, or died). The link
+    // condition: the ends share only the two vertices opposite the edge. `to`'s neighbours are
+    // stamped; each of `from`'s that has the stamp is shared, and is stamped again when counted.
+    stamp_ += 2;
+    const std::uint32_t inTo = stamp_ - 1, counted = stamp_;
+    for (std::uint32_t i = first_[to]; i < first_[to + 1]; ++i) {
+      const std::uint32_t* t = &idx_[3 * around_[i]];
+      if (t[0] == kDead) continue;
+      for (std::size_t k = 0; k < 3; ++k) seen_[t[k]] = inTo;
+    }
+    std::array<std::uint32_t, 2> shared{};
+    std::size_t common = 0;
+    for (std::uint32_t i = first_[from]; i < first_[from + 1]; ++i) {
+      const std::uint32_t* t = &idx_[3 * around_[i]];
+      if (t[0] == kDead) continue;
+      for (std::size_t k = 0; k < 3; ++k) {
+        const std::uint32_t v = t[k];
+        if (v == from || v == to || seen_[v] != inTo) continue;
+        if (common == 2) return false;
+        shared[common++] = v;
+        seen_[v] = counted;
+      }
+    }
+    if (common != 2) return false;
+    // The triangles that stay: none made twice, none turned over or flattened.
+    const Vec3 p = at(from), q = at(to);
+    const bool asked = check_ != nullptr && error > checkAbove_;
+    made_.clear();
+    for (std::uint32_t i = first_[from]; i < first_[from + 1]; ++i) {
+      const std::uint32_t* t = &idx_[3 * around_[i]];
+      if (t[0] == kDead || t[0] == to || t[1] == to || t[2] == to) continue;
+      const std::size_t k = t[0] == from ? 0 : t[1] == from ? 1 : 2;
+      const std::uint32_t x = t[(k + 1) % 3], y = t[(k + 2) % 3];
+      const bool xShared = x == shared[0] || x == shared[1];
+      const bool yShared = y == shared[0] || y == shared[1];
+      if (xShared && yShared) return false;
+      const Vec3 px = at(x), py = at(y);
+      const Vec3 before = cross(sub(px, p), sub(py, p));
+      const Vec3 after = cross(sub(px, q), sub(py, q));
+      const double b2 = dot(before, before);
+      if (b2 > 0 && !(dot(before, after) > 0 && dot(after, after) > 1e-12 * b2)) return false;
+      // The new triangle's centroid and the midpoint of its edge from `to` stay within twice the
+      // error of the planes that `from` has gathered: the quadric at `to` alone does not see a
+      // triangle that tilts away from them towards a neighbour (a cap's triangle stretched to a
+      // vertex one voxel above it, say).
+      const Vec3 toX = sub(px, p), toY = sub(py, p), toQ = sub(q, p);
+      const Quadric& planes = quadrics_[from];
+      const Vec3 middle{0.5 * (toQ[0] + toX[0]), 0.5 * (toQ[1] + toX[1]), 0.5 * (toQ[2] + toX[2])};
+      const Vec3 centroid{(toQ[0] + toX[0] + toY[0]) / 3, (toQ[1] + toX[1] + toY[1]) / 3,
+                          (toQ[2] + toX[2] + toY[2]) / 3};
+      if (planes.error(middle) > sampleLimit_ || planes.error(centroid) > sampleLimit_) return false;
+      if (asked) made_.push_back({to, x, y});
+    }
+    if (asked && !(*check_)(made_)) return false;
+    for (std::uint32_t i = first_[from]; i < first_[from + 1]; ++i) {
+      std::uint32_t* t = &idx_[3 * around_[i]];
+      if (t[0] == kDead) continue;
+      if (t[0] == to || t[1] == to || t[2] == to) {
+        t[0] = t[1] = t[2] = kDead;
+        --live_;
+      } else {
+        for (std::size_t k = 0; k < 3; ++k) t[k] = t[k] == from ? to : t[k];
+      }
+    }
+    quadrics_[to].addFrom(quadrics_[from], sub(q, p));
+    // `to` has gained triangles that its list lacks, and its quadric has changed: it waits for the
+    // next pass, as does `from`, which is gone.
+    mark_[from] = mark_[to] = pass;
+    return true;
+  }
+
+  Vec3 at(std::uint32_t v) const { return {xyz_[3 * v], xyz_[3 * v + 1], xyz_[3 * v + 2]}; }
+
+  std::vector<std::uint32_t>& idx_;
+  const float* xyz_;
+  std::size_t vertices_;
+  std::size_t live_ = 0;
+  std::vector<Quadric>& quadrics_;
+  std::vector<std::uint8_t>& free_;
+  std::vector<std::uint32_t>& mark_;
+  std::vector<std::uint32_t>& seen_;
+  std::vector<std::uint32_t>&first_, &fill_, &around_;
+  std::vector<std::uint64_t>&keys_, &spare_;
+  const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;
+  double checkAbove_ = INFINITY;
+  double sampleLimit_ = INFINITY;
+  std::vector<std::array<std::uint32_t, 3>> made_;
+  std::uint32_t stamp_ = 0;
+};
+
+}  // namespace
+
+std::size_t simplifyTriangles(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
+                              const SimplifyLimits& limits) {
+  if (indices.size() / 3 <= limits.targetTriangles) return indices.size();
+  thread_local Scratch scratch;
+  Simplifier simplifier(indices, xyz, vertexCount, scratch);
+  return simplifier.run(limits);
+}
+
+}  // namespace isoslab

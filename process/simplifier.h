@@ -1,0 +1,50 @@
+// Edge-collapse simplification that keeps a surface a surface: quadric error (Garland and Heckbert
+// 1997) orders half-edge collapses (a vertex moves onto a neighbour, so the kept positions are
+// original ones), and a collapse is made only where it keeps the mesh what it was:
+//   - only a vertex whose triangles form one closed fan moves (a disk): vertices on a border, on a
+//     non-manifold edge or at a pinch stay, so an open border and whatever touches it keep every
+//     vertex (the blocks and regions of process/decimation.h rely on that);
+//   - the link condition (Dey et al. 1999): the two ends may share no neighbour but the two
+//     opposite the edge, so no edge comes to be used by more than two triangles, no vertex pinches
+//     and no triangle is made twice;
+//   - no triangle around the moved vertex turns over or loses its area.
+// meshoptimizer 0.18's meshopt_simplify has no such test: it can join two sheets where a surface is
+// thin, and the decimation then had to find each such spot and simplify the whole region again
+// (docs/design.md, "Our own simplifier").
+//
+// Collapses go in passes, as in meshoptimizer: a pass sorts the candidate collapses by error and
+// makes them in that order, each only where nothing around it has changed in the pass (its ends
+// and the moved vertex's neighbours are left alone for the rest of it), so every test reads the
+// mesh as it is. Deterministic: the order is by error, then by position in the input.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+namespace isoslab {
+
+struct SimplifyLimits {
+  /// Stop at this many triangles or fewer.
+  std::size_t targetTriangles = 0;
+  /// The largest error of a collapse: the root mean square of the distances from the moved
+  /// vertex's new position to the planes of the original triangles merged into it, weighted by
+  /// area, in the positions' units (infinite: no limit).
+  double maxError = INFINITY;
+  /// Asked before each collapse whose error is above `checkAbove` (same units), with the triangles
+  /// that would replace those around the moved vertex (ids as in the input): false refuses the
+  /// collapse. The decimation measures them against the original surface there.
+  std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)> check;
+  double checkAbove = INFINITY;
+};
+
+/// Simplifies the triangles `indices` (three ids a triangle, into `xyz`: three floats a vertex) in
+/// place, as far as the limits allow; returns how many indices are kept (three a triangle, in the
+/// order of the triangles they came from).
+std::size_t simplifyTriangles(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
+                              const SimplifyLimits& limits);
+
+}  // namespace isoslab

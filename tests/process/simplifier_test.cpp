@@ -1,0 +1,186 @@
+// The simplifier (process/simplifier.h): what it keeps of a surface, checked here from the triangles
+// alone: edges, Euler characteristic, borders, the target and the hooks.
+#include "process/simplifier.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "test_support.h"
+
+namespace isoslab {
+namespace {
+
+struct Flat {
+  std::vector<float> xyz;
+  std::vector<std::uint32_t> indices;
+  std::size_t vertices() const { return xyz.size() / 3; }
+};
+
+Flat flatten(const IndexedMesh& mesh) {
+  Flat f;
+  for (const Vec3f& p : mesh.positions) f.xyz.insert(f.xyz.end(), {p.x, p.y, p.z});
+  for (const Triangle& t : mesh.triangles) f.indices.insert(f.indices.end(), t.begin(), t.end());
+  return f;
+}
+
+Flat extracted(std::array<std::int64_t, 3> dims,
+               const std::function<float(std::int64_t, std::int64_t, std::int64_t)>& f) {
+  testing::VectorSource source(dims, f);
+  return flatten(testing::extract(source, Method::kMarchingCubes, 0.0).mesh);
+}
+
+// What the triangles say of themselves, counted by brute force.
+struct Shape {
+  std::size_t triangles = 0, vertices = 0, edges = 0;
+  std::size_t border = 0, nonManifold = 0, sameWay = 0, degenerate = 0, repeated = 0;
+  std::set<std::pair<std::uint32_t, std::uint32_t>> borderEdges;  // as the triangles run them
+  long euler() const { return long(vertices) - long(edges) + long(triangles); }
+};
+
+Shape shapeOf(const Flat& m, std::size_t count) {
+  Shape s;
+  s.triangles = count / 3;
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::pair<int, int>> edges;  // (uses, from the smaller)
+  std::set<std::uint32_t> used;
+  std::set<std::array<std::uint32_t, 3>> seen;
+  for (std::size_t t = 0; t < s.triangles; ++t) {
+    std::array<std::uint32_t, 3> v{m.indices[3 * t], m.indices[3 * t + 1], m.indices[3 * t + 2]};
+    for (std::size_t k = 0; k < 3; ++k) {
+      used.insert(v[k]);
+      const std::uint32_t a = v[k], b = v[(k + 1) % 3];
+      auto& e = edges[{std::min(a, b), std::max(a, b)}];
+      ++e.first;
+      e.second += a < b ? 1 : 0;
+    }
+    const auto at = [&](std::uint32_t i) {
+      return std::array<double, 3>{m.xyz[3 * i], m.xyz[3 * i + 1], m.xyz[3 * i + 2]};
+    };
+    const auto a = at(v[0]), b = at(v[1]), c = at(v[2]);
+    const double ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+    const double wx = c[0] - a[0], wy = c[1] - a[1], wz = c[2] - a[2];
+    const double n = std::hypot(uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx);
+    s.degenerate += n == 0 ? 1 : 0;
+    std::array<std::uint32_t, 3> key = v;
+    std::sort(key.begin(), key.end());
+    s.repeated += seen.insert(key).second ? 0 : 1;
+  }
+  for (const auto& [key, e] : edges) {
+    if (e.first == 1) {
+      ++s.border;
+      s.borderEdges.insert(e.second == 1 ? key : std::pair{key.second, key.first});
+    }
+    s.nonManifold += e.first > 2 ? 1 : 0;
+    s.sameWay += e.first == 2 && e.second != 1 ? 1 : 0;
+  }
+  s.vertices = used.size();
+  s.edges = edges.size();
+  return s;
+}
+
+SimplifyLimits toTarget(std::size_t triangles) {
+  SimplifyLimits limits;
+  limits.targetTriangles = triangles;
+  return limits;
+}
+
+// A torus (genus 1) from marching cubes.
+Flat torus() {
+  return extracted({40, 40, 20}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
+    const double x = double(i), y = double(j), z = double(k);
+    return static_cast<float>(4.0 - std::hypot(std::hypot(x - 19.5, y - 19.3) - 11.0, z - 9.6));
+  });
+}
+
+TEST(Simplifier, ATorusStaysAClosedOrientedTorusAtTheTarget) {
+  Flat m = torus();
+  const Shape before = shapeOf(m, m.indices.size());
+  ASSERT_EQ(before.border, 0u);
+  ASSERT_EQ(before.euler(), 0);
+  for (std::size_t target : {before.triangles / 2, before.triangles / 10, std::size_t{200}}) {
+    SCOPED_TRACE(target);
+    Flat copy = m;
+    const std::size_t kept = simplifyTriangles(copy.indices, copy.xyz.data(), copy.vertices(), toTarget(target));
+    const Shape after = shapeOf(copy, kept);
+    // Each collapse takes two triangles: the target or one below it.
+    EXPECT_LE(after.triangles, target);
+    EXPECT_GE(after.triangles + 1, target);
+    EXPECT_EQ(after.border, 0u);
+    EXPECT_EQ(after.nonManifold, 0u);
+    EXPECT_EQ(after.sameWay, 0u);
+    EXPECT_EQ(after.degenerate, 0u);
+    EXPECT_EQ(after.repeated, 0u);
+    EXPECT_EQ(after.euler(), 0);
+  }
+}
+
+// Two sheets a voxel apart (a thin closed slab): collapses that would join them at an edge are the
+// ones meshoptimizer 0.18 makes; the link condition refuses them, down to the last few triangles.
+TEST(Simplifier, TwoSheetsCloseTogetherAreNeverJoined) {
+  Flat m = extracted({30, 30, 8}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
+    const double x = double(i), y = double(j), z = double(k);
+    const double slab = 0.6 - std::abs(z - 3.5 - 0.1 * std::sin(0.4 * x) * std::cos(0.3 * y));
+    return static_cast<float>(std::min({slab, 12.0 - std::abs(x - 14.5), 12.0 - std::abs(y - 14.5)}));
+  });
+  const Shape before = shapeOf(m, m.indices.size());
+  ASSERT_EQ(before.border, 0u);
+  ASSERT_EQ(before.euler(), 2);
+  const std::size_t kept = simplifyTriangles(m.indices, m.xyz.data(), m.vertices(), toTarget(4));
+  const Shape after = shapeOf(m, kept);
+  EXPECT_LT(after.triangles, before.triangles / 20);
+  EXPECT_EQ(after.nonManifold, 0u);
+  EXPECT_EQ(after.sameWay, 0u);
+  EXPECT_EQ(after.border, 0u);
+  EXPECT_EQ(after.repeated, 0u);
+  EXPECT_EQ(after.euler(), 2);
+}
+
+// An open surface keeps its border: every border edge of the input, run the same way, and no new
+// one.
+TEST(Simplifier, AnOpenSurfaceKeepsItsBorderEdgeForEdge) {
+  Flat m = extracted({24, 24, 12}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
+    const double x = double(i), y = double(j), z = double(k);
+    return static_cast<float>(5.0 + std::sin(0.3 * x) + std::cos(0.25 * y) - z);
+  });
+  const Shape before = shapeOf(m, m.indices.size());
+  ASSERT_GT(before.border, 40u);
+  const std::size_t kept = simplifyTriangles(m.indices, m.xyz.data(), m.vertices(), toTarget(0));
+  const Shape after = shapeOf(m, kept);
+  EXPECT_LT(after.triangles, before.triangles / 4);
+  EXPECT_EQ(after.borderEdges, before.borderEdges);
+  EXPECT_EQ(after.nonManifold, 0u);
+  EXPECT_EQ(after.sameWay, 0u);
+  EXPECT_EQ(after.euler(), before.euler());
+}
+
+// The error limit stops collapses on a curved surface but not on a flat one; the check sees every
+// collapse above its threshold, and a check that refuses everything leaves the input as it was.
+TEST(Simplifier, TheErrorLimitAndTheCheckHoldCollapsesBack) {
+  const Flat m = torus();
+  const std::size_t all = m.indices.size() / 3;
+  Flat limited = m;
+  SimplifyLimits limits = toTarget(0);
+  limits.maxError = 0.05;
+  const std::size_t kept = simplifyTriangles(limited.indices, limited.xyz.data(), limited.vertices(), limits);
+  EXPECT_LT(kept / 3, all);
+  EXPECT_GT(kept / 3, all / 4);  // a torus of radius 4 does not go flat within 0.05
+
+  Flat refused = m;
+  std::size_t asked = 0;
+  limits = toTarget(0);
+  limits.checkAbove = 0;
+  limits.check = [&](const std::vector<std::array<std::uint32_t, 3>>& made) {
+    EXPECT_GE(made.size(), 1u);
+    ++asked;
+    return false;
+  };
+  EXPECT_EQ(simplifyTriangles(refused.indices, refused.xyz.data(), refused.vertices(), limits), m.indices.size());
+  EXPECT_EQ(refused.indices, m.indices);
+  EXPECT_GT(asked, all / 4);
+}
+
+}  // namespace
+}  // namespace isoslab
