@@ -23,7 +23,7 @@ constexpr VertexId kNone = 0xffffffffu;
 constexpr int kAttempts = 12;
 // Collapses whose error (process/simplifier.h) is above this fraction of the distance bound are
 // measured against the original surface before they are made.
-constexpr double kCheckAbove = 0.05;
+constexpr double kCheckAbove = 0.2;
 // What a block keeps, as a multiple of the ratio (the regions bring it down).
 constexpr double kBlockSlack = 1.2;
 
@@ -506,9 +506,20 @@ std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>&
   const double distanceLimit = options_.maxDistance * options_.voxelSize;
   if (original != nullptr && distanceLimit > 0) {
     limits.checkAbove = kCheckAbove * distanceLimit;
-    limits.check = [&](const std::vector<std::array<std::uint32_t, 3>>& made) {
+    // The new triangles fan out from `to`: each one's centroid, and the midpoints of the edges
+    // from `to` (each once). Their edges between two ring vertices were there before.
+    limits.check = [&, ends = std::vector<std::uint32_t>()](const std::vector<std::array<std::uint32_t, 3>>& made) mutable {
+      ends.clear();
       for (const auto& t : made) {
-        if (!triangleWithin({ids[t[0]], ids[t[1]], ids[t[2]]}, *original, distanceLimit)) return false;
+        const std::array<Vec3d, 4> samples = samplePoints({ids[t[0]], ids[t[1]], ids[t[2]]});
+        if (!original->within(samples[0], distanceLimit)) return false;
+        for (std::size_t k = 1; k < 3; ++k) {
+          // samples[1] is the midpoint of (t[0], t[1]), samples[3] that of (t[2], t[0]).
+          const std::uint32_t end = t[k];
+          if (std::find(ends.begin(), ends.end(), end) != ends.end()) continue;
+          ends.push_back(end);
+          if (!original->within(samples[k == 1 ? 1 : 3], distanceLimit)) return false;
+        }
       }
       return true;
     };

@@ -59,7 +59,7 @@ struct DecimateOptions {
   std::int64_t blockSlabs = 3;
   std::int64_t blockTriangles = 1 << 18;
   /// The most triangles given to one simplifier call: a larger input goes in batches of whole
-  /// connected components (its working set is about 90 bytes a triangle).
+  /// connected components (its working set is about 70 bytes a triangle).
   std::size_t batchTriangles = 1 << 17;
   /// Measure the one-sided distance of every output triangle to the original surface, for the
   /// report (DecimationReport::distanceMean, distanceMax, samples); false leaves them 0.

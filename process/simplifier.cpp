@@ -87,9 +87,9 @@ bool isDisk(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
   return false;
 }
 
-// The working arrays, kept by each thread from call to call: a stream's calls then reuse pages
-// that are already mapped instead of faulting in fresh ones (a page fault costs microseconds in a
-// virtual machine, and every call's arrays are large enough to be mapped on their own).
+// The working arrays. (Kept by each thread from call to call, they saved no time measurably on the
+// Philips head and added their largest size to the peak: 78.5 against 76.2 MiB at one thread,
+// 156.8 against 143.8 at two.)
 struct Scratch {
   std::vector<Quadric> quadrics;
   std::vector<std::uint8_t> free;
@@ -350,7 +350,7 @@ class Simplifier {
 std::size_t simplifyTriangles(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
                               const SimplifyLimits& limits) {
   if (indices.size() / 3 <= limits.targetTriangles) return indices.size();
-  thread_local Scratch scratch;
+  Scratch scratch;
   Simplifier simplifier(indices, xyz, vertexCount, scratch);
   return simplifier.run(limits);
 }
