@@ -417,12 +417,14 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // than options_.batchTriangles, each with its share of the target (less what earlier batches kept
 // beyond theirs): components share no vertex, so a batch's collapses are those it would make among
 // the others, and only the stopping point moves.
-std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
+std::vector<Triangle> DecimationSink::collapse(std::vector<Triangle> triangles, std::size_t targetTriangles,
                                                const OriginalSurface* original) const {
   // Local ids by vertex (relative to base_), ~0u where unused: one array for every batch, each
   // batch resetting the entries it set.
   std::vector<unsigned> local(positions_.size(), ~0u);
-  if (triangles.size() <= options_.batchTriangles) return collapseBatch(triangles, targetTriangles, original, local);
+  if (triangles.size() <= options_.batchTriangles) {
+    return collapseBatch(triangles, targetTriangles, original, local, &triangles);
+  }
   // Components: union-find over the vertices (ids relative to base_), the smaller root winning.
   std::vector<std::uint32_t> parent(positions_.size());
   for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
@@ -438,42 +440,46 @@ std::vector<Triangle> DecimationSink::collapse(const std::vector<Triangle>& tria
     }
   }
   // Triangles grouped by component (components in order of their lowest vertex, triangles in input
-  // order), then cut into batches of whole components.
+  // order), then cut into batches of whole components. The grouped copy replaces the input before
+  // any batch runs, and the batches are ranges of it (the simplifier's working set sits beside as
+  // little as may be).
   std::vector<std::pair<std::uint32_t, std::uint32_t>> order(triangles.size());  // (root, triangle)
   for (std::uint32_t t = 0; t < triangles.size(); ++t) order[t] = {find(triangles[t][0] - base_), t};
   parent = {};
   std::sort(order.begin(), order.end());
-  std::vector<Triangle> out, batch;
-  batch.reserve(std::min(triangles.size(), options_.batchTriangles));
-  std::size_t done = 0;
-  const auto flush = [&] {
-    if (batch.empty()) return;
-    done += batch.size();
-    // The target's share up to here, rounded, less what earlier batches kept: a batch that its
-    // error bound stopped short leaves the later ones to go further.
-    const auto upTo = static_cast<std::size_t>(std::llround(
-        static_cast<double>(targetTriangles) * static_cast<double>(done) / static_cast<double>(triangles.size())));
-    const std::vector<Triangle> simplified =
-        collapseBatch(batch, upTo > out.size() ? upTo - out.size() : 0, original, local);
-    out.insert(out.end(), simplified.begin(), simplified.end());
-    batch.clear();
-  };
+  std::vector<Triangle> grouped(triangles.size());
+  for (std::size_t k = 0; k < order.size(); ++k) grouped[k] = triangles[order[k].second];
+  triangles = {};
+  std::vector<std::size_t> starts{0};  // each batch's first triangle in `grouped`
   for (std::size_t i = 0; i < order.size();) {
     std::size_t j = i;
     while (j < order.size() && order[j].first == order[i].first) ++j;
-    if (!batch.empty() && batch.size() + (j - i) > options_.batchTriangles) flush();
-    for (std::size_t k = i; k < j; ++k) batch.push_back(triangles[order[k].second]);
+    if (i > starts.back() && j - starts.back() > options_.batchTriangles) starts.push_back(i);
     i = j;
   }
-  flush();
+  order = {};
+  starts.push_back(grouped.size());
+  std::vector<Triangle> out;
+  for (std::size_t b = 0; b + 1 < starts.size(); ++b) {
+    // The target's share up to here, rounded, less what earlier batches kept: a batch that its
+    // error bound stopped short leaves the later ones to go further.
+    const auto upTo = static_cast<std::size_t>(
+        std::llround(static_cast<double>(targetTriangles) * static_cast<double>(starts[b + 1]) /
+                     static_cast<double>(grouped.size())));
+    const std::span<const Triangle> batch(grouped.data() + starts[b], starts[b + 1] - starts[b]);
+    const std::vector<Triangle> simplified =
+        collapseBatch(batch, upTo > out.size() ? upTo - out.size() : 0, original, local, nullptr);
+    out.insert(out.end(), simplified.begin(), simplified.end());
+  }
   return out;
 }
 
 // The simplifier on `triangles` with their border locked, as far as the target and the bound.
-std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
-                                                    const OriginalSurface* original,
-                                                    std::vector<unsigned>& local) const {
-  if (triangles.empty()) return triangles;
+// `release`, when given, holds the triangles and is emptied once they are copied.
+std::vector<Triangle> DecimationSink::collapseBatch(std::span<const Triangle> triangles, std::size_t targetTriangles,
+                                                    const OriginalSurface* original, std::vector<unsigned>& local,
+                                                    std::vector<Triangle>* release) const {
+  if (triangles.empty()) return {};
   // Local ids in order of first use; ids[local] is the global id.
   std::vector<VertexId> ids;
   std::vector<unsigned> indices(triangles.size() * 3);
@@ -488,6 +494,7 @@ std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>&
     }
   }
   for (VertexId v : ids) local[v - base_] = ~0u;
+  if (release != nullptr) *release = {};  // `triangles` is gone from here on
   std::vector<float> xyz(ids.size() * 3);
   for (std::size_t i = 0; i < ids.size(); ++i) {
     const Vec3f& p = position(ids[i]);
@@ -508,21 +515,22 @@ std::vector<Triangle> DecimationSink::collapseBatch(const std::vector<Triangle>&
     limits.checkAbove = kCheckAbove * distanceLimit;
     // The new triangles fan out from `to`: each one's centroid, and the midpoints of the edges
     // from `to` (each once). Their edges between two ring vertices were there before.
-    limits.check = [&, ends = std::vector<std::uint32_t>()](const std::vector<std::array<std::uint32_t, 3>>& made) mutable {
-      ends.clear();
-      for (const auto& t : made) {
-        const std::array<Vec3d, 4> samples = samplePoints({ids[t[0]], ids[t[1]], ids[t[2]]});
-        if (!original->within(samples[0], distanceLimit)) return false;
-        for (std::size_t k = 1; k < 3; ++k) {
-          // samples[1] is the midpoint of (t[0], t[1]), samples[3] that of (t[2], t[0]).
-          const std::uint32_t end = t[k];
-          if (std::find(ends.begin(), ends.end(), end) != ends.end()) continue;
-          ends.push_back(end);
-          if (!original->within(samples[k == 1 ? 1 : 3], distanceLimit)) return false;
-        }
-      }
-      return true;
-    };
+    limits.check =
+        [&, ends = std::vector<std::uint32_t>()](const std::vector<std::array<std::uint32_t, 3>>& made) mutable {
+          ends.clear();
+          for (const auto& t : made) {
+            const std::array<Vec3d, 4> samples = samplePoints({ids[t[0]], ids[t[1]], ids[t[2]]});
+            if (!original->within(samples[0], distanceLimit)) return false;
+            for (std::size_t k = 1; k < 3; ++k) {
+              // samples[1] is the midpoint of (t[0], t[1]), samples[3] that of (t[2], t[0]).
+              const std::uint32_t end = t[k];
+              if (std::find(ends.begin(), ends.end(), end) != ends.end()) continue;
+              ends.push_back(end);
+              if (!original->within(samples[k == 1 ? 1 : 3], distanceLimit)) return false;
+            }
+          }
+          return true;
+        };
   }
   const std::size_t kept = simplifyTriangles(indices, xyz.data(), ids.size(), limits);
   std::vector<Triangle> out(kept / 3);
@@ -591,8 +599,7 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     // Frozen triangles count towards the target: the rest is simplified a little further.
     const std::size_t share = target > frozenCount ? target - frozenCount : 0;
     const OriginalSurface* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
-    std::vector<Triangle> simplified = collapse(input, share, original);
-    input = {};
+    std::vector<Triangle> simplified = collapse(std::move(input), share, original);
     out.reserve(frozenCount + simplified.size());
     for (std::size_t t = 0; t < triangles.size(); ++t) {
       if (frozen[t]) out.push_back(triangles[t]);

@@ -31,6 +31,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -168,10 +169,11 @@ class DecimationSink final : public MeshSink {
   void runAll(std::vector<Work>& works);
   std::vector<Triangle> simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
                                  ChunkRange originals, Scope& scope) const;
-  std::vector<Triangle> collapse(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
+  std::vector<Triangle> collapse(std::vector<Triangle> triangles, std::size_t targetTriangles,
                                  const OriginalSurface* original) const;
-  std::vector<Triangle> collapseBatch(const std::vector<Triangle>& triangles, std::size_t targetTriangles,
-                                      const OriginalSurface* original, std::vector<unsigned>& local) const;
+  std::vector<Triangle> collapseBatch(std::span<const Triangle> triangles, std::size_t targetTriangles,
+                                      const OriginalSurface* original, std::vector<unsigned>& local,
+                                      std::vector<Triangle>* release) const;
   void emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals, Scope& scope);
   void measure(const std::vector<Triangle>& triangles, ChunkRange originals, Scope& scope);
   // The chunks whose original triangles measure `triangles`, within chunks [firstChunk, end).
