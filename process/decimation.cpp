@@ -571,11 +571,18 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
   std::sort(borderVertices.begin(), borderVertices.end());
   borderVertices.erase(std::unique(borderVertices.begin(), borderVertices.end()), borderVertices.end());
   const auto onBorder = [&](VertexId v) { return std::binary_search(borderVertices.begin(), borderVertices.end(), v); };
-  // Fans per vertex (core/fans.h), ids relative to base_: a collapse must not pinch two sheets
+  // Fans per vertex (core/fans.h), ids relative to `first`: a collapse must not pinch two sheets
   // together at a vertex.
-  const auto fansOf = [&](const std::vector<Triangle>& tris) { return fanCounts(tris, positions_.size(), base_); };
+  // Per-vertex arrays span the region's ids only (not the sink's whole window).
+  VertexId first = triangles.front()[0], last = first;
+  for (const Triangle& t : triangles) {
+    first = std::min({first, t[0], t[1], t[2]});
+    last = std::max({last, t[0], t[1], t[2]});
+  }
+  const std::size_t span = static_cast<std::size_t>(last - first) + 1;
+  const auto fansOf = [&](const std::vector<Triangle>& tris) { return fanCounts(tris, span, first); };
   const std::vector<std::uint32_t> fansBefore = fansOf(triangles);
-  // The triangles around each vertex (ids relative to base_), to grow frozen patches by rings.
+  // The triangles around each vertex (ids relative to `first`), to grow frozen patches by rings.
   std::vector<std::uint32_t> aroundFirst, around;
   std::vector<bool> frozen(triangles.size(), false);
   std::size_t frozenCount = 0;
@@ -624,7 +631,7 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     // Pinched vertices.
     const std::vector<std::uint32_t> fansAfter = fansOf(out);
     for (std::size_t v = 0; v < fansAfter.size(); ++v) {
-      if (fansAfter[v] > std::max(1u, fansBefore[v])) bad.push_back(base_ + static_cast<VertexId>(v));
+      if (fansAfter[v] > std::max(1u, fansBefore[v])) bad.push_back(first + static_cast<VertexId>(v));
     }
     // Triangles that moved the surface too far, against the grid of the original triangles, which
     // the distance measure of the try that succeeds reuses.
@@ -641,15 +648,15 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     }
     if (before.nonManifold > 0 || before.inconsistent > 0) break;  // not a surface to start with
     if (aroundFirst.empty()) {
-      aroundFirst.assign(positions_.size() + 1, 0);
+      aroundFirst.assign(span + 1, 0);
       for (const Triangle& t : triangles) {
-        for (VertexId v : t) ++aroundFirst[v - base_ + 1];
+        for (VertexId v : t) ++aroundFirst[v - first + 1];
       }
-      for (std::size_t v = 0; v < positions_.size(); ++v) aroundFirst[v + 1] += aroundFirst[v];
+      for (std::size_t v = 0; v < span; ++v) aroundFirst[v + 1] += aroundFirst[v];
       around.resize(aroundFirst.back());
       std::vector<std::uint32_t> fill(aroundFirst.begin(), aroundFirst.end() - 1);
       for (std::size_t t = 0; t < triangles.size(); ++t) {
-        for (VertexId v : triangles[t]) around[fill[v - base_]++] = static_cast<std::uint32_t>(t);
+        for (VertexId v : triangles[t]) around[fill[v - first]++] = static_cast<std::uint32_t>(t);
       }
     }
     // A border edge that went missing leaves no bad vertex to freeze around: keep the region whole.
@@ -659,7 +666,7 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     for (int step = 0; step < 1 + attempt / 2; ++step) {
       std::vector<VertexId> next;
       for (VertexId v : ring) {
-        for (std::uint32_t i = aroundFirst[v - base_]; i < aroundFirst[v - base_ + 1]; ++i) {
+        for (std::uint32_t i = aroundFirst[v - first]; i < aroundFirst[v - first + 1]; ++i) {
           const std::uint32_t t = around[i];
           if (!frozen[t]) {
             frozen[t] = true;
