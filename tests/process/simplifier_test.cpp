@@ -81,6 +81,17 @@ Shape shapeOf(const Flat& m, std::size_t count) {
   return s;
 }
 
+// A closed, oriented 2-manifold with no flat or repeated triangle, of the given Euler
+// characteristic.
+void expectClosedSurface(const Shape& s, long euler) {
+  EXPECT_EQ(s.border, 0u);
+  EXPECT_EQ(s.nonManifold, 0u);
+  EXPECT_EQ(s.sameWay, 0u);
+  EXPECT_EQ(s.degenerate, 0u);
+  EXPECT_EQ(s.repeated, 0u);
+  EXPECT_EQ(s.euler(), euler);
+}
+
 SimplifyLimits toTarget(std::size_t triangles) {
   SimplifyLimits limits;
   limits.targetTriangles = triangles;
@@ -108,12 +119,7 @@ TEST(Simplifier, ATorusStaysAClosedOrientedTorusAtTheTarget) {
     // Each collapse takes two triangles: the target or one below it.
     EXPECT_LE(after.triangles, target);
     EXPECT_GE(after.triangles + 1, target);
-    EXPECT_EQ(after.border, 0u);
-    EXPECT_EQ(after.nonManifold, 0u);
-    EXPECT_EQ(after.sameWay, 0u);
-    EXPECT_EQ(after.degenerate, 0u);
-    EXPECT_EQ(after.repeated, 0u);
-    EXPECT_EQ(after.euler(), 0);
+    expectClosedSurface(after, 0);
   }
 }
 
@@ -131,11 +137,7 @@ TEST(Simplifier, TwoSheetsCloseTogetherAreNeverJoined) {
   const std::size_t kept = simplifyTriangles(m.indices, m.xyz.data(), m.vertices(), toTarget(4));
   const Shape after = shapeOf(m, kept);
   EXPECT_LT(after.triangles, before.triangles / 20);
-  EXPECT_EQ(after.nonManifold, 0u);
-  EXPECT_EQ(after.sameWay, 0u);
-  EXPECT_EQ(after.border, 0u);
-  EXPECT_EQ(after.repeated, 0u);
-  EXPECT_EQ(after.euler(), 2);
+  expectClosedSurface(after, 2);
 }
 
 // An open surface keeps its border: every border edge of the input, run the same way, and no new
