@@ -28,6 +28,8 @@
 #include <optional>
 #include <random>
 
+#include <sys/wait.h>
+
 #include "core/error.h"
 #include "extract/frame.h"
 #include "io/crop_source.h"
@@ -462,6 +464,24 @@ TEST(Dicom, DcmtkAndMpiAreLoadedOnlyWhenNeeded) {
   EXPECT_NE(dicom.err.find("libisoslab_dicom.so"), std::string::npos);
   EXPECT_NE(dicom.err.find("libdcmdata"), std::string::npos);
   EXPECT_EQ(dicom.err.find("libmpi"), std::string::npos);
+}
+
+// A program whose DICOM module is missing (copied away from it, say) says so in one line, and
+// leaves no output.
+TEST(Dicom, AMissingModuleIsOneLine) {
+  const std::string series = testing::tempDir();
+  writeSeries(series, SeriesSpec{});
+  const std::string dir = testing::tempDir();
+  std::filesystem::copy_file(ISOSLAB_CLI_PATH, dir + "/isoslab");
+  const std::string cmd = "env -u ISOSLAB_DICOM_MODULE " + dir + "/isoslab extract " + series + " --iso 300 -o " + dir +
+                          "/d.ply -q >" + dir + "/out 2>" + dir + "/err </dev/null";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_NE(WEXITSTATUS(status), 0);
+  EXPECT_EQ(testing::slurp(dir + "/err"),
+            "isoslab: error: DICOM files need the DICOM module libisoslab_dicom.so, which was not found\n");
+  EXPECT_EQ(testing::slurp(dir + "/out"), "");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/d.ply"));
 }
 
 TEST(Dicom, AMultiFrameFileWithTwoStacksBecomesTwoSeries) {

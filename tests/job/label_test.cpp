@@ -1,5 +1,6 @@
 // Label maps (issue 35): the label complex and its surfaces, against answers known by construction
 // and brute-force counts over the voxels.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/volume_info.h"
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_reader.h"
 #include "extract/label_extractor.h"
@@ -550,6 +552,35 @@ TEST(LabelInputs, SlicerSegNrrdGivesNamesColoursAndPositions) {
   EXPECT_NEAR(r.labels[0].stats.volume, 12 * 0.5 * 0.75 * 2, 1e-9);
   EXPECT_EQ(r.interfaces.size(), 1u);  // Liver and Kidney touch
   EXPECT_NEAR(r.interfaces[0].area, 6 * 0.75 * 2, 1e-9);
+}
+
+// One pass keys a label by its layer in the upper bits of a 32-bit value (core/volume_info.h): a
+// segmentation of more layers than fit is refused in one line, and a channel still reads one.
+TEST(LabelInputs, MoreLayersThanOnePassHoldsAreRefused) {
+  const std::string dir = testing::tempDir();
+  const std::string seg = dir + "/many.seg.nrrd";
+  const int layers = kMaxLayers + 1;
+  std::string header = fmt::format(
+      "NRRD0004\ntype: unsigned char\ndimension: 4\nspace: left-posterior-superior\nsizes: {} 3 3 3\n"
+      "space directions: none (1,0,0) (0,1,0) (0,0,1)\nkinds: list domain domain domain\nencoding: raw\n"
+      "space origin: (0,0,0)\n",
+      layers);
+  for (int k = 0; k < layers; ++k) {
+    header +=
+        fmt::format("Segment{0}_ID:=S{0}\nSegment{0}_LabelValue:=1\nSegment{0}_Layer:={0}\nSegment{0}_Name:=N{0}\n", k);
+  }
+  std::string data(static_cast<std::size_t>(layers) * 27, '\0');
+  data[static_cast<std::size_t>(layers) * 13 + 5] = 1;  // the middle voxel, in layer 5
+  std::ofstream(seg, std::ios::binary) << header << "\n" << data;
+  const auto refused = testing::runCli("extract " + seg + " -o " + dir + "/x.ply -q");
+  EXPECT_EQ(refused.exitCode, 1);
+  EXPECT_EQ(refused.err, "isoslab: error: " + seg +
+                             ": 32 segmentation layers; one pass reads at most 31: choose one "
+                             "with --channel\n");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/x.ply"));
+  const auto one = testing::runCli("extract " + seg + " --channel 5 -o " + dir + "/{name}.ply -q");
+  EXPECT_EQ(one.exitCode, 0) << one.err;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/N5.ply"));
 }
 
 TEST(LabelInputs, ALayeredSegNrrdMeshesEveryLayerInOnePass) {
