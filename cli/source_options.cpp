@@ -21,7 +21,8 @@ void addRawOptions(CLI::App* cmd, RawArgs& raw) {
   cmd->add_flag("--skip-bad", raw.skipBad, "DICOM: skip corrupt or unreadable files with a warning")
       ->group("DICOM input");
   cmd->add_option("--channel", raw.channel,
-                  "Colour or multi-component input (DICOM, image stacks, NRRD, MetaImage): the channel to use, from 0")
+                  "Colour or multi-component input (DICOM, image stacks, NRRD, MetaImage): the channel to use, from 0; "
+                  "a segmentation's layer (.seg.nrrd, DICOM SEG), which otherwise all go in one pass")
       ->check(integerIn(-1, std::numeric_limits<int>::max(), " (-1: none)"))
       ->group("DICOM input");
   cmd->add_option("--nifti-xform", raw.niftiXform,
