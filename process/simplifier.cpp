@@ -12,6 +12,7 @@ namespace isoslab {
 namespace {
 
 constexpr std::uint32_t kDead = 0xffffffffu;
+constexpr std::size_t kMaxFan = 64;
 
 using Vec3 = std::array<double, 3>;
 
@@ -64,7 +65,9 @@ double dot(const Vec3& a, const Vec3& b) {
 // closed fan: every edge v-u used once each way, the pairs one cycle through all of them.
 bool isDisk(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
   const std::size_t n = pairs.size();
-  if (n < 3) return false;
+  // More than kMaxFan triangles at a vertex stays put: the test is quadratic, and no surface from a
+  // lattice has such a vertex (a hostile mesh might).
+  if (n < 3 || n > kMaxFan) return false;
   for (std::size_t i = 0; i < n; ++i) {
     if (pairs[i][0] == pairs[i][1]) return false;
     for (std::size_t j = i + 1; j < n; ++j) {
