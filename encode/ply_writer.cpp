@@ -64,42 +64,41 @@ namespace {
 // Records go out in batches of at most this many bytes: a small buffer, allocated once and reused
 // (under malloc's mmap threshold), rather than one the size of the largest chunk.
 constexpr std::size_t kBatchBytes = std::size_t{64} << 10;
+
+// Writes `count` records of `size` bytes through `buffer` in batches of kBatchBytes: fill(k, out)
+// writes record k at out.
+template <class Sink, class Fill>
+void writeRecords(std::unique_ptr<char[]>& buffer, Sink& sink, std::size_t count, std::size_t size, Fill fill) {
+  if (!buffer) buffer = std::make_unique_for_overwrite<char[]>(kBatchBytes);
+  for (std::size_t first = 0; first < count; first += kBatchBytes / size) {
+    throwIfInterrupted();  // decode hands over the whole mesh as one chunk
+    const std::size_t end = std::min(count, first + kBatchBytes / size);
+    char* out = buffer.get();
+    for (std::size_t k = first; k < end; ++k, out += size) fill(k, out);
+    sink.write(buffer.get(), (end - first) * size);
+  }
+}
 }  // namespace
 
 void PlyWriter::consume(const MeshChunk& chunk) {
   throwIfInterrupted();
-  const bool normals = meshHeader_.normals;
   static_assert(sizeof(Vec3f) == 12 && sizeof(Triangle) == 12 && sizeof(LabelPair) == 8);
-  if (!normals) {  // the positions are the vertex records as they are
+  if (!meshHeader_.normals) {  // the positions are the vertex records as they are
     file_->write(chunk.positions.data(), chunk.positions.size() * sizeof(Vec3f));
   } else {
-    if (!buffer_) buffer_ = std::make_unique_for_overwrite<char[]>(kBatchBytes);
-    for (std::size_t first = 0; first < chunk.positions.size(); first += kBatchBytes / 24) {
-      throwIfInterrupted();  // decode hands over the whole mesh as one chunk
-      const std::size_t end = std::min(chunk.positions.size(), first + kBatchBytes / 24);
-      char* out = buffer_.get();
-      for (std::size_t v = first; v < end; ++v, out += 24) {
-        std::memcpy(out, &chunk.positions[v], 12);
-        std::memcpy(out + 12, &chunk.normals[v], 12);
-      }
-      file_->write(buffer_.get(), (end - first) * 24);
-    }
+    writeRecords(buffer_, *file_, chunk.positions.size(), 24, [&](std::size_t v, char* out) {
+      std::memcpy(out, &chunk.positions[v], 12);
+      std::memcpy(out + 12, &chunk.normals[v], 12);
+    });
   }
   vertices_ += chunk.positions.size();
   // Each face: its count (3), its ids and, in a label complex, its labels in front and behind.
   const std::size_t record = meshHeader_.labels ? 21 : 13;
-  if (!buffer_) buffer_ = std::make_unique_for_overwrite<char[]>(kBatchBytes);
-  for (std::size_t first = 0; first < chunk.triangles.size(); first += kBatchBytes / record) {
-    throwIfInterrupted();
-    const std::size_t end = std::min(chunk.triangles.size(), first + kBatchBytes / record);
-    char* out = buffer_.get();
-    for (std::size_t n = first; n < end; ++n, out += record) {
-      *out = 3;
-      std::memcpy(out + 1, &chunk.triangles[n], 12);
-      if (record == 21) std::memcpy(out + 13, &chunk.faceLabels[n], 8);
-    }
-    faces_->write(buffer_.get(), (end - first) * record);
-  }
+  writeRecords(buffer_, *faces_, chunk.triangles.size(), record, [&](std::size_t n, char* out) {
+    *out = 3;
+    std::memcpy(out + 1, &chunk.triangles[n], 12);
+    if (record == 21) std::memcpy(out + 13, &chunk.faceLabels[n], 8);
+  });
   faceCount_ += chunk.triangles.size();
   if (vertices_ > kMaxCount || faceCount_ > kMaxCount) {
     throw Error(fmt::format("{}: the mesh exceeds PLY's 32-bit counts", path_));

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cfloat>
 #include <cmath>
 #include <exception>
 #include <system_error>
@@ -240,22 +239,30 @@ void DecimationSink::finish() {
   if (hasPending_) {
     // The stream's last half block is a region of its own.
     Scope scope;
-    std::int64_t original = 0;
-    for (std::size_t c = pendingMiddle_; c < chunks_; ++c) {
-      original += static_cast<std::int64_t>(chunkTriangles_[c - chunkBase_].size());
-    }
     const ChunkRange range = rangeAround(pendingUpper_, chunkBase_, chunks_);
     ++report_.regions;
-    const std::vector<Triangle> last = simplify(pendingUpper_, original, range, scope);
-    report_.repairedRegions += scope.repairedRegions;
-    report_.frozenTriangles += scope.frozenTriangles;
-    report_.keptRegions += scope.keptRegions;
-    report_.attempts += scope.attempts;
+    const std::vector<Triangle> last = simplify(pendingUpper_, originalIn(pendingMiddle_, chunks_), range, scope);
+    count(scope);
     emit(last, chunkSlab_.back(), range, scope);
     hasPending_ = false;
   }
   if (report_.samples > 0) report_.distanceMean = distanceSum_ / static_cast<double>(report_.samples);
   next_.finish();
+}
+
+// The original triangles of chunks [first, end).
+std::int64_t DecimationSink::originalIn(std::size_t first, std::size_t end) const {
+  std::int64_t n = 0;
+  for (std::size_t c = first; c < end; ++c) n += static_cast<std::int64_t>(chunkTriangles_[c - chunkBase_].size());
+  return n;
+}
+
+// Adds a simplify call's counters to the report.
+void DecimationSink::count(const Scope& scope) {
+  report_.repairedRegions += scope.repairedRegions;
+  report_.frozenTriangles += scope.frozenTriangles;
+  report_.keptRegions += scope.keptRegions;
+  report_.attempts += scope.attempts;
 }
 
 // The chunk (index in the stream) that holds vertex v.
@@ -279,9 +286,7 @@ void DecimationSink::queueBlock() {
 // sink's vertices and chunks (nothing is consumed meanwhile) and keep their own scopes.
 void DecimationSink::runAll(std::vector<Work>& works) {
   std::vector<Work*> todo;
-  for (Work& w : works) {
-    if (w.simplify) todo.push_back(&w);
-  }
+  for (Work& w : works) todo.push_back(&w);
   const auto run = [this](Work& w) { w.output = simplify(w.input, w.original, w.range, w.scope); };
   if (options_.threads < 2 || todo.size() < 2) {
     for (Work* w : todo) run(*w);
@@ -328,15 +333,15 @@ void DecimationSink::processQueued() {
     for (std::size_t c = b.start; c < b.end; ++c) {
       const auto& t = chunkTriangles_[c - chunkBase_];
       w.input.insert(w.input.end(), t.begin(), t.end());
-      w.original += static_cast<std::int64_t>(t.size());
     }
+    w.original = originalIn(b.start, b.end);
     w.range = rangeAround(w.input, b.base, b.end);
     w.scope.block = true;
   }
   report_.blocks += blocks.size();
   runAll(blocks);
   // Split each block at its middle chunk (a triangle with a vertex below it is the lower half); the
-  // lower half goes out alone (the first block) or with the pending upper half as a region.
+  // lower half and the pending upper half (none before the first block) are a region.
   std::vector<Work> out;
   for (std::size_t k = 0; k < queued_.size(); ++k) {
     const Block& b = queued_[k];
@@ -349,23 +354,11 @@ void DecimationSink::processQueued() {
     }
     Work& w = out.emplace_back();
     w.slab = chunkSlab_[b.middle - 1 - chunkBase_];
-    if (!hasPending_) {
-      // The stream's first half block is a region of its own.
-      w.input = std::move(lower);
-      for (std::size_t c = b.start; c < b.middle; ++c) {
-        w.original += static_cast<std::int64_t>(chunkTriangles_[c - chunkBase_].size());
-      }
-      ++report_.regions;
-      w.range = rangeAround(w.input, b.base, b.end);
-    } else {
-      w.input = std::move(pendingUpper_);
-      w.input.insert(w.input.end(), lower.begin(), lower.end());
-      for (std::size_t c = pendingMiddle_; c < b.middle; ++c) {
-        w.original += static_cast<std::int64_t>(chunkTriangles_[c - chunkBase_].size());
-      }
-      ++report_.regions;
-      w.range = rangeAround(w.input, b.base, b.end);
-    }
+    w.input = std::move(pendingUpper_);
+    w.input.insert(w.input.end(), lower.begin(), lower.end());
+    w.original = originalIn(hasPending_ ? pendingMiddle_ : b.start, b.middle);
+    ++report_.regions;
+    w.range = rangeAround(w.input, b.base, b.end);
     block.scope.surface.reset();
     pendingUpper_ = std::move(upper);
     pendingMiddle_ = b.middle;
@@ -373,12 +366,7 @@ void DecimationSink::processQueued() {
   }
   runAll(out);
   for (std::vector<Work>* group : {&blocks, &out}) {
-    for (Work& w : *group) {
-      report_.repairedRegions += w.scope.repairedRegions;
-      report_.frozenTriangles += w.scope.frozenTriangles;
-      report_.keptRegions += w.scope.keptRegions;
-      report_.attempts += w.scope.attempts;
-    }
+    for (const Work& w : *group) count(w.scope);
   }
   for (Work& w : out) {
     emit(w.output, w.slab, w.range, w.scope);

@@ -154,13 +154,12 @@ class DecimationSink final : public MeshSink {
   struct Block {
     std::size_t start = 0, end = 0, middle = 0, base = 0;
   };
-  // A simplify call's input and output (or, with simplify false, triangles already final).
+  // A simplify call's input and output.
   struct Work {
     std::vector<Triangle> input, output;
     std::int64_t original = 0;
     ChunkRange range;
     std::int64_t slab = 0;
-    bool simplify = true;
     Scope scope;
   };
 
@@ -187,6 +186,8 @@ class DecimationSink final : public MeshSink {
   using Vec3d = std::array<double, 3>;
   std::array<Vec3d, 4> samplePoints(const Triangle& t) const;
   std::size_t chunkOfVertex(VertexId v) const;
+  std::int64_t originalIn(std::size_t first, std::size_t end) const;
+  void count(const Scope& scope);
   const Vec3f& position(VertexId v) const { return positions_[v - base_]; }
   void trim(std::size_t firstChunk);
 
