@@ -97,13 +97,16 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
       ->capture_default_str();
   extract
       ->add_option("-o,--output", args.output,
-                   "Output mesh: .ply (binary), .stl (binary), .obj, .glb (glTF 2.0, Draco-compressed chunks) or "
-                   ".drc (one Draco mesh). With labels: a pattern with {name} or {label} (a file per label, any "
+                   "Output mesh: .ply (binary), .stl (binary), .obj, .glb (glTF 2.0, Draco-compressed chunks), "
+                   ".drc (one Draco mesh) or .3mf (for printers; one object per label). With labels: a pattern with {name} or {label} (a file per label, any "
                    "format), or a .ply of the whole label complex (label_front and label_back per face)")
       ->required();
   extract->add_flag("--close-boundary", args.closeBoundary,
                     "Take the field as outside beyond the volume's faces, so that the surface is capped there "
                     "and closed");
+  extract->add_flag("--keep-degenerate", args.keepDegenerate,
+                    "Write the zero-area triangles that a sample exactly at the iso value makes (.stl and .3mf "
+                    "collapse them by default, as printers need)");
   extract->add_flag("--normals", args.normals,
                     "Write vertex normals from the field's gradient (PLY, OBJ and Draco; STL has facet normals)");
   extract->add_option("--report", args.report, "Write a JSON report of the run");
@@ -284,6 +287,7 @@ ExtractSettings extractSettings(const ExtractArgs& args, RankGroup* ranks) {
   s.method = *method;
   s.normals = args.normals;
   s.closeBoundary = args.closeBoundary;
+  s.keepDegenerate = args.keepDegenerate;
   if (!args.sphere.empty()) s.sphere = parseSphere(args.sphere);
   s.threads = args.threads;
   s.maxMemoryMiB = args.maxMemory;

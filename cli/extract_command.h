@@ -29,6 +29,7 @@ struct ExtractArgs {
   std::string output;
   bool normals = false;
   bool closeBoundary = false;
+  bool keepDegenerate = false;
   std::string report;
   bool quiet = false;
   std::string sphere;

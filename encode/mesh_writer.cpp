@@ -12,6 +12,7 @@
 #include "encode/obj_writer.h"
 #include "encode/ply_writer.h"
 #include "encode/stl_writer.h"
+#include "encode/threemf_writer.h"
 
 namespace isoslab {
 
@@ -27,7 +28,8 @@ std::unique_ptr<MeshFileSink> makeMeshWriter(const std::string& path, const Writ
     return std::make_unique<GlbDracoWriter>(path, options);
   }
   if (ext == ".drc") return std::make_unique<DrcWriter>(path, options);
-  throw Error(fmt::format("{}: unknown mesh format '{}' (use .ply, .stl, .obj, .glb or .drc)", path, ext));
+  if (ext == ".3mf") return std::make_unique<ThreeMfWriter>(path);
+  throw Error(fmt::format("{}: unknown mesh format '{}' (use .ply, .stl, .obj, .glb, .drc or .3mf)", path, ext));
 }
 
 }  // namespace isoslab

@@ -40,7 +40,7 @@ struct WriterOptions {
   bool seamKeys = true;
 };
 
-/// .ply, .stl, .obj, .glb (chunked Draco in glTF 2.0) or .drc (one Draco mesh), by extension
+/// .ply, .stl, .obj, .glb (chunked Draco in glTF 2.0), .drc (one Draco mesh) or .3mf, by extension
 /// (case-insensitive). Throws isoslab::Error for any other extension.
 std::unique_ptr<MeshFileSink> makeMeshWriter(const std::string& path, const WriterOptions& options = {});
 

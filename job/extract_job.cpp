@@ -334,7 +334,7 @@ ExtractReport runExtract(const ExtractSettings& settings, ExtractObserver& obser
   // names, and renamed into place only once the report is written.
   CommitGroup outputs;
   std::unique_ptr<MeshFileSink> writer;
-  if (primary) writer = makeMeshWriter(settings.output, writing);
+  if (primary) writer = makeOutputWriter(settings.output, writing, settings);
   std::optional<Sphere> sphere = phantomSphere(info);
   if (settings.sphere) sphere = settings.sphere;
   const ExtractOptions options = extractOptions(settings, iso, sphere.has_value());

@@ -66,7 +66,7 @@ struct ExtractSettings {
   std::vector<std::string> inputs;
   /// How to read them: DICOM series choice, raw layout, spacing for stacks, NIfTI transform.
   SourceOptions source;
-  /// The mesh: .ply, .stl, .obj, .glb or .drc, by extension. Required. With labels, a pattern
+  /// The mesh: .ply, .stl, .obj, .glb, .drc or .3mf, by extension. Required. With labels, a pattern
   /// (isOutputPattern) writes one file per label, and a .ply the whole label complex.
   std::string output;
   /// A JSON report of the run (extractReportText), written with the mesh; empty: none.
@@ -96,6 +96,9 @@ struct ExtractSettings {
   bool normals = false;
   /// The field is outside beyond the volume's faces: the surface is capped there, and closed.
   bool closeBoundary = false;
+  /// Printable outputs (.stl, .3mf) merge coincident vertices and drop the zero-area triangles
+  /// between them (process/degenerate.h); true writes them as extracted.
+  bool keepDegenerate = false;
   /// A label map: one surface per selected label, in one pass (extract/label_extractor.h). Empty:
   /// an iso-surface, unless the input says it holds labels and `iso` is empty.
   std::optional<LabelRequest> labels;

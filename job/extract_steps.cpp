@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <limits>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "extract/frame.h"
 #include "io/crop_source.h"
 #include "io/open_source.h"
+#include "process/degenerate.h"
 
 namespace isoslab {
 namespace {
@@ -87,6 +89,30 @@ bool isCt(std::string modality) {
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return modality == "ct";
 }
+
+// A writer behind the degenerate-triangle collapse: the counts join the writer's details.
+class CollapsingWriter final : public MeshFileSink {
+ public:
+  CollapsingWriter(std::unique_ptr<MeshFileSink> writer, bool remap)
+      : writer_(std::move(writer)), collapse_(*writer_, remap) {}
+  void begin(const MeshHeader& header) override { collapse_.begin(header); }
+  void consume(const MeshChunk& chunk) override { collapse_.consume(chunk); }
+  void finish() override { collapse_.finish(); }
+  std::int64_t bytes() const noexcept override { return writer_->bytes(); }
+  std::vector<std::pair<std::string, double>> details() const override {
+    auto d = writer_->details();
+    const DegenerateCounts& c = collapse_.counts();
+    d.emplace_back("degenerate_triangles_removed", static_cast<double>(c.triangles));
+    d.emplace_back("coincident_vertices_merged", static_cast<double>(c.vertices));
+    d.emplace_back("coincident_points_split", static_cast<double>(c.splits));
+    d.emplace_back("degenerate_clusters_kept", static_cast<double>(c.refused));
+    return d;
+  }
+
+ private:
+  std::unique_ptr<MeshFileSink> writer_;
+  DegenerateCollapseSink collapse_;
+};
 
 // A missing iso value, with the input's value range (one pass through it) and, for CT (DICOM
 // Modality CT, or values down to air's -1000 HU), typical Hounsfield values.
@@ -230,6 +256,33 @@ DecimateOptions decimateOptions(const ExtractSettings& settings, double voxelSiz
   d.voxelSize = voxelSize;
   d.measure = settings.measureDecimation;
   return d;
+}
+
+namespace {
+
+std::string lowerExtension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+}  // namespace
+
+bool printableOutput(const std::string& path) {
+  const std::string ext = lowerExtension(path);
+  return ext == ".stl" || ext == ".3mf";
+}
+
+std::unique_ptr<MeshFileSink> collapsingWriter(std::unique_ptr<MeshFileSink> writer, bool remap) {
+  return std::make_unique<CollapsingWriter>(std::move(writer), remap);
+}
+
+std::unique_ptr<MeshFileSink> makeOutputWriter(const std::string& path, const WriterOptions& writing,
+                                               const ExtractSettings& settings) {
+  auto writer = makeMeshWriter(path, writing);
+  if (settings.keepDegenerate || !printableOutput(path)) return writer;
+  // The 3MF writer holds the whole mesh, so it takes the merged vertices' survivors by id.
+  return collapsingWriter(std::move(writer), lowerExtension(path) == ".3mf");
 }
 
 void writeReportFile(const std::string& path, const std::string& text) {

@@ -61,6 +61,18 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
                      ExtractReport& report, const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads,
                      const WriterOptions& writing);
 
+/// Whether `path` is an output for printers (.stl, .3mf, by extension): one whose degenerate
+/// triangles are collapsed before writing unless settings.keepDegenerate.
+bool printableOutput(const std::string& path);
+
+/// `writer` behind a DegenerateCollapseSink (process/degenerate.h); `remap` for a writer that
+/// holds the whole mesh (3MF). Its details() add the collapse's counts to the writer's.
+std::unique_ptr<MeshFileSink> collapsingWriter(std::unique_ptr<MeshFileSink> writer, bool remap);
+
+/// makeMeshWriter, behind the collapse for a printable output unless settings.keepDegenerate.
+std::unique_ptr<MeshFileSink> makeOutputWriter(const std::string& path, const WriterOptions& writing,
+                                               const ExtractSettings& settings);
+
 /// Writes `text` to `path` through an AtomicFile (committed with the run's CommitGroup).
 void writeReportFile(const std::string& path, const std::string& text);
 

@@ -189,7 +189,7 @@ class SurfaceSetRun {
     // The complex as a whole is counted, not measured: its measures are the labels'.
     std::vector<MeshSink*> heads{&*split_, &complexStats_};
     if (!pattern_ && !scene_ && primary()) {
-      complexWriter_ = makeMeshWriter(settings_.output, writing_);
+      complexWriter_ = makeOutputWriter(settings_.output, writing_, settings_);
       heads.insert(heads.begin(), complexWriter_.get());
     }
     TeeSink tee(heads);
@@ -303,7 +303,7 @@ class SurfaceSetRun {
         throw SettingError(fmt::format("`output` pattern '{}' gives '{}' to labels {} and {}", settings_.output,
                                        chain.path, it->second, label));
       }
-      chain.writer = makeMeshWriter(chain.path, writing_);
+      chain.writer = makeOutputWriter(chain.path, writing_, settings_);
     } else if (scene_) {
       chain.writer =
           std::make_unique<GlbDracoWriter>(settings_.output, labelWriting_, *scene_, nameOf(label), colorOf(label));

@@ -137,6 +137,7 @@ ExtractSettings settingsOf(const py::dict& d) {
   s.space = *sp;
   s.normals = get<bool>(d, "normals").value_or(false);
   s.closeBoundary = get<bool>(d, "close_boundary").value_or(false);
+  s.keepDegenerate = get<bool>(d, "keep_degenerate").value_or(false);
   if (get<py::object>(d, "sphere")) {
     const auto v = numbers<4>(d, "sphere");
     s.sphere = Sphere{{v[0], v[1], v[2]}, v[3]};

@@ -18,6 +18,8 @@ packages=(
   pybind11-dev python3-dev python3-numpy python3-pytest python3-scipy
   # extract()'s progress bar on a terminal (issue 34).
   python3-tqdm
+  # 3MF output through lib3mf 1.8, and PrusaSlicer's command line to check printable outputs (issue 37).
+  lib3mf-dev prusa-slicer
   # The Debian package and its checks (issue 22): cpack's dpkg-shlibdeps needs file; the man page.
   dpkg-dev file help2man lintian
   # A compiler cache for every build of scripts/test.sh (CMakeLists.txt uses it when found).

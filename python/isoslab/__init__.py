@@ -165,7 +165,7 @@ def _remove_degenerate(verts, faces, normals, values):
 # extract()'s options: the program's, with underscores (job/extract_settings.h).
 _EXTRACT_OPTIONS = {
     "series", "strict", "skip_bad", "channel", "nifti_xform", "raw_dims", "raw_type", "raw_endian", "raw_offset",
-    "space", "normals", "close_boundary", "report", "sphere", "threads", "max_memory", "sequential_voxels",
+    "space", "normals", "close_boundary", "keep_degenerate", "report", "sphere", "threads", "max_memory", "sequential_voxels",
     "draco_level", "quant_bits", "chunk_triangles", "draco", "gltf_frame", "roi", "roi_space", "keep_largest",
     "component_measure", "min_triangles", "min_volume", "seed", "smooth", "smooth_method", "pass_band",
     "smooth_faces", "smooth_normals", "decimate", "max_error", "preview", "quiet", "labels", "label_table"}
@@ -205,7 +205,7 @@ def _terminal_progress():
 def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=None, **options):
     """Runs the `isoslab extract` job in this process on files (a path or a list of paths: DICOM
     folders, NIfTI, NRRD, MetaImage, image stacks, raw with raw_dims=...) or on a 3D NumPy array,
-    writing `output` (.glb, .ply, .stl, .obj, .drc). Returns the run's report as a dict (the
+    writing `output` (.glb, .ply, .stl, .obj, .drc, .3mf). Returns the run's report as a dict (the
     program's --report).
 
     Options are the program's, with underscores: normals=True, close_boundary=True, threads=2,

@@ -287,7 +287,7 @@ TEST(Cli, BadInputGivesOneLineANonZeroExitAndNoOutput) {
        dir + "/no/such/folder/out.ply: cannot create the output: the folder '" + dir +
            "/no/such/folder' does not exist"},
       {"extract 'phantom:sphere?n=16'" + out.substr(0, out.size() - 3) + "xyz",
-       dir + "/out.xyz: unknown mesh format '.xyz' (use .ply, .stl, .obj, .glb or .drc)"},
+       dir + "/out.xyz: unknown mesh format '.xyz' (use .ply, .stl, .obj, .glb, .drc or .3mf)"},
   };
   for (const BadCase& c : cases) {
     const auto r = runCli(c.args);

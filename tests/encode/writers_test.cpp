@@ -155,7 +155,7 @@ TEST(Writers, ErrorsNameTheOutput) {
     FAIL();
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()),
-              dir + "/mesh.xyz: unknown mesh format '.xyz' (use .ply, .stl, .obj, .glb or .drc)");
+              dir + "/mesh.xyz: unknown mesh format '.xyz' (use .ply, .stl, .obj, .glb, .drc or .3mf)");
   }
   try {
     auto w = makeMeshWriter(dir + "/nope/mesh.ply");

@@ -1,0 +1,178 @@
+#include "encode/threemf_writer.h"
+
+#include <fmt/format.h>
+
+#include <limits>
+
+#include "Model/COM/NMR_DLLInterfaces.h"
+#include "core/error.h"
+#include "core/interrupt.h"
+
+namespace isoslab {
+namespace {
+
+using namespace NMR;
+
+// lib3mf's stream callbacks: 0 is success. An exception must not cross the C library.
+struct Sink {
+  AtomicFile* file = nullptr;
+  std::string error;
+};
+
+std::uint32_t writeBytes(unsigned char* data, std::uint32_t size, void* user) {
+  auto* sink = static_cast<Sink*>(user);
+  try {
+    sink->file->write(data, size);
+    return 0;
+  } catch (const std::exception& e) {
+    if (sink->error.empty()) sink->error = e.what();
+    return 1;
+  }
+}
+
+std::uint32_t seekTo(std::uint64_t position, void* user) {
+  auto* sink = static_cast<Sink*>(user);
+  try {
+    sink->file->seek(static_cast<std::int64_t>(position));
+    return 0;
+  } catch (const std::exception& e) {
+    if (sink->error.empty()) sink->error = e.what();
+    return 1;
+  }
+}
+
+// Releases a lib3mf instance at the end of a scope.
+struct Released {
+  PLib3MFBase* instance = nullptr;
+  ~Released() {
+    if (instance != nullptr) lib3mf_release(instance);
+  }
+};
+
+}  // namespace
+
+ThreeMfModel::ThreeMfModel(std::string path) : path_(std::move(path)) {}
+
+ThreeMfModel::~ThreeMfModel() {
+  if (materials_ != nullptr) lib3mf_release(materials_);
+  if (model_ != nullptr) lib3mf_release(model_);
+}
+
+void ThreeMfModel::fail(Handle instance, const char* what) const {
+  DWORD code = 0;
+  LPCSTR message = nullptr;
+  std::string detail;
+  if (instance != nullptr && lib3mf_getlasterror(instance, &code, &message) == LIB3MF_OK && message != nullptr) {
+    detail = fmt::format(": {} (lib3mf error {:#x})", message, code);
+  }
+  throw Error(fmt::format("{}: cannot {} the 3MF model{}", path_, what, detail));
+}
+
+void ThreeMfModel::begin() {
+  file_ = std::make_unique<AtomicFile>(path_);
+  if (lib3mf_createmodel(&model_) != LIB3MF_OK) fail(nullptr, "create");
+  if (lib3mf_model_setunit(model_, MODELUNIT_MILLIMETER) != LIB3MF_OK) fail(model_, "set the unit of");
+}
+
+void ThreeMfModel::addObject(const std::string& name, const std::optional<std::array<std::uint8_t, 3>>& color,
+                             const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles) {
+  if (positions.size() > std::numeric_limits<DWORD>::max() || triangles.size() > std::numeric_limits<DWORD>::max()) {
+    throw Error(fmt::format("{}: '{}' has more than 2^32 vertices or triangles, which 3MF cannot index", path_, name));
+  }
+  // The vertices in order of first use: the ones merged away or never used are left out.
+  constexpr DWORD kUnused = std::numeric_limits<DWORD>::max();
+  std::vector<DWORD> index(positions.size(), kUnused);
+  std::vector<MODELMESHVERTEX> vertices;
+  std::vector<MODELMESHTRIANGLE> faces(triangles.size());
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    throwIfInterruptedEvery(t);
+    for (int k = 0; k < 3; ++k) {
+      const VertexId v = triangles[t][static_cast<std::size_t>(k)];
+      if (index[v] == kUnused) {
+        index[v] = static_cast<DWORD>(vertices.size());
+        const Vec3f& p = positions[v];
+        vertices.push_back(MODELMESHVERTEX{{p.x, p.y, p.z}});
+      }
+      faces[t].m_nIndices[k] = index[v];
+    }
+  }
+  Released mesh;
+  if (lib3mf_model_addmeshobject(model_, &mesh.instance) != LIB3MF_OK) fail(model_, "add an object to");
+  if (lib3mf_object_setnameutf8(mesh.instance, name.c_str()) != LIB3MF_OK) fail(mesh.instance, "name an object of");
+  if (lib3mf_meshobject_setgeometry(mesh.instance, vertices.data(), static_cast<DWORD>(vertices.size()), faces.data(),
+                                    static_cast<DWORD>(faces.size())) != LIB3MF_OK) {
+    fail(mesh.instance, "set an object's mesh in");
+  }
+  if (color) {
+    if (materials_ == nullptr) {
+      if (lib3mf_model_addbasematerialgroup(model_, &materials_) != LIB3MF_OK) fail(model_, "add materials to");
+      DWORD id = 0;
+      if (lib3mf_basematerial_getresourceid(materials_, &id) != LIB3MF_OK) fail(materials_, "add materials to");
+      materialGroup_ = id;
+    }
+    DWORD material = 0;
+    const auto [r, g, b] = *color;
+    if (lib3mf_basematerial_addmaterialutf8(materials_, name.c_str(), r, g, b, &material) != LIB3MF_OK) {
+      fail(materials_, "add a material to");
+    }
+    Released handler;
+    if (lib3mf_object_createdefaultpropertyhandler(mesh.instance, &handler.instance) != LIB3MF_OK ||
+        lib3mf_defaultpropertyhandler_setbasematerial(handler.instance, materialGroup_, material) != LIB3MF_OK) {
+      fail(mesh.instance, "colour an object of");
+    }
+  }
+  Released item;
+  if (lib3mf_model_addbuilditem(model_, mesh.instance, nullptr, &item.instance) != LIB3MF_OK) {
+    fail(model_, "add a build item to");
+  }
+}
+
+std::int64_t ThreeMfModel::write() {
+  Released writer;
+  if (lib3mf_model_querywriter(model_, "3mf", &writer.instance) != LIB3MF_OK) fail(model_, "make a writer for");
+  Sink sink{file_.get(), {}};
+  const auto result = lib3mf_writer_writetocallback(writer.instance, reinterpret_cast<void*>(&writeBytes),
+                                                    reinterpret_cast<void*>(&seekTo), &sink);
+  if (!sink.error.empty()) throw Error(sink.error);
+  if (result != LIB3MF_OK) fail(writer.instance, "write");
+  // The model is written: its memory goes before the file is committed.
+  lib3mf_release(model_);
+  model_ = nullptr;
+  const std::int64_t bytes = file_->size();
+  file_->commit();
+  file_.reset();
+  return bytes;
+}
+
+ThreeMfWriter::ThreeMfWriter(std::string path)
+    : own_(std::make_unique<ThreeMfModel>(std::move(path))), model_(own_.get()), name_("surface") {}
+
+ThreeMfWriter::ThreeMfWriter(ThreeMfModel& model, std::string name, std::array<std::uint8_t, 3> color)
+    : model_(&model), name_(std::move(name)), color_(color) {}
+
+ThreeMfWriter::~ThreeMfWriter() = default;
+
+void ThreeMfWriter::begin(const MeshHeader& header) {
+  if (own_) {
+    model_->begin();
+    name_ = fmt::format("isoslab {} iso {}", header.method, header.iso);
+  }
+}
+
+void ThreeMfWriter::consume(const MeshChunk& chunk) {
+  if (!started_) {
+    first_ = chunk.firstVertex;
+    started_ = true;
+  }
+  positions_.insert(positions_.end(), chunk.positions.begin(), chunk.positions.end());
+  for (const Triangle& t : chunk.triangles) triangles_.push_back({t[0] - first_, t[1] - first_, t[2] - first_});
+}
+
+void ThreeMfWriter::finish() {
+  model_->addObject(name_, color_, positions_, triangles_);
+  std::vector<Vec3f>().swap(positions_);
+  std::vector<Triangle>().swap(triangles_);
+  if (own_) bytes_ = model_->write();
+}
+
+}  // namespace isoslab
