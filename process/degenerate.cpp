@@ -137,12 +137,18 @@ void DegenerateCollapseSink::settle(VertexId before) {
     i = j;
   }
   if (complete.empty()) return;
+  // Merges see the ones made before them (a triangle that an earlier merge dropped is no longer
+  // in a fan), so they go in one order however the stream is cut: by largest member, the order
+  // in which clusters complete.
+  std::sort(complete.begin(), complete.end(),
+            [](const Cluster& a, const Cluster& b) { return a.members.back() < b.members.back(); });
   // Every pending triangle that uses a member, from the chunk of the smallest member on.
   std::unordered_map<VertexId, std::size_t> owner;
   VertexId lowest = complete.front().members.front();
   VertexId highest = 0;
   for (std::size_t c = 0; c < complete.size(); ++c) {
     for (VertexId v : complete[c].members) owner.emplace(v, c);
+    lowest = std::min(lowest, complete[c].members.front());
     highest = std::max(highest, complete[c].members.back());
   }
   for (const MeshChunk& chunk : pending_) {
@@ -266,9 +272,23 @@ std::optional<DegenerateCollapseSink::Fans> DegenerateCollapseSink::fans(const C
   }
   Fans out;
   out.count = static_cast<std::size_t>(chains);
+  // Chains in an order that does not depend on how neighbours are named (earlier merges rename
+  // them): by their members, then by their smallest triangle as it came.
+  std::vector<Triangle> firstTriangle(static_cast<std::size_t>(chains), Triangle{~VertexId{0}, 0, 0});
+  for (std::size_t e = 0; e < link.size(); ++e) {
+    Triangle& f = firstTriangle[static_cast<std::size_t>(chainOf[e])];
+    f = std::min(f, link[e].triangle);
+  }
+  std::vector<std::size_t> order(static_cast<std::size_t>(chains));
+  for (std::size_t c = 0; c < order.size(); ++c) order[c] = c;
+  std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    if (inChain[x] != inChain[y]) return std::lexicographical_compare(inChain[y].begin(), inChain[y].end(),
+                                                                       inChain[x].begin(), inChain[x].end());
+    return firstTriangle[x] < firstTriangle[y];
+  });
   std::vector<bool> taken(n, false);
   std::vector<VertexId> chainVertex(static_cast<std::size_t>(chains));
-  for (std::size_t c = 0; c < chainVertex.size(); ++c) {
+  for (const std::size_t c : order) {
     std::size_t m = 0;
     while (m < n && (taken[m] || !inChain[c][m])) ++m;
     if (m == n) return std::nullopt;  // more fans than vertices to give them
