@@ -79,6 +79,8 @@ void ThreeMfModel::addObject(const std::string& name, const std::optional<std::a
   if (positions.size() > std::numeric_limits<DWORD>::max() || triangles.size() > std::numeric_limits<DWORD>::max()) {
     throw Error(fmt::format("{}: '{}' has more than 2^32 vertices or triangles, which 3MF cannot index", path_, name));
   }
+  // An empty surface is no object: 3MF meshes hold triangles (the file then has an empty build).
+  if (triangles.empty()) return;
   // The vertices in order of first use: the ones merged away or never used are left out.
   constexpr DWORD kUnused = std::numeric_limits<DWORD>::max();
   std::vector<DWORD> index(positions.size(), kUnused);

@@ -31,7 +31,7 @@ class ThreeMfModel {
   /// Checks that the file can be written (opens its temporary file).
   void begin();
   /// Adds a mesh object: the vertices that `triangles` reference, renumbered in order of first
-  /// use. `color` as sRGB; none gives the object no material.
+  /// use. `color` as sRGB; none gives the object no material. No triangles: no object.
   void addObject(const std::string& name, const std::optional<std::array<std::uint8_t, 3>>& color,
                  const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles);
   /// Writes the file; returns its size.

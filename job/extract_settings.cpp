@@ -234,9 +234,9 @@ void checkLabelSettings(const ExtractSettings& s) {
   const std::string ext = std::filesystem::path(s.output).extension().string();
   std::string lower = ext;
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  require(isOutputPattern(s.output) || lower == ".ply" || lower == ".glb",
+  require(isOutputPattern(s.output) || lower == ".ply" || lower == ".glb" || lower == ".3mf",
           fmt::format("`output` '{}' is one file: label surfaces go to a pattern such as 'labels/{{name}}.stl' (a file "
-                      "per label), a .glb (a mesh per label) or a .ply of the whole label complex",
+                      "per label), a .glb or .3mf (a mesh per label) or a .ply of the whole label complex",
                       s.output));
   require(
       isOutputPattern(s.output) || lower != ".glb" || s.draco,

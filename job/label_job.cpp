@@ -18,6 +18,7 @@
 #include "encode/glb_scene.h"
 #include "encode/mesh_writer.h"
 #include "encode/ply_writer.h"
+#include "encode/threemf_writer.h"
 #include "extract/label_extractor.h"
 #include "extract/surface_set_extractor.h"
 #include "io/label_source.h"
@@ -182,13 +183,18 @@ class SurfaceSetRun {
       scene_.emplace(settings_.output, labelWriting_);
       scene_->begin(header_);
     }
-    perLabel_ = pattern_ || scene_ || settings_.labelTopology;
+    // A .3mf: one object per label, named and coloured, for printers.
+    if (!pattern_ && extension == ".3mf" && primary()) {
+      model_.emplace(settings_.output);
+      model_->begin();
+    }
+    perLabel_ = pattern_ || scene_ || model_ || settings_.labelTopology;
     // Areas, volumes and interfaces go to the report and the .glb's extras only.
     split_.emplace([this](std::int32_t label) { return sinkFor(label); }, perLabel_, settings_.labelTopology,
                    scene_.has_value() || settings_.labelMeasures);
     // The complex as a whole is counted, not measured: its measures are the labels'.
     std::vector<MeshSink*> heads{&*split_, &complexStats_};
-    if (!pattern_ && !scene_ && primary()) {
+    if (!pattern_ && !scene_ && !model_ && primary()) {
       complexWriter_ = makeOutputWriter(settings_.output, writing_, settings_);
       heads.insert(heads.begin(), complexWriter_.get());
     }
@@ -263,11 +269,15 @@ class SurfaceSetRun {
                                       {"triangles", l.stats.triangles}};
       }
       report_.output.bytes = scene_->write({{"labels", report_.labels.size()}});
+    } else if (model_) {
+      report_.output.bytes = model_->write();
+      addDegenerateCounts();
     } else if (complexWriter_) {
       report_.output.bytes = complexWriter_->bytes();
       report_.output.details = complexWriter_->details();
     } else {
       for (const auto& [value, chain] : chains_) report_.output.bytes += chain.writer->bytes();
+      addDegenerateCounts();
     }
     report_.output.binaryPlyBytes = PlyWriter::binaryBytes(report_.stats.vertices, report_.stats.triangles, header_);
   }
@@ -307,6 +317,9 @@ class SurfaceSetRun {
     } else if (scene_) {
       chain.writer =
           std::make_unique<GlbDracoWriter>(settings_.output, labelWriting_, *scene_, nameOf(label), colorOf(label));
+    } else if (model_) {
+      chain.writer = std::make_unique<ThreeMfWriter>(*model_, nameOf(label), colorOf(label));
+      if (!settings_.keepDegenerate) chain.writer = collapsingWriter(std::move(chain.writer), true);
     }
     if (chain.writer) sinks.insert(sinks.begin(), chain.writer.get());
     chain.tee = std::make_unique<TeeSink>(sinks);
@@ -352,6 +365,18 @@ class SurfaceSetRun {
     return l;
   }
 
+  // The per-label writers' degenerate-triangle counts (printable outputs), summed.
+  void addDegenerateCounts() {
+    std::map<std::string, double> sums;
+    for (const auto& [value, chain] : chains_) {
+      for (const auto& [key, number] : chain.writer->details()) sums[key] += number;
+    }
+    for (const char* key : {"degenerate_triangles_removed", "coincident_vertices_merged", "coincident_points_split",
+                            "degenerate_clusters_kept"}) {
+      if (const auto it = sums.find(key); it != sums.end()) report_.output.details.emplace_back(key, it->second);
+    }
+  }
+
   // Requested labels that the volume lacks: one warning each, or one for many.
   void warnAbsent(const std::map<std::int32_t, std::int64_t>& counts) {
     if (keep_) {
@@ -395,6 +420,7 @@ class SurfaceSetRun {
   bool pattern_ = false;
   bool perLabel_ = true;  // the split builds each label's chunks
   std::optional<GlbScene> scene_;
+  std::optional<ThreeMfModel> model_;
   std::map<std::int32_t, LabelChain> chains_;  // before split_: the split's sinks outlive it
   std::map<std::string, std::int32_t> paths_;
   std::optional<LabelSplitSink> split_;

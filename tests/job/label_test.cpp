@@ -417,7 +417,7 @@ TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
       {"'phantom:voxel' --labels all -o " + dir + "/one.stl", 2,
        "isoslab: error: -o '" + dir +
            "/one.stl' is one file: label surfaces go to a pattern such as 'labels/{name}.stl' (a file per label), "
-           "a .glb (a mesh per label) or a .ply of the whole label complex\n"},
+           "a .glb or .3mf (a mesh per label) or a .ply of the whole label complex\n"},
       {"'phantom:voxel' --labels all --iso 3 -o " + dir + "/{name}.ply", 2,
        "isoslab: error: --iso and --labels exclude each other: a run meshes an iso value or labels\n"},
       {"'phantom:sphere?n=4' --labels all -o " + dir + "/{name}.ply", 1,
