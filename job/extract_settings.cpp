@@ -45,7 +45,7 @@ void require(bool ok, const std::string& message) {
 
 void checkRanges(const ExtractSettings& s) {
   require(!s.inputs.empty(), "`inputs` names no input");
-  require(!s.output.empty(), "`output` names no file");
+  require(!s.output.empty() || s.labelSinks, "`output` names no file");
   require(s.threads >= 0 && s.threads <= kMaxThreads,
           fmt::format("`threads` must be 1 to {} (or 0: the default), not {}", kMaxThreads, s.threads));
   require(s.maxMemoryMiB >= 16 && s.maxMemoryMiB <= (1 << 20),
@@ -231,6 +231,7 @@ void checkLabelSettings(const ExtractSettings& s) {
   refuse(s.sphere.has_value(), "sphere");
   if (s.isos.empty()) refuse(s.method != Method::kMarchingCubes, "method");
   if (s.isos.empty()) refuse(s.closeBoundary, "close_boundary");
+  if (s.labelSinks) return;  // no file: the caller's sinks take the surfaces
   const std::string ext = std::filesystem::path(s.output).extension().string();
   std::string lower = ext;
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));

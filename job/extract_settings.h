@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/mesh_sink.h"
 #include "extract/extractor.h"
 #include "io/open_source.h"
 #include "metrics/component_filter.h"
@@ -148,6 +149,10 @@ struct ExtractSettings {
 
   /// A caller's own volume (Python's NumPy arrays): when set, the run reads the source this makes,
   /// once per pass, instead of opening `inputs`, which then only name it in messages and the report.
+  /// For library callers (Python's label_surfaces): a label run hands each label's surface to
+  /// the sink this returns for (label, name) instead of a file, and `output` may be empty. The
+  /// sinks must outlive the run; they see the label's own stream (core/mesh_sink.h).
+  std::function<MeshSink*(std::int32_t label, const std::string& name)> labelSinks;
   std::function<std::unique_ptr<SliceSource>()> openVolume;
 };
 

@@ -173,28 +173,28 @@ class SurfaceSetRun {
   }
 
   PipelineResult run(const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads) {
-    pattern_ = isOutputPattern(settings_.output);
+    pattern_ = !settings_.labelSinks && isOutputPattern(settings_.output);
     std::string extension = std::filesystem::path(settings_.output).extension().string();
     for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     // A .glb: one mesh per label in one file, its chunks encoded as they close.
     labelWriting_ = writing_;
-    if (!pattern_ && extension == ".glb" && primary()) {
+    if (!pattern_ && !settings_.labelSinks && extension == ".glb" && primary()) {
       labelWriting_.encodeThreads = 0;
       scene_.emplace(settings_.output, labelWriting_);
       scene_->begin(header_);
     }
     // A .3mf: one object per label, named and coloured, for printers.
-    if (!pattern_ && extension == ".3mf" && primary()) {
+    if (!pattern_ && !settings_.labelSinks && extension == ".3mf" && primary()) {
       model_.emplace(settings_.output);
       model_->begin();
     }
-    perLabel_ = pattern_ || scene_ || model_ || settings_.labelTopology;
+    perLabel_ = pattern_ || scene_ || model_ || settings_.labelSinks || settings_.labelTopology;
     // Areas, volumes and interfaces go to the report and the .glb's extras only.
     split_.emplace([this](std::int32_t label) { return sinkFor(label); }, perLabel_, settings_.labelTopology,
                    scene_.has_value() || settings_.labelMeasures);
     // The complex as a whole is counted, not measured: its measures are the labels'.
     std::vector<MeshSink*> heads{&*split_, &complexStats_};
-    if (!pattern_ && !scene_ && !model_ && primary()) {
+    if (!pattern_ && !scene_ && !model_ && !settings_.labelSinks && primary()) {
       complexWriter_ = makeOutputWriter(settings_.output, writing_, settings_);
       heads.insert(heads.begin(), complexWriter_.get());
     }
@@ -276,7 +276,7 @@ class SurfaceSetRun {
       report_.output.bytes = complexWriter_->bytes();
       report_.output.details = complexWriter_->details();
     } else {
-      for (const auto& [value, chain] : chains_) report_.output.bytes += chain.writer->bytes();
+      for (const auto& [value, chain] : chains_) report_.output.bytes += chain.writer ? chain.writer->bytes() : 0;
       addDegenerateCounts();
     }
     report_.output.binaryPlyBytes = PlyWriter::binaryBytes(report_.stats.vertices, report_.stats.triangles, header_);
@@ -322,6 +322,9 @@ class SurfaceSetRun {
       if (!settings_.keepDegenerate) chain.writer = collapsingWriter(std::move(chain.writer), true);
     }
     if (chain.writer) sinks.insert(sinks.begin(), chain.writer.get());
+    if (settings_.labelSinks && primary()) {
+      if (MeshSink* sink = settings_.labelSinks(label, nameOf(label))) sinks.push_back(sink);
+    }
     chain.tee = std::make_unique<TeeSink>(sinks);
     return chain.tee.get();
   }
@@ -369,6 +372,7 @@ class SurfaceSetRun {
   void addDegenerateCounts() {
     std::map<std::string, double> sums;
     for (const auto& [value, chain] : chains_) {
+      if (!chain.writer) continue;
       for (const auto& [key, number] : chain.writer->details()) sums[key] += number;
     }
     for (const char* key : {"degenerate_triangles_removed", "coincident_vertices_merged", "coincident_points_split",

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <deque>
 #include <exception>
 #include <mutex>
 #include <optional>
@@ -19,6 +20,7 @@
 
 #include "core/error.h"
 #include "core/interrupt.h"
+#include "core/mesh_sink.h"
 #include "job/extract_job.h"
 #include "python/array_source.h"
 #include "stream/iso_choice.h"
@@ -206,7 +208,8 @@ std::mutex gRunMutex;
 
 // Runs the job on a thread of its own while this one (holding the GIL only between waits) calls
 // `progress` and notices Ctrl-C. Returns the report's JSON text.
-std::string extract(const py::dict& settingsDict, const py::object& volume, const py::object& progress) {
+std::string runJob(ExtractSettings& settings, const py::dict& settingsDict, const py::object& volume,
+                   const py::object& progress) {
 #if defined(__GLIBC__)
   // As the program does (cli/main.cpp): buffers of a slab, a chunk or a decimation batch come
   // and go with the stream, and glibc's rising mmap threshold would keep their freed space in the
@@ -215,7 +218,6 @@ std::string extract(const py::dict& settingsDict, const py::object& volume, cons
   static const bool fixedThreshold = ::mallopt(M_MMAP_THRESHOLD, 256 * 1024) == 1;
   (void)fixedThreshold;
 #endif
-  ExtractSettings settings = settingsOf(settingsDict);
   std::optional<py::array> array;
   std::array<double, 3> spacing{1, 1, 1};
   if (!volume.is_none()) {
@@ -280,10 +282,71 @@ std::string extract(const py::dict& settingsDict, const py::object& volume, cons
   return reportText;
 }
 
+std::string extract(const py::dict& settingsDict, const py::object& volume, const py::object& progress) {
+  ExtractSettings settings = settingsOf(settingsDict);
+  return runJob(settings, settingsDict, volume, progress);
+}
+
+// One label's surface in scikit-image's index order: vertices (plane, row, column), i.e. the
+// output's (z, y, x). Mirroring the axes reverses the winding, which turns isoslab's outward
+// order into scikit-image's (marching_cubes with gradient_direction "descent" on the label's mask).
+class LabelArraySink final : public MeshSink {
+ public:
+  void begin(const MeshHeader&) override {}
+  void consume(const MeshChunk& c) override {
+    if (!started_) {
+      first_ = c.firstVertex;
+      started_ = true;
+    }
+    for (const Vec3f& p : c.positions) verts.insert(verts.end(), {p.z, p.y, p.x});
+    for (const Triangle& t : c.triangles) {
+      for (const VertexId v : t) faces.push_back(static_cast<std::int32_t>(v - first_));
+    }
+  }
+  void finish() override {}
+
+  std::vector<float> verts;
+  std::vector<std::int32_t> faces;
+
+ private:
+  VertexId first_ = 0;
+  bool started_ = false;
+};
+
+// A NumPy array of `rows` x `columns` that takes over a vector's contents.
+template <typename T>
+py::array arrayOf(std::vector<T>&& values, py::ssize_t columns) {
+  auto* owned = new std::vector<T>(std::move(values));
+  py::capsule free(owned, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  const auto rows = static_cast<py::ssize_t>(owned->size()) / columns;
+  return py::array_t<T>({rows, columns}, owned->data(), free);
+}
+
+// label_surfaces(): the label job with a LabelArraySink per label instead of files. Returns
+// ([(label, name, verts, faces), ...], the report's JSON text).
+py::tuple labelSurfaces(const py::dict& settingsDict, const py::object& volume, const py::object& progress) {
+  ExtractSettings settings = settingsOf(settingsDict);
+  std::deque<std::tuple<std::int32_t, std::string, LabelArraySink>> surfaces;  // addresses stay
+  settings.labelSinks = [&surfaces](std::int32_t label, const std::string& name) -> MeshSink* {
+    return &std::get<2>(surfaces.emplace_back(label, name, LabelArraySink{}));
+  };
+  const std::string report = runJob(settings, settingsDict, volume, progress);
+  std::sort(surfaces.begin(), surfaces.end(),
+            [](const auto& a, const auto& b) { return std::get<0>(a) < std::get<0>(b); });
+  py::list out;
+  while (!surfaces.empty()) {
+    auto& [label, name, sink] = surfaces.front();
+    out.append(py::make_tuple(label, name, arrayOf(std::move(sink.verts), 3), arrayOf(std::move(sink.faces), 3)));
+    surfaces.pop_front();
+  }
+  return py::make_tuple(out, report);
+}
+
 }  // namespace
 
 void defineExtract(py::module_& m) {
   m.def("extract", &extract, py::arg("settings"), py::arg("volume") = py::none(), py::arg("progress") = py::none());
+  m.def("label_surfaces", &labelSurfaces, py::arg("settings"), py::arg("volume"), py::arg("progress") = py::none());
 }
 
 }  // namespace isoslab

@@ -19,7 +19,8 @@ from . import _isoslab
 __version__ = _isoslab.__version__
 Error = _isoslab.Error
 
-__all__ = ["marching_cubes", "extract", "read_volume_info", "iter_slices", "metrics", "Error", "__version__"]
+__all__ = ["marching_cubes", "extract", "label_surfaces", "read_volume_info", "iter_slices", "metrics", "Error",
+           "__version__"]
 
 _METHODS = ("mc", "mt5", "mt6", "bcc12", "mt24", "mc33")
 
@@ -165,7 +166,8 @@ def _remove_degenerate(verts, faces, normals, values):
 # extract()'s options: the program's, with underscores (job/extract_settings.h).
 _EXTRACT_OPTIONS = {
     "series", "strict", "skip_bad", "channel", "nifti_xform", "raw_dims", "raw_type", "raw_endian", "raw_offset",
-    "space", "normals", "close_boundary", "keep_degenerate", "report", "sphere", "threads", "max_memory", "sequential_voxels",
+    "space", "normals", "close_boundary", "keep_degenerate", "report", "sphere", "threads", "max_memory",
+    "sequential_voxels",
     "draco_level", "quant_bits", "chunk_triangles", "draco", "gltf_frame", "roi", "roi_space", "keep_largest",
     "component_measure", "min_triangles", "min_volume", "seed", "smooth", "smooth_method", "pass_band",
     "smooth_faces", "smooth_normals", "decimate", "max_error", "preview", "quiet", "labels", "label_table"}
@@ -261,10 +263,7 @@ def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=Non
         elif name in ("report", "preview", "label_table"):
             value = os.fspath(value)
         elif name == "labels":
-            # "all", a value, or a list of values, ranges ("7-9") and names, as --labels takes them.
-            if isinstance(value, np.ndarray):
-                value = value.tolist()
-            value = ",".join(str(v) for v in value) if isinstance(value, (list, tuple, set)) else str(value)
+            value = _label_list(value)
         settings[name] = value
     if progress is None:
         progress = _terminal_progress()
@@ -273,6 +272,58 @@ def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=Non
     elif not callable(progress):
         raise TypeError(f"progress must be callable (got {progress!r}).")
     return json.loads(_isoslab.extract(settings, volume, progress))
+
+
+def _label_list(value):
+    # "all", a value, or a list of values, ranges ("7-9") and names, as --labels takes them.
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    return ",".join(str(v) for v in value) if isinstance(value, (list, tuple, set)) else str(value)
+
+
+def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), select=None, smooth=0, decimate=1.0, threads=None,
+                   progress=False):
+    """Every label's surface of a label map held in a 3D NumPy integer array, in one streaming pass
+    (as `isoslab extract` meshes a segmentation; the array is read in place, a slice at a time).
+
+    Returns (surfaces, adjacency):
+    - surfaces: {label: (verts, faces)} per label present (0 is the background), in scikit-image's
+      index order: verts (V, 3) float32 as (plane, row, column) times `spacing`, faces (F, 3) int32
+      ordered as skimage.measure.marching_cubes orders a mask's ("descent"). Each surface is closed;
+      where two labels touch they share the same vertex positions and triangles (reversed);
+    - adjacency: {(a, b): area} for each pair of labels that touch (a < b).
+
+    `select`: None or "all" for every label, else values, ranges ("7-9") as --labels takes them.
+    `smooth` and `decimate` are refused until label surfaces can be finished in the stream.
+    `threads`: None for the default. Errors raise isoslab.Error with the program's message.
+    """
+    if not isinstance(labels, np.ndarray):
+        raise TypeError(f"labels must be a NumPy array (got {type(labels).__name__}).")
+    if labels.ndim != 3:
+        raise ValueError(f"labels should be a 3D numpy array (it has {labels.ndim} dimensions).")
+    if labels.dtype.kind not in "iub":
+        raise ValueError(f"labels should hold integers (its dtype is {labels.dtype}).")
+    name = getattr(labels, "filename", None) if isinstance(labels, np.memmap) else None
+    settings = {"output": "", "method": "mc", "inputs": [os.fspath(name) if name else "array"],
+                "labels": "all" if select is None else _label_list(select),
+                "array_spacing": _numbers("spacing", spacing)}
+    if threads is not None:
+        settings["threads"] = int(threads)
+    if smooth:
+        settings["smooth"] = int(smooth)
+    if decimate != 1.0:
+        settings["decimate"] = float(decimate)
+    if progress is None:
+        progress = _terminal_progress()
+    elif progress is False:
+        progress = None
+    found, report = _isoslab.label_surfaces(settings, labels, progress)
+    surfaces = {int(label): (verts, faces) for label, _, verts, faces in found}
+    adjacency = {}
+    for face in json.loads(report).get("label_interfaces", []):
+        a, b = sorted(int(v) for v in face["labels"])
+        adjacency[(a, b)] = float(face["area"])
+    return surfaces, adjacency
 
 
 def read_volume_info(path):

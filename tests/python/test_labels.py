@@ -139,3 +139,89 @@ def test_extract_in_process_takes_labels_tables_and_iso_lists(tmp_path):
     for value, entry in zip((0.5, 1.5), both["labels"]):
         single = isoslab.extract("phantom:nested?n=24", tmp_path / "single.ply", iso=value, progress=False)
         assert single["triangles"] == entry["triangles"]
+
+
+def read_ply(path):
+    """Points (x, y, z) and triangles of a PLY file, as VTK's reader gives them."""
+    reader = vtk.vtkPLYReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    mesh = reader.GetOutput()
+    points = numpy_support.vtk_to_numpy(mesh.GetPoints().GetData())
+    cells = numpy_support.vtk_to_numpy(mesh.GetPolys().GetConnectivityArray()).reshape(-1, 3)
+    return points, cells
+
+
+def test_label_surfaces_of_the_atlas_array_equal_extract_of_its_file(tmp_path):
+    """label_surfaces() on the atlas as VTK's NIfTI reader loads it gives, label by label, the
+    vertices and triangles that extract() writes for the file (voxel space), in scikit-image's index
+    order; its adjacency is the voxel faces' brute-force count."""
+    isoslab = pytest.importorskip("isoslab")
+    path = os.path.join(TEMPLATES, "aal.nii.gz")
+    if not os.path.exists(path):
+        pytest.skip(f"{path} is absent (Debian's mricron-data)")
+    labels, spacing = read_labels(path)
+    surfaces, adjacency = isoslab.label_surfaces(labels.astype(np.int16), spacing=spacing[::-1], threads=2)
+    report = isoslab.extract(path, tmp_path / "{label}.ply", labels="all", space="voxel", progress=False)
+    assert sorted(surfaces) == [e["value"] for e in report["labels"]]
+    assert len(surfaces) == 116
+    for entry in report["labels"]:
+        verts, faces = surfaces[entry["value"]]
+        points, cells = read_ply(entry["path"])
+        assert verts.dtype == np.float32 and faces.dtype == np.int32
+        # (plane, row, column) times spacing back to voxel (x, y, z).
+        assert np.array_equal(verts[:, ::-1] / np.asarray(spacing, np.float32), points), entry["value"]
+        assert np.array_equal(faces, cells), entry["value"]
+    expected = brute_force_interfaces(labels, spacing)
+    assert adjacency.keys() == expected.keys()
+    assert all(abs(adjacency[k] - expected[k]) <= 1e-6 * expected[k] for k in expected)
+
+
+def test_label_surfaces_are_closed_shared_and_oriented_as_scikit_image():
+    """Two boxes that touch, a voxel apart from them, on an anisotropic grid: each surface is
+    closed, encloses its voxels' volume, winds as skimage's marching_cubes winds the label's mask,
+    and the interface is the same triangles in both surfaces, reversed."""
+    isoslab = pytest.importorskip("isoslab")
+    measure = pytest.importorskip("skimage.measure")
+    a = np.zeros((12, 14, 16), np.uint8)
+    a[2:9, 3:11, 2:8] = 4
+    a[2:9, 3:11, 8:13] = 200
+    a[10, 12, 14] = 9
+    spacing = (2.0, 0.5, 1.0)
+    surfaces, adjacency = isoslab.label_surfaces(a, spacing=spacing)
+    assert sorted(surfaces) == [4, 9, 200]
+    assert adjacency == {(4, 200): 7 * 8 * 2.0 * 0.5}
+
+    def signed_volume(v, f):
+        v = v.astype(np.float64)
+        return np.einsum("ij,ij->i", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]])).sum() / 6
+
+    for label, (verts, faces) in surfaces.items():
+        edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+        forward = {tuple(e) for e in edges.tolist()}
+        assert len(forward) == len(edges)  # no edge twice the same way
+        assert all((b, c) in forward for c, b in forward)  # and each once the other way: closed
+        voxels = np.count_nonzero(a == label)
+        assert abs(abs(signed_volume(verts, faces)) - voxels * 2.0 * 0.5 * 1.0) < 1e-6 * voxels
+        mask_verts, mask_faces, _, _ = measure.marching_cubes((a == label).astype(np.float32), 0.5, spacing=spacing)
+        assert np.sign(signed_volume(verts, faces)) == np.sign(signed_volume(mask_verts, mask_faces))
+    # The interface: triangles of 4 whose corners all lie on the plane x = 8 (column 7.5 .. 8)
+    # are those of 200 reversed, by position.
+    def interface(label):
+        verts, faces = surfaces[label]
+        on = np.all(verts[faces][:, :, 2] == 7.5, axis=1)
+        return {tuple(map(tuple, verts[f].tolist())) for f in faces[on]}
+
+    mine = interface(4)
+    theirs = {(t[0], t[2], t[1]) for t in interface(200)}
+    assert len(mine) == 7 * 8 * 2 and mine == theirs
+
+
+def test_label_surfaces_refuses_what_it_cannot_mesh():
+    isoslab = pytest.importorskip("isoslab")
+    with pytest.raises(ValueError, match="should hold integers"):
+        isoslab.label_surfaces(np.zeros((4, 4, 4), np.float32))
+    with pytest.raises(ValueError, match="3D"):
+        isoslab.label_surfaces(np.zeros((4, 4), np.int32))
+    with pytest.raises(isoslab.Error, match="does not apply to label surfaces yet"):
+        isoslab.label_surfaces(np.ones((4, 4, 4), np.int32), smooth=5)
