@@ -98,7 +98,8 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
   extract
       ->add_option("-o,--output", args.output,
                    "Output mesh: .ply (binary), .stl (binary), .obj, .glb (glTF 2.0, Draco-compressed chunks), "
-                   ".drc (one Draco mesh) or .3mf (for printers; one object per label). With labels: a pattern with {name} or {label} (a file per label, any "
+                   ".drc (one Draco mesh) or .3mf (for printers; one object per label). With labels: a pattern with "
+                   "{name} or {label} (a file per label, any "
                    "format), or a .ply of the whole label complex (label_front and label_back per face)")
       ->required();
   extract->add_flag("--close-boundary", args.closeBoundary,

@@ -41,6 +41,11 @@ std::uint32_t seekTo(std::uint64_t position, void* user) {
   }
 }
 
+// A fixed identity (a version-4 form): `kind` 0 the build, 1 an object, 2 a build item.
+std::string uuid(int kind, int index) {
+  return fmt::format("{:08x}-0000-4000-8000-{:012x}", kind, index);
+}
+
 // Releases a lib3mf instance at the end of a scope.
 struct Released {
   PLib3MFBase* instance = nullptr;
@@ -70,8 +75,14 @@ void ThreeMfModel::fail(Handle instance, const char* what) const {
 
 void ThreeMfModel::begin() {
   file_ = std::make_unique<AtomicFile>(path_);
+  // A 3MF is a zip package, which lib3mf writes with seeks: a pipe fails here, in one line, not
+  // inside lib3mf.
+  file_->seek(0);
   if (lib3mf_createmodel(&model_) != LIB3MF_OK) fail(nullptr, "create");
   if (lib3mf_model_setunit(model_, MODELUNIT_MILLIMETER) != LIB3MF_OK) fail(model_, "set the unit of");
+  // The production extension's identities, made up by lib3mf at random, are fixed here: the same
+  // run gives the same bytes.
+  if (lib3mf_model_setbuilduuidutf8(model_, uuid(0, 0).c_str()) != LIB3MF_OK) fail(model_, "identify the build of");
 }
 
 void ThreeMfModel::addObject(const std::string& name, const std::optional<std::array<std::uint8_t, 3>>& color,
@@ -99,7 +110,11 @@ void ThreeMfModel::addObject(const std::string& name, const std::optional<std::a
     }
   }
   Released mesh;
+  ++objects_;
   if (lib3mf_model_addmeshobject(model_, &mesh.instance) != LIB3MF_OK) fail(model_, "add an object to");
+  if (lib3mf_object_setuuidutf8(mesh.instance, uuid(1, objects_).c_str()) != LIB3MF_OK) {
+    fail(mesh.instance, "identify an object of");
+  }
   if (lib3mf_object_setnameutf8(mesh.instance, name.c_str()) != LIB3MF_OK) fail(mesh.instance, "name an object of");
   if (lib3mf_meshobject_setgeometry(mesh.instance, vertices.data(), static_cast<DWORD>(vertices.size()), faces.data(),
                                     static_cast<DWORD>(faces.size())) != LIB3MF_OK) {
@@ -124,7 +139,8 @@ void ThreeMfModel::addObject(const std::string& name, const std::optional<std::a
     }
   }
   Released item;
-  if (lib3mf_model_addbuilditem(model_, mesh.instance, nullptr, &item.instance) != LIB3MF_OK) {
+  if (lib3mf_model_addbuilditem(model_, mesh.instance, nullptr, &item.instance) != LIB3MF_OK ||
+      lib3mf_builditem_setuuidutf8(item.instance, uuid(2, objects_).c_str()) != LIB3MF_OK) {
     fail(model_, "add a build item to");
   }
 }

@@ -47,6 +47,7 @@ class ThreeMfModel {
   Handle model_ = nullptr;
   Handle materials_ = nullptr;  // a base material group, made with the first colour
   std::uint32_t materialGroup_ = 0;
+  int objects_ = 0;
   std::unique_ptr<AtomicFile> file_;
 };
 

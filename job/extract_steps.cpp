@@ -105,7 +105,8 @@ class CollapsingWriter final : public MeshFileSink {
     d.emplace_back("degenerate_triangles_removed", static_cast<double>(c.triangles));
     d.emplace_back("coincident_vertices_merged", static_cast<double>(c.vertices));
     d.emplace_back("coincident_points_split", static_cast<double>(c.splits));
-    d.emplace_back("degenerate_clusters_kept", static_cast<double>(c.refused));
+    d.emplace_back("coincident_clusters_separated", static_cast<double>(c.refused));
+    d.emplace_back("coincident_vertices_moved", static_cast<double>(c.separated));
     return d;
   }
 

@@ -376,7 +376,7 @@ class SurfaceSetRun {
       for (const auto& [key, number] : chain.writer->details()) sums[key] += number;
     }
     for (const char* key : {"degenerate_triangles_removed", "coincident_vertices_merged", "coincident_points_split",
-                            "degenerate_clusters_kept"}) {
+                            "coincident_clusters_separated", "coincident_vertices_moved"}) {
       if (const auto it = sums.find(key); it != sums.end()) report_.output.details.emplace_back(key, it->second);
     }
   }

@@ -45,6 +45,13 @@ const Vec3f& DegenerateCollapseSink::position(VertexId v) const {
   return pending_.front().positions.front();  // unreachable for a stream that keeps the contract
 }
 
+Vec3f& DegenerateCollapseSink::mutablePosition(VertexId v) {
+  for (auto it = pending_.rbegin(); it != pending_.rend(); ++it) {
+    if (v >= it->firstVertex) return it->positions[v - it->firstVertex];
+  }
+  return pending_.front().positions.front();  // unreachable: a complete cluster's chunks are pending
+}
+
 VertexId DegenerateCollapseSink::find(VertexId v) {
   auto it = parent_.find(v);
   if (it == parent_.end()) return v;
@@ -102,11 +109,9 @@ std::optional<Triangle> DegenerateCollapseSink::mapped(const Triangle& t) const 
     if (merged[k] && merged[j] && cluster[k] == cluster[j]) return std::nullopt;
   }
   if (!corners_.empty()) {
-    const auto it = corners_.find(t);
-    if (it != corners_.end()) {
-      for (std::size_t k = 0; k < 3; ++k) {
-        if (t[k] == it->second.first) out[k] = it->second.second;
-      }
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto it = corners_.find({t, t[k]});
+      if (it != corners_.end()) out[k] = it->second;
     }
   }
   if (repeats(out)) return std::nullopt;
@@ -179,15 +184,75 @@ void DegenerateCollapseSink::settle(VertexId before) {
       for (std::size_t k = 0; k < c.members.size(); ++k) {
         merged_.emplace(c.members[k], Merge{merge->survivors[k], c.members.front()});
       }
-      for (const auto& [t, survivor] : merge->corners) corners_.emplace(t, survivor);
+      for (const auto& [corner, survivor] : merge->corners) corners_.emplace(corner, survivor);
       ++counts_.clusters;
       counts_.vertices += static_cast<std::int64_t>(c.members.size() - std::max<std::size_t>(merge->count, 1));
       counts_.splits += merge->count > 1 ? 1 : 0;
     } else {
       ++counts_.refused;
       counts_.refusedTriangles += degenerate;
+      counts_.separated += separate(c);
     }
   }
+}
+
+// A refused cluster: every member but the first moves a little towards the mean of its neighbours
+// outside the cluster (a thousandth of the way, more if float cannot tell the points apart), so that
+// no triangle keeps two corners at one point. Ids and topology stay; the zero-area triangles become
+// slivers. Returns the members moved.
+std::int64_t DegenerateCollapseSink::separate(const Cluster& cluster) {
+  const Vec3f at = position(cluster.members.front());
+  // Where no neighbour of a member lies off the point, the way to any corner of the cluster's
+  // triangles that does.
+  std::optional<Vec3f> anyOff;
+  for (const Triangle& t : cluster.triangles) {
+    for (const VertexId v : t) {
+      if (!anyOff && !(position(v) == at)) anyOff = position(v);
+    }
+  }
+  if (!anyOff) return 0;
+  std::vector<Vec3f> placed{at};
+  std::int64_t moved = 0;
+  for (std::size_t k = 1; k < cluster.members.size(); ++k) {
+    const VertexId m = cluster.members[k];
+    // The mean of its neighbours as they now lie (members moved before it included).
+    double d[3] = {0, 0, 0};
+    int count = 0;
+    std::optional<Vec3f> off;
+    for (const Triangle& t : cluster.triangles) {
+      if (std::find(t.begin(), t.end(), m) == t.end()) continue;
+      for (const VertexId v : t) {
+        if (v == m) continue;
+        const Vec3f& p = position(v);
+        if (!off && !(p == at)) off = p;
+        d[0] += p.x;
+        d[1] += p.y;
+        d[2] += p.z;
+        ++count;
+      }
+    }
+    if (count > 0) {
+      d[0] = d[0] / count - at.x;
+      d[1] = d[1] / count - at.y;
+      d[2] = d[2] / count - at.z;
+    }
+    if (d[0] == 0 && d[1] == 0 && d[2] == 0) {
+      const Vec3f& p = off ? *off : *anyOff;
+      d[0] = double(p.x) - at.x;
+      d[1] = double(p.y) - at.y;
+      d[2] = double(p.z) - at.z;
+    }
+    for (const double step : {1e-3, 1e-2, 1e-1}) {
+      const Vec3f q{static_cast<float>(at.x + step * d[0]), static_cast<float>(at.y + step * d[1]),
+                    static_cast<float>(at.z + step * d[2])};
+      if (std::find(placed.begin(), placed.end(), q) != placed.end()) continue;
+      mutablePosition(m) = q;
+      placed.push_back(q);
+      ++moved;
+      break;
+    }
+  }
+  return moved;
 }
 
 // The cluster's triangles that keep one member, each seen from that member as the fan edge
@@ -282,8 +347,8 @@ std::optional<DegenerateCollapseSink::Fans> DegenerateCollapseSink::fans(const C
   std::vector<std::size_t> order(static_cast<std::size_t>(chains));
   for (std::size_t c = 0; c < order.size(); ++c) order[c] = c;
   std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-    if (inChain[x] != inChain[y]) return std::lexicographical_compare(inChain[y].begin(), inChain[y].end(),
-                                                                       inChain[x].begin(), inChain[x].end());
+    if (inChain[x] != inChain[y])
+      return std::lexicographical_compare(inChain[y].begin(), inChain[y].end(), inChain[x].begin(), inChain[x].end());
     return firstTriangle[x] < firstTriangle[y];
   });
   std::vector<bool> taken(n, false);
@@ -300,7 +365,7 @@ std::optional<DegenerateCollapseSink::Fans> DegenerateCollapseSink::fans(const C
     const auto m = static_cast<std::size_t>(link[e].member);
     const VertexId v = chainVertex[static_cast<std::size_t>(chainOf[e])];
     if (memberChains[m] > 1) {
-      out.corners.emplace_back(link[e].triangle, std::pair{cluster.members[m], v});
+      out.corners.emplace_back(std::pair{link[e].triangle, cluster.members[m]}, v);
     }
     out.survivors[m] = v;
   }
@@ -315,12 +380,14 @@ void DegenerateCollapseSink::emitFront() {
   for (std::size_t k = 0; k < out.triangles.size(); ++k) {
     const Triangle t = out.triangles[k];
     const auto m = mapped(t);
+    if (!corners_.empty()) {
+      for (const VertexId v : t) corners_.erase({t, v});
+    }
     if (!m) {
       ++counts_.triangles;
       continue;
     }
     out.triangles[kept] = remap_ ? *m : t;
-    if (!corners_.empty()) corners_.erase(t);
     if (labels) out.faceLabels[kept] = out.faceLabels[k];
     ++kept;
   }

@@ -10,10 +10,11 @@
 // border) with every neighbour once on each side. Where two sheets of the surface touch at the
 // point (a saddle exactly at the iso value), the fans are two or more: each gets a vertex of its
 // own (a split, as label surfaces split where voxels touch at a corner), so that every vertex
-// stays a 2-manifold point. A cluster that fails stays as it is and is counted.
+// stays a 2-manifold point. A cluster that fails keeps its ids, and its members are moved apart
+// by a thousandth of their neighbours' distance: the triangles become slivers, not zero-area ones.
 //
-// No position moves, so the surface's area, volume and shape are unchanged; only triangles of zero
-// area go. The cluster of a vertex of chunk z is known once chunk z + 1 has arrived (a triangle of
+// A merge moves no position, so the surface's area, volume and shape are unchanged; only triangles
+// of zero area go. The cluster of a vertex of chunk z is known once chunk z + 1 has arrived (a triangle of
 // a later chunk cannot reference it), so the sink holds two or three chunks.
 #pragma once
 
@@ -35,10 +36,12 @@ struct DegenerateCounts {
   std::int64_t triangles = 0;
   /// Merged clusters whose triangles form several fans, each with its own vertex.
   std::int64_t splits = 0;
-  /// Clusters left as they were (merging them would make an edge or a vertex non-manifold), and
-  /// the degenerate triangles they keep.
+  /// Clusters not merged (merging them would make an edge non-manifold), and the zero-area
+  /// triangles they had. Their members but one are moved apart a little instead (`separated`),
+  /// so that those triangles become slivers and none keeps two corners at one point.
   std::int64_t refused = 0;
   std::int64_t refusedTriangles = 0;
+  std::int64_t separated = 0;
 };
 
 class DegenerateCollapseSink final : public MeshSink {
@@ -58,7 +61,7 @@ class DegenerateCollapseSink final : public MeshSink {
 
  private:
   struct Cluster {
-    std::vector<VertexId> members;  // sorted; members.front() survives
+    std::vector<VertexId> members;    // sorted; members.front() survives
     std::vector<Triangle> triangles;  // every pending triangle that uses a member
   };
 
@@ -76,7 +79,7 @@ class DegenerateCollapseSink final : public MeshSink {
   /// two fans, the survivor of its corner in each of its kept triangles.
   struct Fans {
     std::vector<VertexId> survivors;
-    std::vector<std::pair<Triangle, std::pair<VertexId, VertexId>>> corners;  // (member, survivor)
+    std::vector<std::pair<std::pair<Triangle, VertexId>, VertexId>> corners;  // ((triangle, member), survivor)
     std::size_t count = 0;
   };
   /// Nothing when the merge would make an edge non-manifold.
@@ -85,14 +88,17 @@ class DegenerateCollapseSink final : public MeshSink {
   std::optional<Triangle> mapped(const Triangle& t) const;
   void emitFront();
   const Vec3f& position(VertexId v) const;
+  Vec3f& mutablePosition(VertexId v);
+  std::int64_t separate(const Cluster& cluster);
 
   MeshSink& next_;
   bool remap_ = false;
   std::deque<MeshChunk> pending_;
   std::unordered_map<VertexId, VertexId> parent_;  // union-find over the open clusters' members
-  std::map<VertexId, Merge> merged_;  // by member, while a pending triangle may use it
-  /// Kept triangles whose member is in two fans: (member, survivor), until emitted.
-  std::map<Triangle, std::pair<VertexId, VertexId>> corners_;
+  std::map<VertexId, Merge> merged_;               // by member, while a pending triangle may use it
+  /// The corners (triangle, member) of kept triangles whose member is in two fans, with the
+  /// survivor of each, until the triangle is emitted.
+  std::map<std::pair<Triangle, VertexId>, VertexId> corners_;
   DegenerateCounts counts_;
 };
 

@@ -137,8 +137,8 @@ Printable printable(const Mesh& m) {
 }
 
 // The repairs PrusaSlicer 2.5's --info lists (only when it made them).
-const char* const kRepairs[] = {"degenerate_facets", "edges_fixed", "facets_removed", "facets_added",
-                                "facets_reversed",   "backwards_edges"};
+const char* const kRepairs[] = {"degenerate_facets", "edges_fixed",     "facets_removed",
+                                "facets_added",      "facets_reversed", "backwards_edges"};
 
 std::string prusaSlicer() {
   for (const char* p : {"/usr/bin/prusa-slicer", "/usr/local/bin/prusa-slicer"}) {
@@ -189,9 +189,9 @@ TEST(Printable, StlAnd3mfDropTheZeroAreaTrianglesOfSamplesAtTheIsoValue) {
   for (const char* method : {"mc", "mt6"}) {
     SCOPED_TRACE(method);
     const std::string m = std::string(" --method ") + method;
-    ASSERT_EQ(testing::runCli("extract " + ball + common + m + " -o " + dir + "/a.stl --report " + dir + "/a.json")
-                  .exitCode,
-              0);
+    ASSERT_EQ(
+        testing::runCli("extract " + ball + common + m + " -o " + dir + "/a.stl --report " + dir + "/a.json").exitCode,
+        0);
     ASSERT_EQ(testing::runCli("extract " + ball + common + m + " -o " + dir + "/a.3mf").exitCode, 0);
     ASSERT_EQ(testing::runCli("extract " + ball + common + m + " --keep-degenerate -o " + dir + "/k.stl").exitCode, 0);
     const auto report = nlohmann::json::parse(testing::slurp(dir + "/a.json"));
@@ -199,7 +199,7 @@ TEST(Printable, StlAnd3mfDropTheZeroAreaTrianglesOfSamplesAtTheIsoValue) {
     const auto degenerate = report["degenerate_triangles"].get<std::size_t>();
     ASSERT_GT(degenerate, 10u);  // counted by the measures, not by the collapse
     EXPECT_EQ(report["output"]["degenerate_triangles_removed"].get<double>(), double(degenerate));
-    EXPECT_EQ(report["output"]["degenerate_clusters_kept"].get<double>(), 0.0);
+    EXPECT_EQ(report["output"]["coincident_clusters_separated"].get<double>(), 0.0);
 
     const Mesh kept = readStl(dir + "/k.stl");
     EXPECT_EQ(kept.triangles.size(), extracted);
@@ -218,6 +218,26 @@ TEST(Printable, StlAnd3mfDropTheZeroAreaTrianglesOfSamplesAtTheIsoValue) {
     EXPECT_EQ(printable(objects[0]).badEdges, 0u);
     EXPECT_FALSE(objects[0].color.has_value());
   }
+  fs::remove_all(dir);
+}
+
+// Found by a hostile test: two points split into two fans each, sharing a triangle; each corner of
+// that triangle must go to its own fan's vertex (the 3MF had four open edges).
+TEST(Printable, SplitPointsThatShareATriangleStayClosedIn3mf) {
+  const std::string dir = testing::tempDir();
+  const unsigned char bytes[] = {3, 3, 1, 2, 1, 3, 1, 1, 1, 1, 1, 2, 1, 1, 1, 1, 1, 3};
+  std::ofstream(dir + "/r.raw", std::ios::binary).write(reinterpret_cast<const char*>(bytes), sizeof bytes);
+  ASSERT_EQ(
+      testing::runCli("extract " + dir + "/r.raw --raw-dims 2,3,3 --raw-type uint8 --iso 2 --close-boundary -q -o " +
+                      dir + "/r.3mf --report " + dir + "/r.json")
+          .exitCode,
+      0);
+  const auto report = nlohmann::json::parse(testing::slurp(dir + "/r.json"));
+  EXPECT_EQ(report["output"]["coincident_points_split"].get<double>(), 2.0);
+  const std::vector<Mesh> objects = read3mf(dir + "/r.3mf");
+  ASSERT_EQ(objects.size(), 1u);
+  EXPECT_EQ(printable(objects[0]).coincident, 0u);
+  EXPECT_EQ(printable(objects[0]).badEdges, 0u);
   fs::remove_all(dir);
 }
 

@@ -65,9 +65,8 @@ TEST(Degenerate, AZeroLengthVertexSplitCollapsesBackToTheOctahedron) {
   std::sort(expected.begin(), expected.end());
 
   // One chunk, and two: vertex 6 and its triangles in the second.
-  const std::vector<std::vector<MeshChunk>> streams{
-      {chunkOf(0, positions, all)},
-      {chunkOf(0, kOctahedron, whole), chunkOf(6, {{0, 0, 1}}, split)}};
+  const std::vector<std::vector<MeshChunk>> streams{{chunkOf(0, positions, all)},
+                                                    {chunkOf(0, kOctahedron, whole), chunkOf(6, {{0, 0, 1}}, split)}};
   for (const auto& stream : streams) {
     DegenerateCounts counts;
     IndexedMesh merged = collapse(stream, true, &counts);
@@ -77,7 +76,7 @@ TEST(Degenerate, AZeroLengthVertexSplitCollapsesBackToTheOctahedron) {
     EXPECT_EQ(counts.splits, 0);
     EXPECT_EQ(counts.refused, 0);
     std::sort(merged.triangles.begin(), merged.triangles.end());
-    EXPECT_EQ(merged.triangles, expected);  // the survivor is the smaller id, 4
+    EXPECT_EQ(merged.triangles, expected);   // the survivor is the smaller id, 4
     EXPECT_EQ(merged.positions.size(), 7u);  // positions pass as they came
 
     // Without remap the kept triangles keep their ids: the two degenerate ones go.
@@ -90,7 +89,7 @@ TEST(Degenerate, AZeroLengthVertexSplitCollapsesBackToTheOctahedron) {
   }
 }
 
-TEST(Degenerate, AMergeThatWouldRepeatANeighbourIsRefused) {
+TEST(Degenerate, AMergeThatWouldRepeatANeighbourIsRefusedAndItsPointsMovedApart) {
   // a = 0 and b = 1 share a position and the zero-length edge of (0, 1, 4); both also make a
   // triangle from neighbour 2, so the merged point would start two fan edges at 2.
   const std::vector<Vec3f> p{{0, 0, 0}, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}};
@@ -102,13 +101,18 @@ TEST(Degenerate, AMergeThatWouldRepeatANeighbourIsRefused) {
   EXPECT_EQ(counts.refused, 1);
   EXPECT_EQ(counts.refusedTriangles, 1);
   EXPECT_EQ(counts.triangles, 0);
+  // Instead, b moves a thousandth of the way to the mean of its neighbours 0, 2, 4 and 5
+  // (0.25, -0.25, 0.25), so that (0, 1, 4) is a sliver; a stays.
+  EXPECT_EQ(counts.separated, 1);
+  EXPECT_EQ(out.positions[0], p[0]);
+  EXPECT_EQ(out.positions[1], (Vec3f{0.00025f, -0.00025f, 0.00025f}));
 }
 
 // What a welded mesh must be after the collapse, counted by brute force.
 struct Check {
-  std::size_t coincident = 0;    // triangles with two corners at one position
-  std::size_t badEdges = 0;      // an undirected edge not used once each way
-  std::size_t badFans = 0;       // a vertex whose triangles are not one closed fan
+  std::size_t coincident = 0;  // triangles with two corners at one position
+  std::size_t badEdges = 0;    // an undirected edge not used once each way
+  std::size_t badFans = 0;     // a vertex whose triangles are not one closed fan
   double area = 0;
 };
 
