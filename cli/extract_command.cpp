@@ -223,8 +223,10 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
       ->group(smoothGroup);
   extract
       ->add_option("--pass-band", args.passBand,
-                   "The filter's pass band in (0, 2): lower smooths more (sinc's cut-off; Taubin's 1/lambda + 1/mu)")
+                   "The filter's pass band in (0, 2): lower smooths more (sinc's cut-off; Taubin's 1/lambda + 1/mu); "
+                   "label surfaces default to 0.3")
       ->capture_default_str()
+      ->each([&args](const std::string&) { args.passBandGiven = true; })
       ->group(smoothGroup);
   extract
       ->add_option("--smooth-faces", args.smoothFaces,
@@ -316,6 +318,7 @@ ExtractSettings extractSettings(const ExtractArgs& args, RankGroup* ranks) {
   sm.iterations = args.smooth;
   sm.method = args.smoothMethod == "taubin" ? SmoothMethod::kTaubin : SmoothMethod::kSinc;
   sm.passBand = args.passBand;
+  s.passBandGiven = args.passBandGiven;
   sm.faces = args.smoothFaces == "lock" ? FaceVertices::kLock : FaceVertices::kSlide;
   sm.recomputeNormals = args.smoothNormals == "smoothed";
   s.decimate = args.decimate;

@@ -56,6 +56,7 @@ struct ExtractArgs {
   int smooth = 0;
   std::string smoothMethod = "sinc";
   double passBand = 0.08;
+  bool passBandGiven = false;
   std::string smoothFaces = "slide";
   std::string smoothNormals = "smoothed";
   // Decimation (1 and 0: off).

@@ -1,7 +1,9 @@
 // The map from lattice coordinates (i, j, k), in voxel units, to output coordinates.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -67,6 +69,16 @@ class LatticeFrame {
 
   /// Output volume of one unit lattice cube.
   double cellVolume() const noexcept { return determinant_ < 0 ? -determinant_ : determinant_; }
+  /// The shortest lattice step in output units: the shortest column of the linear map.
+  double smallestEdge() const noexcept {
+    double best = 0;
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double x = linear_[a], y = linear_[3 + a], z = linear_[6 + a];
+      const double length = std::sqrt(x * x + y * y + z * z);
+      best = a == 0 ? length : std::min(best, length);
+    }
+    return best;
+  }
 
   const std::string& name() const noexcept { return name_; }
 

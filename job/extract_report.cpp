@@ -77,6 +77,11 @@ void addLabelsJson(Json& r, const ExtractReport& report) {
     }
     j["splits"] = l.splits;
     j["pinches"] = l.pinches;
+    if (l.smoothing) {
+      if (l.measured && l.voxelVolume > 0) j["volume_change"] = l.stats.volume / l.voxelVolume - 1;
+      j["largest_displacement"] = l.smoothing->first;
+      j["held_back"] = l.smoothing->second;
+    }
     j["bounds"] = l.stats.bounds;
     if (!l.path.empty()) j["path"] = l.path;
     labels.push_back(j);

@@ -64,6 +64,8 @@ struct ExtractLabel {
   std::uint64_t splits = 0;   // vertices split where its voxels touch at an edge or a corner
   std::uint64_t pinches = 0;  // extra fans kept at a vertex where three labels meet
   std::string path;           // its file, with a pattern output
+  /// With --smooth: its vertices' largest move and how many the displacement limit held back.
+  std::optional<std::pair<double, std::int64_t>> smoothing;
 };
 
 /// Where two labels touch (label runs): the smaller value first.

@@ -223,7 +223,7 @@ void checkLabelSettings(const ExtractSettings& s) {
                              : s.components.minVolume    ? "min_volume"
                              : s.components.minTriangles ? "min_triangles"
                                                          : "seed");
-  refuse(s.smoothing.iterations != 0, "smooth");
+  if (!s.isos.empty()) refuse(s.smoothing.iterations != 0, "smooth");
   refuse(s.decimate != 1.0, "decimate");
   refuse(s.maxError != 0, "max_error");
   refuse(s.normals, "normals");

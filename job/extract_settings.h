@@ -136,6 +136,8 @@ struct ExtractSettings {
   ComponentRules components;
   /// Smoothing in the stream (iterations 0: off).
   SmoothOptions smoothing;
+  /// Whether smoothing.passBand was given: label surfaces default to kLabelPassBand otherwise.
+  bool passBandGiven = false;
   /// Decimation: keep this fraction of the triangles, and/or stay within maxError voxels
   /// (1 and 0: off).
   double decimate = 1.0;

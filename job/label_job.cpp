@@ -28,6 +28,7 @@
 #include "metrics/mesh_stats.h"
 #include "metrics/report.h"
 #include "process/label_surfaces.h"
+#include "process/smoothing.h"
 #include "stream/pipeline.h"
 #include "stream/rank_group.h"
 
@@ -199,6 +200,16 @@ class SurfaceSetRun {
       heads.insert(heads.begin(), complexWriter_.get());
     }
     TeeSink tee(heads);
+    // Smoothing: the complex, each interface once, so that a vertex moves once for every label
+    // around it (process/smoothing.h: sheets, lines where three regions meet, fixed corners).
+    MeshSink* head = &tee;
+    if (settings_.smoothing.iterations > 0) {
+      SmoothOptions smooth = settings_.smoothing;
+      smooth.maxDisplacement = 0.5 * frame_.smallestEdge();
+      if (!settings_.passBandGiven) smooth.passBand = kLabelPassBand;
+      smoothing_.emplace(tee, smooth);
+      head = &*smoothing_;
+    }
     PipelineOptions options;
     options.threads = threads;
     options.maxThreadBytes = (static_cast<std::size_t>(settings_.maxMemoryMiB) << 20) / 2;
@@ -216,7 +227,7 @@ class SurfaceSetRun {
         options.mergeRankSummary = [this](int, const std::string& counts) { counter_->addCounts(counts); };
       }
     }
-    return runPipeline(*source_, *extractor_, tee, header_, options);
+    return runPipeline(*source_, *extractor_, *head, header_, options);
   }
 
   // The report: the complex as a whole, each label, the interfaces and the warnings.
@@ -365,6 +376,11 @@ class SurfaceSetRun {
     if (const auto s = split_->splits().find(value); s != split_->splits().end()) l.splits = s->second;
     if (const auto p = split_->pinches().find(value); p != split_->pinches().end()) l.pinches = p->second;
     l.path = chain.path;
+    if (smoothing_) {
+      const auto s = smoothing_->labels().find(value);
+      l.smoothing = s != smoothing_->labels().end() ? std::pair{s->second.largestDisplacement, s->second.heldBack}
+                                                    : std::pair{0.0, std::int64_t{0}};
+    }
     return l;
   }
 
@@ -428,6 +444,7 @@ class SurfaceSetRun {
   std::map<std::int32_t, LabelChain> chains_;  // before split_: the split's sinks outlive it
   std::map<std::string, std::int32_t> paths_;
   std::optional<LabelSplitSink> split_;
+  std::optional<SmoothingSink> smoothing_;
   ComplexCounter complexStats_;
   std::unique_ptr<MeshFileSink> complexWriter_;
 };

@@ -120,6 +120,7 @@ void SmoothingSink::begin(const MeshHeader& header) {
   finished_ = false;
   peakChunks_ = 0;
   peakVertices_ = 0;
+  labels_.clear();
   MeshHeader out = header;
   out.cellVolumes = false;  // the slabs' tetrahedron volumes were the unsmoothed surface's
   next_.begin(out);
@@ -145,7 +146,27 @@ void SmoothingSink::consume(const MeshChunk& chunk) {
   c.mesh.boundary = chunk.boundary;
   c.mesh.triangles = chunk.triangles;
   c.mesh.cellVolume = chunk.cellVolume;
+  c.mesh.faceLabels = chunk.faceLabels;
+  c.mesh.labelSplits = chunk.labelSplits;
+  c.mesh.labelPinches = chunk.labelPinches;
   c.count = chunk.positions.size();
+  if (header_.labels) {
+    c.starts = chunk.positions;
+    c.faceBits.assign(c.count, 0);
+    // The faces of a label complex are its voxels' box: a vertex of a cell in the background's
+    // padding lies on one, the others a voxel inside.
+    if (header_.volumeFaces) {
+      for (std::size_t v = 0; v < c.count; ++v) {
+        const Vec3d p = toDouble(chunk.positions[v]);
+        for (std::size_t f = 0; f < 6; ++f) {
+          const FacePlane& plane = (*header_.volumeFaces)[f];
+          const double tolerance =
+              options_.maxDisplacement > 0 ? 0.5 * options_.maxDisplacement : 1e-6 * (1 + std::abs(plane[3]));
+          if (plane[0] * p[0] + plane[1] * p[1] + plane[2] * p[2] - plane[3] > -tolerance) c.faceBits[v] |= 1u << f;
+        }
+      }
+    }
+  }
   for (std::size_t v = 0; v < chunk.boundary.size(); ++v) {
     if (chunk.boundary[v] != 0) c.origins.emplace_back(static_cast<std::uint32_t>(v), chunk.positions[v]);
   }
@@ -213,6 +234,11 @@ void SmoothingSink::link(std::size_t index) {
   add(chunk.mesh.triangles);
   if (index + 1 < chunks_.size()) add(chunks_[index + 1].mesh.triangles);
   std::sort(pairs.begin(), pairs.end());
+  if (header_.labels) {
+    classify(chunk, pairs);
+    chunk.linked = true;
+    return;
+  }
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   const std::size_t n = chunk.count;
   chunk.offsets.assign(n + 1, 0);
@@ -221,6 +247,124 @@ void SmoothingSink::link(std::size_t index) {
   chunk.neighbours.resize(pairs.size());
   for (std::size_t i = 0; i < pairs.size(); ++i) chunk.neighbours[i] = static_cast<VertexId>(pairs[i] & 0xffffffffu);
   chunk.linked = true;
+}
+
+namespace {
+
+// The kinds of a label complex's vertices (vtkSurfaceNets3D smooths the same way): on one
+// interface (a sheet), on a line where three or more regions meet (its edges of three or more
+// triangles), or where such lines meet or end (fixed).
+enum Kind : std::uint8_t { kSheet, kLine, kFixed };
+
+// Keeps a move on the volume's faces that `bits` names: within the face, along the line where two
+// meet; a corner stays.
+Vec3d projectToFaces(std::uint8_t bits, const VolumeFaces& planes, const Vec3d& origin, const Vec3d& p) {
+  const int faces = std::popcount(static_cast<unsigned>(bits));
+  if (faces == 0) return p;
+  if (faces >= 3) return origin;
+  std::array<Vec3d, 2> normal{};
+  std::size_t found = 0;
+  for (std::size_t f = 0; f < 6 && found < 2; ++f) {
+    if (bits & (1u << f)) normal[found++] = {planes[f][0], planes[f][1], planes[f][2]};
+  }
+  const Vec3d delta{p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]};
+  if (faces == 1) {
+    const double along = dot(delta, normal[0]);
+    return {p[0] - along * normal[0][0], p[1] - along * normal[0][1], p[2] - along * normal[0][2]};
+  }
+  Vec3d t{normal[0][1] * normal[1][2] - normal[0][2] * normal[1][1],
+          normal[0][2] * normal[1][0] - normal[0][0] * normal[1][2],
+          normal[0][0] * normal[1][1] - normal[0][1] * normal[1][0]};
+  const double length = std::sqrt(dot(t, t));
+  if (length == 0) return origin;
+  for (double& x : t) x /= length;
+  const double along = dot(delta, t);
+  return {origin[0] + along * t[0], origin[1] + along * t[1], origin[2] + along * t[2]};
+}
+
+}  // namespace
+
+// A label complex's neighbour lists: `pairs` (sorted, one per triangle at an edge) tell how many
+// triangles each edge has. A sheet vertex takes all its neighbours, a line vertex its two
+// neighbours along the line, a fixed vertex none.
+void SmoothingSink::classify(Chunk& chunk, const std::vector<std::uint64_t>& pairs) {
+  const std::size_t n = chunk.count;
+  chunk.offsets.assign(n + 1, 0);
+  chunk.kind.assign(n, kSheet);
+  chunk.neighbours.clear();
+  std::vector<VertexId> all;
+  std::vector<VertexId> line;
+  for (std::size_t i = 0; i < pairs.size();) {
+    const std::uint64_t local = pairs[i] >> 32;
+    all.clear();
+    line.clear();
+    while (i < pairs.size() && (pairs[i] >> 32) == local) {
+      std::size_t j = i;
+      while (j < pairs.size() && pairs[j] == pairs[i]) ++j;
+      const auto neighbour = static_cast<VertexId>(pairs[i] & 0xffffffffu);
+      all.push_back(neighbour);
+      if (j - i >= 3) line.push_back(neighbour);
+      i = j;
+    }
+    std::vector<VertexId>* keep = &all;
+    if (line.size() == 2) {
+      chunk.kind[local] = kLine;
+      keep = &line;
+    } else if (!line.empty()) {
+      chunk.kind[local] = kFixed;
+      keep = nullptr;
+    }
+    if (keep != nullptr) chunk.neighbours.insert(chunk.neighbours.end(), keep->begin(), keep->end());
+    chunk.offsets[local + 1] = static_cast<std::uint32_t>(chunk.neighbours.size());
+  }
+  for (std::size_t v = 0; v < n; ++v) chunk.offsets[v + 1] = std::max(chunk.offsets[v + 1], chunk.offsets[v]);
+}
+
+// A label complex's vertex: a fixed one stays; the others keep to the volume's faces they lie
+// beyond, and within maxDisplacement of where they started (`held` says whether that held them).
+SmoothingSink::Vec3d SmoothingSink::constrainLabel(const Chunk& chunk, std::size_t local, const Vec3d& p,
+                                                   bool* held) const {
+  const Vec3d start = toDouble(chunk.starts[local]);
+  if (!chunk.kind.empty() && chunk.kind[local] == kFixed) return start;
+  Vec3d q = p;
+  if (chunk.faceBits[local] != 0 && header_.volumeFaces) {
+    q = options_.faces == FaceVertices::kLock ? start
+                                              : projectToFaces(chunk.faceBits[local], *header_.volumeFaces, start, q);
+  }
+  const double limit = options_.maxDisplacement;
+  if (limit > 0) {
+    const Vec3d d{q[0] - start[0], q[1] - start[1], q[2] - start[2]};
+    const double length = std::sqrt(dot(d, d));
+    if (length > limit) {
+      const double scale = limit / length;
+      q = {start[0] + d[0] * scale, start[1] + d[1] * scale, start[2] + d[2] * scale};
+      if (held != nullptr) *held = true;
+    }
+  }
+  return q;
+}
+
+// Per label, the largest move of its surface's vertices and how many were held back.
+void SmoothingSink::tallyLabels(const Chunk& c) {
+  std::vector<std::pair<std::int32_t, std::uint32_t>> uses;  // (label, local vertex)
+  for (std::size_t t = 0; t < c.mesh.triangles.size() && t < c.mesh.faceLabels.size(); ++t) {
+    for (const VertexId v : c.mesh.triangles[t]) {
+      if (v < c.mesh.firstVertex || v >= c.end()) continue;
+      for (const std::int32_t label : c.mesh.faceLabels[t]) {
+        if (label != 0) uses.emplace_back(label, static_cast<std::uint32_t>(v - c.mesh.firstVertex));
+      }
+    }
+  }
+  std::sort(uses.begin(), uses.end());
+  uses.erase(std::unique(uses.begin(), uses.end()), uses.end());
+  for (const auto& [label, v] : uses) {
+    LabelSmoothing& s = labels_[label];
+    const Vec3d a = toDouble(c.output[v]);
+    const Vec3d b = toDouble(c.starts[v]);
+    const Vec3d d{a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+    s.largestDisplacement = std::max(s.largestDisplacement, std::sqrt(dot(d, d)));
+    s.heldBack += c.held[v];
+  }
 }
 
 // Whether the chunk at `index` can go from iteration L to L + 1: its neighbour lists are complete,
@@ -300,6 +444,7 @@ void SmoothingSink::sweep() {
 // where its two faces meet, or (a corner, a locked vertex, faces that are not planes) back where
 // it was.
 SmoothingSink::Vec3d SmoothingSink::constrain(const Chunk& chunk, std::size_t local, const Vec3d& p) const {
+  if (header_.labels) return constrainLabel(chunk, local, p, nullptr);
   const std::uint8_t bits = chunk.mesh.boundary.empty() ? 0 : chunk.mesh.boundary[local];
   if (bits == 0) return p;
   const auto it = std::lower_bound(chunk.origins.begin(), chunk.origins.end(), static_cast<std::uint32_t>(local),
@@ -366,6 +511,15 @@ void SmoothingSink::finalize(Chunk& c) {
   if (c.output.size() == c.count) return;
   const std::vector<Vec3d>& result = options_.method == SmoothMethod::kSinc ? c.sum : c.current;
   c.output.resize(result.size());
+  if (header_.labels) {
+    c.held.assign(result.size(), 0);
+    for (std::size_t v = 0; v < result.size(); ++v) {
+      bool held = false;
+      c.output[v] = toFloat(constrainLabel(c, v, result[v], &held));
+      c.held[v] = held ? 1 : 0;
+    }
+    return;
+  }
   for (std::size_t v = 0; v < result.size(); ++v) c.output[v] = toFloat(constrain(c, v, result[v]));
 }
 
@@ -383,6 +537,10 @@ void SmoothingSink::emit(std::size_t index) {
   out_.positions = c.output;
   out_.boundary = c.mesh.boundary;
   out_.triangles = c.mesh.triangles;
+  out_.faceLabels = c.mesh.faceLabels;
+  out_.labelSplits = c.mesh.labelSplits;
+  out_.labelPinches = c.mesh.labelPinches;
+  if (header_.labels) tallyLabels(c);
   if (header_.normals) {
     out_.normals = c.mesh.normals;
     if (options_.recomputeNormals) {

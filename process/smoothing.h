@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -40,7 +41,22 @@ struct SmoothOptions {
   FaceVertices faces = FaceVertices::kSlide;
   /// Normals from the smoothed mesh (area-weighted face normals), or the field's as extracted.
   bool recomputeNormals = true;
+  /// A label complex (MeshHeader::labels) only: how far a vertex may move from where it started
+  /// (0: no limit). The label job gives half the smallest voxel edge, a ball inside the vertex's
+  /// cell, so that no surface passes through another.
+  double maxDisplacement = 0;
 };
+
+/// What the smoothing did to one label's surface (a label complex only).
+struct LabelSmoothing {
+  double largestDisplacement = 0;
+  /// Vertices of the label's surface that maxDisplacement held back.
+  std::int64_t heldBack = 0;
+};
+
+/// The pass band of label surfaces when none is given: at 20 iterations every label of the AAL
+/// atlas with 1,000 voxels or more keeps its volume within 1% (0.08 loses up to 1.75%).
+inline constexpr double kLabelPassBand = 0.3;
 
 /// The most iterations allowed: the sink holds N + 2 chunks.
 inline constexpr int kMaxSmoothIterations = 500;
@@ -72,6 +88,8 @@ class SmoothingSink final : public MeshSink {
   std::size_t peakChunks() const noexcept { return peakChunks_; }
   /// The most vertices held at once (in those chunks).
   std::size_t peakVertices() const noexcept { return peakVertices_; }
+  /// A label complex: per label, after finish().
+  const std::map<std::int32_t, LabelSmoothing>& labels() const noexcept { return labels_; }
 
  private:
   using Vec3d = std::array<double, 3>;
@@ -81,6 +99,12 @@ class SmoothingSink final : public MeshSink {
     // The original positions of the vertices on the volume's faces (local index, position), which
     // their constraint needs.
     std::vector<std::pair<std::uint32_t, Vec3f>> origins;
+    // A label complex: every vertex's original position, its volume-face bits (the complex lies
+    // half a voxel beyond the faces, in the background's padding), and its kind (Kind).
+    std::vector<Vec3f> starts;
+    std::vector<std::uint8_t> faceBits;
+    std::vector<std::uint8_t> kind;
+    std::vector<std::uint8_t> held;  // the final position was held back by maxDisplacement
     VertexId end() const noexcept { return mesh.firstVertex + static_cast<VertexId>(count); }
     // The neighbour lists, once the next chunk has arrived: neighbours[offsets[v] .. offsets[v + 1]).
     std::vector<std::uint32_t> offsets;
@@ -102,6 +126,9 @@ class SmoothingSink final : public MeshSink {
   void finalize(Chunk& chunk);
   const Vec3f& finalPosition(VertexId v);
   Vec3d constrain(const Chunk& chunk, std::size_t local, const Vec3d& p) const;
+  Vec3d constrainLabel(const Chunk& chunk, std::size_t local, const Vec3d& p, bool* held) const;
+  void classify(Chunk& chunk, const std::vector<std::uint64_t>& pairs);
+  void tallyLabels(const Chunk& chunk);
 
   MeshSink& next_;
   SmoothOptions options_;
@@ -113,6 +140,7 @@ class SmoothingSink final : public MeshSink {
   std::size_t peakVertices_ = 0;
   MeshChunk out_;
   std::vector<Vec3d> scratch_;
+  std::map<std::int32_t, LabelSmoothing> labels_;
 };
 
 }  // namespace isoslab

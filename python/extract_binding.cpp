@@ -157,6 +157,7 @@ ExtractSettings settingsOf(const py::dict& d) {
                                 RoiSpace::kVoxel);
   componentSettings(d, s.components);
   smoothingSettings(d, s.smoothing);
+  s.passBandGiven = get<double>(d, "pass_band").has_value();
   s.decimate = get<double>(d, "decimate").value_or(1.0);
   s.maxError = get<double>(d, "max_error").value_or(0.0);
   if (auto preview = get<std::string>(d, "preview")) s.preview.path = *preview;

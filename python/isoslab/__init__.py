@@ -294,7 +294,9 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), select=None, smooth=0, de
     - adjacency: {(a, b): area} for each pair of labels that touch (a < b).
 
     `select`: None or "all" for every label, else values, ranges ("7-9") as --labels takes them.
-    `smooth` and `decimate` are refused until label surfaces can be finished in the stream.
+    `smooth`: iterations of the label complex's constrained smoothing (as extract's --smooth on a
+    label map: each interface moves once for both labels). `decimate` is refused until label
+    surfaces can be decimated in the stream.
     `threads`: None for the default. Errors raise isoslab.Error with the program's message.
     """
     if not isinstance(labels, np.ndarray):

@@ -412,8 +412,8 @@ TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
        "isoslab: error: " + dir + "/bad.txt:2: 'Liver 2' is not a label line: its first field is not a whole number\n"},
       {"'phantom:voxel' --labels 3-1 -o " + dir + "/{name}.ply", 2,
        "isoslab: error: --labels range '3-1' is reversed\n"},
-      {"'phantom:voxel' --labels all --smooth 5 -o " + dir + "/{name}.ply", 2,
-       "isoslab: error: --smooth does not apply to label surfaces yet\n"},
+      {"'phantom:voxel' --labels all --decimate 0.5 -o " + dir + "/{name}.ply", 2,
+       "isoslab: error: --decimate does not apply to label surfaces yet\n"},
       {"'phantom:voxel' --labels all -o " + dir + "/one.stl", 2,
        "isoslab: error: -o '" + dir +
            "/one.stl' is one file: label surfaces go to a pattern such as 'labels/{name}.stl' (a file per label), "

@@ -224,4 +224,4 @@ def test_label_surfaces_refuses_what_it_cannot_mesh():
     with pytest.raises(ValueError, match="3D"):
         isoslab.label_surfaces(np.zeros((4, 4), np.int32))
     with pytest.raises(isoslab.Error, match="does not apply to label surfaces yet"):
-        isoslab.label_surfaces(np.ones((4, 4, 4), np.int32), smooth=5)
+        isoslab.label_surfaces(np.ones((4, 4, 4), np.int32), decimate=0.5)
