@@ -790,3 +790,133 @@ TEST(LabelSplit, WithoutMeasuresTheComplexAndCountsAreTheSameAndTheReportSaysNot
 
 }  // namespace
 }  // namespace isoslab
+
+namespace isoslab {
+namespace {
+
+// Whether segment p-q passes through the inside of triangle abc (not within `eps` of its edges or
+// of the segment's ends): Moller and Trumbore's test in double.
+bool crosses(const Vec3f& p, const Vec3f& q, const Vec3f& a, const Vec3f& b, const Vec3f& c) {
+  const double eps = 1e-9;
+  const double d[3] = {double(q.x) - p.x, double(q.y) - p.y, double(q.z) - p.z};
+  const double e1[3] = {double(b.x) - a.x, double(b.y) - a.y, double(b.z) - a.z};
+  const double e2[3] = {double(c.x) - a.x, double(c.y) - a.y, double(c.z) - a.z};
+  const double h[3] = {d[1] * e2[2] - d[2] * e2[1], d[2] * e2[0] - d[0] * e2[2], d[0] * e2[1] - d[1] * e2[0]};
+  const double det = e1[0] * h[0] + e1[1] * h[1] + e1[2] * h[2];
+  if (std::abs(det) < 1e-15) return false;  // parallel: touching in a plane is not crossing
+  const double s[3] = {double(p.x) - a.x, double(p.y) - a.y, double(p.z) - a.z};
+  const double u = (s[0] * h[0] + s[1] * h[1] + s[2] * h[2]) / det;
+  const double qv[3] = {s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2], s[0] * e1[1] - s[1] * e1[0]};
+  const double v = (d[0] * qv[0] + d[1] * qv[1] + d[2] * qv[2]) / det;
+  const double t = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) / det;
+  return u > eps && v > eps && u + v < 1 - eps && t > eps && t < 1 - eps;
+}
+
+// Pairs of triangles of different labels that cross, by brute force: triangles that share a corner
+// position (interfaces, junction lines) are not compared.
+std::int64_t crossings(const std::map<std::int32_t, IndexedMesh>& meshes) {
+  struct Tri {
+    std::array<Vec3f, 3> p;
+    std::array<float, 6> box;
+    std::int32_t label;
+  };
+  std::vector<Tri> all;
+  for (const auto& [label, m] : meshes) {
+    for (const Triangle& t : m.triangles) {
+      Tri x{{m.positions[t[0]], m.positions[t[1]], m.positions[t[2]]}, {}, label};
+      x.box = {x.p[0].x, x.p[0].y, x.p[0].z, x.p[0].x, x.p[0].y, x.p[0].z};
+      for (const Vec3f& v : x.p) {
+        x.box[0] = std::min(x.box[0], v.x), x.box[1] = std::min(x.box[1], v.y), x.box[2] = std::min(x.box[2], v.z);
+        x.box[3] = std::max(x.box[3], v.x), x.box[4] = std::max(x.box[4], v.y), x.box[5] = std::max(x.box[5], v.z);
+      }
+      all.push_back(x);
+    }
+  }
+  std::sort(all.begin(), all.end(), [](const Tri& a, const Tri& b) { return a.box[0] < b.box[0]; });
+  std::int64_t count = 0;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    for (std::size_t j = i + 1; j < all.size() && all[j].box[0] <= all[i].box[3]; ++j) {
+      const Tri& a = all[i];
+      const Tri& b = all[j];
+      if (a.label == b.label) continue;
+      if (a.box[1] > b.box[4] || b.box[1] > a.box[4] || a.box[2] > b.box[5] || b.box[2] > a.box[5]) continue;
+      bool shared = false;
+      for (const Vec3f& u : a.p) {
+        for (const Vec3f& v : b.p) shared |= u == v;
+      }
+      if (shared) continue;
+      bool hit = false;
+      for (std::size_t k = 0; k < 3 && !hit; ++k) {
+        hit = crosses(a.p[k], a.p[(k + 1) % 3], b.p[0], b.p[1], b.p[2]) ||
+              crosses(b.p[k], b.p[(k + 1) % 3], a.p[0], a.p[1], a.p[2]);
+      }
+      count += hit ? 1 : 0;
+    }
+  }
+  return count;
+}
+
+// Issue 37: after --smooth 20 every label is still closed and manifold, its interfaces are the
+// same triangles in both labels (reversed), no triangle of one label crosses one of another, and
+// one thread gives the bytes of two.
+TEST(LabelSmoothing, PhantomsStayClosedSharedAndUncrossed) {
+  // The brute force finds a crossing: two triangles through each other.
+  IndexedMesh flat{{{0, 0, 0}, {2, 0, 0}, {0, 2, 0}}, {}, {}, {{0, 1, 2}}, {}, 0, {}};
+  IndexedMesh through{{{0.5f, 0.5f, -1}, {0.5f, 0.5f, 1}, {3, 3, 0.5f}}, {}, {}, {{0, 1, 2}}, {}, 0, {}};
+  EXPECT_EQ(crossings({{1, flat}, {2, through}}), 1);
+  for (const char* input :
+       {"phantom:nested?n=20", "phantom:boxes?n=16", "phantom:touch?at=edge", "phantom:checker?n=12&b=4&labels=27"}) {
+    SCOPED_TRACE(input);
+    const std::string dir = testing::tempDir();
+    const std::string dir2 = testing::tempDir();
+    ExtractSettings s;
+    s.inputs = {input};
+    s.output = dir + "/{label}.ply";
+    s.smoothing.iterations = 20;
+    s.threads = 1;
+    const ExtractReport report = runExtract(s);
+    s.output = dir2 + "/{label}.ply";
+    s.threads = 2;
+    runExtract(s);
+    std::map<std::int32_t, IndexedMesh> meshes;
+    for (const ExtractLabel& l : report.labels) {
+      meshes[l.value] = readMesh(l.path);
+      EXPECT_EQ(testing::slurp(l.path), testing::slurp(dir2 + "/" + std::to_string(l.value) + ".ply"));
+      const Topology t = topology(meshes[l.value].positions, meshes[l.value].triangles);
+      EXPECT_EQ(t.unpairedEdges, 0) << l.value;
+      EXPECT_EQ(t.nonManifoldEdges, 0) << l.value;
+      EXPECT_EQ(t.nonManifoldVertices, 0) << l.value;
+      ASSERT_TRUE(l.smoothing.has_value());
+      // Flat faces and straight junction lines stay; the nested balls' staircases move.
+      if (std::string(input).find("nested") != std::string::npos) {
+        EXPECT_GT(l.smoothing->first, 0.05) << l.value;
+      }
+      EXPECT_LE(l.smoothing->first, 0.5 + 1e-6) << l.value;
+    }
+    // Interfaces: the triangles of a that are b's reversed, by position, as many as the report says.
+    using Key = std::array<std::array<float, 3>, 3>;
+    const auto keys = [](const IndexedMesh& m, bool reverse) {
+      std::set<Key> out;
+      for (const Triangle& t : m.triangles) {
+        const auto at = [&](VertexId v) {
+          return std::array<float, 3>{m.positions[v].x, m.positions[v].y, m.positions[v].z};
+        };
+        out.insert(reverse ? Key{at(t[0]), at(t[2]), at(t[1])} : Key{at(t[0]), at(t[1]), at(t[2])});
+      }
+      return out;
+    };
+    for (const ExtractInterface& face : report.interfaces) {
+      const std::set<Key> a = keys(meshes.at(face.a), false);
+      const std::set<Key> b = keys(meshes.at(face.b), true);
+      std::size_t shared = 0;
+      for (const Key& k : a) shared += b.count(k);
+      EXPECT_EQ(shared, face.triangles) << face.a << "|" << face.b;
+    }
+    EXPECT_EQ(crossings(meshes), 0);
+    std::filesystem::remove_all(dir);
+    std::filesystem::remove_all(dir2);
+  }
+}
+
+}  // namespace
+}  // namespace isoslab
