@@ -450,29 +450,8 @@ SmoothingSink::Vec3d SmoothingSink::constrain(const Chunk& chunk, std::size_t lo
   const auto it = std::lower_bound(chunk.origins.begin(), chunk.origins.end(), static_cast<std::uint32_t>(local),
                                    [](const auto& o, std::uint32_t l) { return o.first < l; });
   const Vec3d origin = toDouble(it->second);
-  const int faces = std::popcount(static_cast<unsigned>(bits));
-  if (options_.faces == FaceVertices::kLock || !header_.volumeFaces || faces >= 3) return origin;
-  std::array<Vec3d, 2> normal{};
-  std::size_t found = 0;
-  for (std::size_t f = 0; f < 6 && found < 2; ++f) {
-    if (bits & (1u << f)) {
-      const FacePlane& plane = (*header_.volumeFaces)[f];
-      normal[found++] = {plane[0], plane[1], plane[2]};
-    }
-  }
-  const Vec3d delta{p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]};
-  if (faces == 1) {
-    const double along = dot(delta, normal[0]);
-    return {p[0] - along * normal[0][0], p[1] - along * normal[0][1], p[2] - along * normal[0][2]};
-  }
-  Vec3d t{normal[0][1] * normal[1][2] - normal[0][2] * normal[1][1],
-          normal[0][2] * normal[1][0] - normal[0][0] * normal[1][2],
-          normal[0][0] * normal[1][1] - normal[0][1] * normal[1][0]};
-  const double length = std::sqrt(dot(t, t));
-  if (length == 0) return origin;
-  for (double& x : t) x /= length;
-  const double along = dot(delta, t);
-  return {origin[0] + along * t[0], origin[1] + along * t[1], origin[2] + along * t[2]};
+  if (options_.faces == FaceVertices::kLock || !header_.volumeFaces) return origin;
+  return projectToFaces(bits, *header_.volumeFaces, origin, p);
 }
 
 // Sends on, in order, the chunks that have done every iteration and whose normals can be made:
