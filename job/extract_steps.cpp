@@ -267,7 +267,37 @@ std::string lowerExtension(const std::string& path) {
   return ext;
 }
 
+// A name fit for a file name: path separators and control characters become '_'.
+std::string fileSafe(const std::string& name) {
+  std::string out = name;
+  for (char& c : out) {
+    if (c == '/' || c == '\\' || static_cast<unsigned char>(c) < 32 || c == ':') c = '_';
+  }
+  if (out.empty() || out == "." || out == "..") out = "_" + out;
+  return out;
+}
+
 }  // namespace
+
+std::string expandPattern(const std::string& pattern, std::int32_t value, const std::string& name,
+                          const std::string& iso) {
+  std::string out;
+  for (std::size_t at = 0; at < pattern.size();) {
+    if (pattern.compare(at, 6, "{name}") == 0) {
+      out += fileSafe(name);
+      at += 6;
+    } else if (pattern.compare(at, 5, "{iso}") == 0) {
+      out += fileSafe(iso);
+      at += 5;
+    } else if (pattern.compare(at, 7, "{label}") == 0) {
+      out += std::to_string(value);
+      at += 7;
+    } else {
+      out += pattern[at++];
+    }
+  }
+  return out;
+}
 
 bool printableOutput(const std::string& path) {
   const std::string ext = lowerExtension(path);

@@ -61,6 +61,11 @@ void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer,
                      ExtractReport& report, const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads,
                      const WriterOptions& writing);
 
+/// A label's file from an output pattern: {name} (made fit for a file name), {label} (the
+/// value) and {iso} replaced.
+std::string expandPattern(const std::string& pattern, std::int32_t value, const std::string& name,
+                          const std::string& iso);
+
 /// Whether `path` is an output for printers (.stl, .3mf, by extension): one whose degenerate
 /// triangles are collapsed before writing unless settings.keepDegenerate.
 bool printableOutput(const std::string& path);
