@@ -301,6 +301,13 @@ TEST(Printable, TheAtlasThreeMfHasANamedColouredManifoldObjectPerLabel) {
   }
   EXPECT_EQ(objects.front().name, "Precentral_L");  // aal.nii.txt's first name
   expectNoRepairs(prusaInfo(slicer, dir + "/aal.3mf", dir), 116);
+  // Smoothed, the atlas is still printable as it is.
+  ASSERT_EQ(testing::runCli("extract " + aal + " --smooth 20 -q -o " + dir + "/smooth.3mf").exitCode, 0);
+  for (const Mesh& m : read3mf(dir + "/smooth.3mf")) {
+    EXPECT_EQ(printable(m).coincident, 0u) << m.name;
+    EXPECT_EQ(printable(m).badEdges, 0u) << m.name;
+  }
+  expectNoRepairs(prusaInfo(slicer, dir + "/smooth.3mf", dir), 116);
   fs::remove_all(dir);
 }
 
