@@ -211,7 +211,8 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
   extract
       ->add_option("--smooth", args.smooth,
                    fmt::format("Smooth the surface with N iterations of a non-shrinking filter, in the stream "
-                               "(0 to {}; 20 is a common choice)",
+                               "(0 to {}; 20 is a common choice). Label surfaces are smoothed together, each "
+                               "interface once, every vertex within half a voxel of where it started",
                                kMaxSmoothIterations))
       ->check(integerIn(0, kMaxSmoothIterations))
       ->group(smoothGroup);
