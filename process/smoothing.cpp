@@ -162,7 +162,9 @@ void SmoothingSink::consume(const MeshChunk& chunk) {
           const FacePlane& plane = (*header_.volumeFaces)[f];
           const double tolerance =
               options_.maxDisplacement > 0 ? 0.5 * options_.maxDisplacement : 1e-6 * (1 + std::abs(plane[3]));
-          if (plane[0] * p[0] + plane[1] * p[1] + plane[2] * p[2] - plane[3] > -tolerance) c.faceBits[v] |= 1u << f;
+          if (plane[0] * p[0] + plane[1] * p[1] + plane[2] * p[2] - plane[3] > -tolerance) {
+            c.faceBits[v] = static_cast<std::uint8_t>(c.faceBits[v] | (1u << f));
+          }
         }
       }
     }
