@@ -66,7 +66,8 @@ run_suite build
 # Python package, the .deb with lintian and dpkg -i.
 bash scripts/package_test.sh build
 if [ "${1:-}" != "--fast" ]; then
-  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 run_suite build-asan
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+    LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp:print_suppressions=0 run_suite build-asan
   # Every libFuzzer target for 25 seconds from its seed corpus (clang, ASan + UBSan, build-fuzz/).
   bash scripts/fuzz.sh 25
 fi
