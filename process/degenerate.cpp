@@ -39,10 +39,7 @@ void DegenerateCollapseSink::finish() {
 }
 
 const Vec3f& DegenerateCollapseSink::position(VertexId v) const {
-  for (auto it = pending_.rbegin(); it != pending_.rend(); ++it) {
-    if (v >= it->firstVertex) return it->positions[v - it->firstVertex];
-  }
-  return pending_.front().positions.front();  // unreachable for a stream that keeps the contract
+  return const_cast<DegenerateCollapseSink*>(this)->mutablePosition(v);
 }
 
 Vec3f& DegenerateCollapseSink::mutablePosition(VertexId v) {
@@ -174,12 +171,6 @@ void DegenerateCollapseSink::settle(VertexId before) {
     // listed twice above; once is enough.
     std::sort(c.triangles.begin(), c.triangles.end());
     c.triangles.erase(std::unique(c.triangles.begin(), c.triangles.end()), c.triangles.end());
-    std::int64_t degenerate = 0;
-    for (const Triangle& t : c.triangles) {
-      int inside = 0;
-      for (VertexId v : t) inside += std::binary_search(c.members.begin(), c.members.end(), v) ? 1 : 0;
-      degenerate += inside >= 2 ? 1 : 0;
-    }
     if (const auto merge = fans(c)) {
       for (std::size_t k = 0; k < c.members.size(); ++k) {
         merged_.emplace(c.members[k], Merge{merge->survivors[k], c.members.front()});
@@ -190,7 +181,11 @@ void DegenerateCollapseSink::settle(VertexId before) {
       counts_.splits += merge->count > 1 ? 1 : 0;
     } else {
       ++counts_.refused;
-      counts_.refusedTriangles += degenerate;
+      for (const Triangle& t : c.triangles) {
+        int inside = 0;
+        for (VertexId v : t) inside += std::binary_search(c.members.begin(), c.members.end(), v) ? 1 : 0;
+        counts_.refusedTriangles += inside >= 2 ? 1 : 0;
+      }
       counts_.separated += separate(c);
     }
   }
