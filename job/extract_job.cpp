@@ -149,13 +149,7 @@ struct SinkChain {
     }
     head = &tee.emplace(sinks);
     // Decimation, last before the writer and the measures: on the smoothed surface.
-    if (settings.decimate != 1.0 || settings.maxError != 0) {
-      DecimateOptions d = decimateOptions(settings, voxelSize);
-      // Decimation's second block in flight may take half of the threads' memory budget.
-      d.threads = threads;
-      d.pairBytes = (static_cast<std::size_t>(settings.maxMemoryMiB) << 20) / 2;
-      head = &decimation.emplace(*head, d);
-    }
+    if (decimates(settings)) head = &decimation.emplace(*head, decimateOptions(settings, voxelSize, threads));
     // Smoothing runs on what the filter keeps; its output feeds the writer and the measures.
     if (settings.smoothing.iterations > 0) head = &smoothing.emplace(*head, settings.smoothing);
     if (keepPart != nullptr) head = &filter.emplace(*head, std::move(*keepPart));
@@ -184,11 +178,7 @@ void describeFinishing(const ExtractSettings& settings, const SinkChain& chain, 
     report.smoothing =
         ExtractReport::Smoothing{settings.smoothing, chain.smoothing->peakChunks(), chain.smoothing->peakVertices()};
   }
-  if (chain.decimation) {
-    report.decimation =
-        ExtractReport::Decimation{settings.decimate, settings.maxError, settings.maxError > 0 ? settings.maxError : 0.5,
-                                  voxelSize, chain.decimation->report()};
-  }
+  if (chain.decimation) report.decimation = decimationReport(settings, voxelSize, *chain.decimation);
   if (!settings.components.any()) {
     const std::vector<Component> none;
     report.componentsJson =

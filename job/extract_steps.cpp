@@ -248,8 +248,18 @@ double seedReach(const ExtractSettings& settings, const VolumeInfo& info) {
                                                : std::sqrt(sp[0] * sp[0] + sp[1] * sp[1] + sp[2] * sp[2]);
 }
 
-DecimateOptions decimateOptions(const ExtractSettings& settings, double voxelSize) {
+bool decimates(const ExtractSettings& settings) {
+  return settings.decimate != 1.0 || settings.maxError != 0;
+}
+
+ExtractDecimation decimationReport(const ExtractSettings& settings, double voxelSize, const DecimationSink& sink) {
+  return ExtractDecimation{settings.decimate, settings.maxError, sink.options().maxDistance, voxelSize, sink.report()};
+}
+
+DecimateOptions decimateOptions(const ExtractSettings& settings, double voxelSize, int threads) {
   DecimateOptions d;
+  d.threads = threads;
+  d.pairBytes = (static_cast<std::size_t>(settings.maxMemoryMiB) << 20) / 2;
   d.ratio = settings.decimate;
   d.maxError = settings.maxError;
   // Every decimated triangle stays within the error bound of the surface, or half a voxel.

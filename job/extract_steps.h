@@ -44,8 +44,15 @@ std::optional<std::string> emptySurfaceWarning(const ExtractSettings& settings, 
 /// How far a component seed may lie from a component's bounds: one voxel diagonal.
 double seedReach(const ExtractSettings& settings, const VolumeInfo& info);
 
-/// The decimation of the settings, for a voxel edge of `voxelSize` output units.
-DecimateOptions decimateOptions(const ExtractSettings& settings, double voxelSize);
+/// The decimation of the settings, for a voxel edge of `voxelSize` output units, on `threads`
+/// threads (its second block in flight may take half of the threads' memory budget).
+DecimateOptions decimateOptions(const ExtractSettings& settings, double voxelSize, int threads);
+
+/// Whether the settings decimate (--decimate or --max-error).
+bool decimates(const ExtractSettings& settings);
+
+/// The report's decimation part.
+ExtractDecimation decimationReport(const ExtractSettings& settings, double voxelSize, const DecimationSink& sink);
 
 /// The smallest and largest value of a source, read to its end (NaN skipped; lo > hi when every
 /// value is NaN).

@@ -27,6 +27,7 @@
 #include "job/extract_steps.h"
 #include "metrics/mesh_stats.h"
 #include "metrics/report.h"
+#include "process/decimation.h"
 #include "process/label_surfaces.h"
 #include "process/smoothing.h"
 #include "stream/pipeline.h"
@@ -170,14 +171,21 @@ class SurfaceSetRun {
       heads.insert(heads.begin(), complexWriter_.get());
     }
     TeeSink tee(heads);
-    // Smoothing: the complex, each interface once, so that a vertex moves once for every label
-    // around it (process/smoothing.h: sheets, lines where three regions meet, fixed corners).
+    // Smoothing, then decimation: the complex, each interface once, so that a vertex moves once for
+    // every label around it (process/smoothing.h: sheets, lines where three regions meet, fixed
+    // corners) and a collapse is made for both sides (process/decimation.h: where three or more
+    // labels meet, nothing moves).
     MeshSink* head = &tee;
+    if (decimates(settings_)) {
+      DecimateOptions d = decimateOptions(settings_, writing_.voxelSize, threads);
+      if (!isoSet_ && settings_.maxError == 0) d.maxDistance = kLabelDistanceBound;
+      head = &decimation_.emplace(tee, d);
+    }
     if (settings_.smoothing.iterations > 0) {
       SmoothOptions smooth = settings_.smoothing;
       smooth.maxDisplacement = 0.5 * frame_.smallestEdge();
       if (!settings_.passBandGiven) smooth.passBand = kLabelPassBand;
-      smoothing_.emplace(tee, smooth);
+      smoothing_.emplace(*head, smooth);
       head = &*smoothing_;
     }
     PipelineOptions options;
@@ -221,6 +229,7 @@ class SurfaceSetRun {
                                                     face.area, labelLayer(pair.first)});
     }
     report_.layers = info_.layers;
+    if (decimation_) report_.decimation = decimationReport(settings_, writing_.voxelSize, *decimation_);
     if (!primary()) return;
     warnAbsent(counts);
     for (std::string& w : source_->warnings()) report_.warnings.push_back(std::move(w));
@@ -414,6 +423,7 @@ class SurfaceSetRun {
   std::map<std::int32_t, LabelChain> chains_;  // before split_: the split's sinks outlive it
   std::map<std::string, std::int32_t> paths_;
   std::optional<LabelSplitSink> split_;
+  std::optional<DecimationSink> decimation_;
   std::optional<SmoothingSink> smoothing_;
   ComplexCounter complexStats_;
   std::unique_ptr<MeshFileSink> complexWriter_;

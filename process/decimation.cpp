@@ -97,6 +97,8 @@ struct Shape {
   std::vector<std::uint64_t> border;  // edges used once, sorted
   std::uint64_t nonManifold = 0;      // edges used more than twice
   std::uint64_t inconsistent = 0;     // edges used twice in the same direction
+  // Those two kinds, sorted by key: a label complex has them where three or more labels meet.
+  std::vector<std::pair<std::uint64_t, EdgeUse>> odd;
 };
 
 Shape shapeOf(const std::vector<Triangle>& triangles) {
@@ -108,6 +110,7 @@ Shape shapeOf(const std::vector<Triangle>& triangles) {
     if (e.uses == 1) s.border.push_back(key);
     if (e.uses > 2) ++s.nonManifold;
     if (e.uses == 2 && e.forward != 1) ++s.inconsistent;
+    if (e.uses > 2 || (e.uses == 2 && e.forward != 1)) s.odd.push_back({key, e});
   }
   return s;
 }
@@ -161,6 +164,29 @@ Vec3d toDouble(const Vec3f& p) {
   return {p.x, p.y, p.z};
 }
 
+Vec3d cross(const Vec3d& a, const Vec3d& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+// Whether the segment pq passes through the inside of the triangle abc (Moller and Trumbore's
+// ray-triangle test, limited to the segment): touching an edge, a corner or the plane is not
+// crossing.
+bool segmentCrosses(const Vec3d& p, const Vec3d& q, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  using Vec3 = Vec3d;
+  constexpr double eps = 1e-9;
+  const Vec3 d = sub(q, p), e1 = sub(b, a), e2 = sub(c, a);
+  const Vec3 h = cross(d, e2);
+  const double det = dot(e1, h);
+  if (std::abs(det) < 1e-15) return false;
+  const Vec3 s = sub(p, a);
+  const double u = dot(s, h) / det;
+  if (!(u > eps && u < 1 - eps)) return false;
+  const Vec3 k = cross(s, e1);
+  const double v = dot(d, k) / det;
+  const double t = dot(e2, k) / det;
+  return v > eps && u + v < 1 - eps && t > eps && t < 1 - eps;
+}
+
 }  // namespace
 
 std::string checkDecimateOptions(const DecimateOptions& o) {
@@ -197,7 +223,10 @@ void DecimationSink::begin(const MeshHeader& header) {
   scheduleBase_ = 0;
   blockTriangles_ = 0;
   hasPending_ = false;
-  pendingUpper_.clear();
+  pendingUpper_ = Faces{};
+  pendingCurve_.clear();
+  chunkLabels_.clear();
+  complex_ = header.labels;
   MeshHeader out = header;
   out.cellVolumes = false;
   next_.begin(out);
@@ -218,6 +247,12 @@ void DecimationSink::consume(const MeshChunk& chunk) {
   chunkFirst_.push_back(chunk.firstVertex);
   chunkSlab_.push_back(chunk.slab);
   chunkTriangles_.push_back(chunk.triangles);
+  if (complex_) {
+    if (chunk.faceLabels.size() != chunk.triangles.size()) {
+      throw Error("decimation: a label complex's chunk lacks its triangles' labels");
+    }
+    chunkLabels_.push_back(chunk.faceLabels);
+  }
   ++chunks_;
   report_.trianglesIn += chunk.triangles.size();
   blockTriangles_ += static_cast<std::int64_t>(chunk.triangles.size());
@@ -239,9 +274,11 @@ void DecimationSink::finish() {
   if (hasPending_) {
     // The stream's last half block is a region of its own.
     Scope scope;
-    const ChunkRange range = rangeAround(pendingUpper_, chunkBase_, chunks_);
+    const ChunkRange range = rangeAround(pendingUpper_.triangles, chunkBase_, chunks_);
     ++report_.regions;
-    const std::vector<Triangle> last = simplify(pendingUpper_, originalIn(pendingMiddle_, chunks_), range, scope);
+    Lock lock;
+    if (complex_) lock.curve = std::move(pendingCurve_);
+    const Faces last = simplify(pendingUpper_, originalIn(pendingMiddle_, chunks_), range, lock, scope);
     count(scope);
     emit(last, chunkSlab_.back(), range, scope);
     hasPending_ = false;
@@ -287,7 +324,7 @@ void DecimationSink::queueBlock() {
 void DecimationSink::runAll(std::vector<Work>& works) {
   std::vector<Work*> todo;
   for (Work& w : works) todo.push_back(&w);
-  const auto run = [this](Work& w) { w.output = simplify(w.input, w.original, w.range, w.scope); };
+  const auto run = [this](Work& w) { w.output = simplify(w.input, w.original, w.range, w.lock, w.scope); };
   if (options_.threads < 2 || todo.size() < 2) {
     for (Work* w : todo) run(*w);
     return;
@@ -332,11 +369,21 @@ void DecimationSink::processQueued() {
     Work& w = blocks[k];
     for (std::size_t c = b.start; c < b.end; ++c) {
       const auto& t = chunkTriangles_[c - chunkBase_];
-      w.input.insert(w.input.end(), t.begin(), t.end());
+      w.input.triangles.insert(w.input.triangles.end(), t.begin(), t.end());
+      if (complex_) {
+        const auto& l = chunkLabels_[c - chunkBase_];
+        w.input.labels.insert(w.input.labels.end(), l.begin(), l.end());
+      }
     }
     w.original = originalIn(b.start, b.end);
-    w.range = rangeAround(w.input, b.base, b.end);
+    w.range = rangeAround(w.input.triangles, b.base, b.end);
     w.scope.block = true;
+    if (complex_) {
+      // The chunk before the block's (the block before it uses them) and its last chunk's (the
+      // next block's may).
+      w.lock.below = chunkFirst_[b.start - chunkBase_];
+      w.lock.from = chunkFirst_[b.end - 1 - chunkBase_];
+    }
   }
   report_.blocks += blocks.size();
   runAll(blocks);
@@ -348,18 +395,33 @@ void DecimationSink::processQueued() {
     Work& block = blocks[k];
     const VertexId middleFirst =
         b.middle < chunks_ ? chunkFirst_[b.middle - chunkBase_] : base_ + static_cast<VertexId>(positions_.size());
-    std::vector<Triangle> lower, upper;
-    for (const Triangle& t : block.output) {
-      (std::min({t[0], t[1], t[2]}) < middleFirst ? lower : upper).push_back(t);
+    Faces lower, upper;
+    for (std::size_t t = 0; t < block.output.size(); ++t) {
+      const Triangle& tri = block.output.triangles[t];
+      (std::min({tri[0], tri[1], tri[2]}) < middleFirst ? lower : upper).add(block.output, t);
     }
     Work& w = out.emplace_back();
     w.slab = chunkSlab_[b.middle - 1 - chunkBase_];
     w.input = std::move(pendingUpper_);
-    w.input.insert(w.input.end(), lower.begin(), lower.end());
+    w.input.append(lower);
     w.original = originalIn(hasPending_ ? pendingMiddle_ : b.start, b.middle);
     ++report_.regions;
-    w.range = rangeAround(w.input, b.base, b.end);
+    w.range = rangeAround(w.input.triangles, b.base, b.end);
     block.scope.surface.reset();
+    if (complex_) {
+      // The split curve before the region and the one after it (the lower half's vertices from
+      // the middle chunk on, which the upper half shares).
+      w.lock.curve = std::move(pendingCurve_);
+      w.lock.from = middleFirst;
+      pendingCurve_.clear();
+      for (const Triangle& t : lower.triangles) {
+        for (VertexId v : t) {
+          if (v >= middleFirst) pendingCurve_.push_back(v);
+        }
+      }
+      std::sort(pendingCurve_.begin(), pendingCurve_.end());
+      pendingCurve_.erase(std::unique(pendingCurve_.begin(), pendingCurve_.end()), pendingCurve_.end());
+    }
     pendingUpper_ = std::move(upper);
     pendingMiddle_ = b.middle;
     hasPending_ = true;
@@ -398,6 +460,7 @@ void DecimationSink::trim(std::size_t firstChunk) {
   chunkFirst_.erase(chunkFirst_.begin(), chunkFirst_.begin() + static_cast<std::ptrdiff_t>(drop));
   chunkSlab_.erase(chunkSlab_.begin(), chunkSlab_.begin() + static_cast<std::ptrdiff_t>(drop));
   chunkTriangles_.erase(chunkTriangles_.begin(), chunkTriangles_.begin() + static_cast<std::ptrdiff_t>(drop));
+  if (complex_) chunkLabels_.erase(chunkLabels_.begin(), chunkLabels_.begin() + static_cast<std::ptrdiff_t>(drop));
   chunkBase_ = firstChunk;
 }
 
@@ -405,14 +468,16 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // than options_.batchTriangles, each with its share of the target (less what earlier batches kept
 // beyond theirs): components share no vertex, so a batch's collapses are those it would make among
 // the others, and only the stopping point moves.
-std::vector<Triangle> DecimationSink::collapse(std::vector<Triangle> triangles, std::size_t targetTriangles,
-                                               const OriginalSurface* original) const {
+DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTriangles,
+                                               const OriginalSurface* original,
+                                               const std::vector<VertexId>& pinned) const {
   // Local ids by vertex (relative to base_), ~0u where unused: one array for every batch, each
   // batch resetting the entries it set.
   std::vector<unsigned> local(positions_.size(), ~0u);
-  if (triangles.size() <= options_.batchTriangles) {
-    return collapseBatch(triangles, targetTriangles, original, local, &triangles);
+  if (faces.size() <= options_.batchTriangles) {
+    return collapseBatch(faces.triangles, faces.labels, targetTriangles, original, pinned, local, &faces);
   }
+  const std::vector<Triangle>& triangles = faces.triangles;
   // Components: union-find over the vertices (ids relative to base_), the smaller root winning.
   std::vector<std::uint32_t> parent(positions_.size());
   for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
@@ -437,7 +502,9 @@ std::vector<Triangle> DecimationSink::collapse(std::vector<Triangle> triangles, 
   std::sort(order.begin(), order.end());
   std::vector<Triangle> grouped(triangles.size());
   for (std::size_t k = 0; k < order.size(); ++k) grouped[k] = triangles[order[k].second];
-  triangles = {};
+  std::vector<LabelPair> groupedLabels(faces.labels.size());
+  for (std::size_t k = 0; k < groupedLabels.size(); ++k) groupedLabels[k] = faces.labels[order[k].second];
+  faces = Faces{};
   std::vector<std::size_t> starts{0};  // each batch's first triangle in `grouped`
   for (std::size_t i = 0; i < order.size();) {
     std::size_t j = i;
@@ -447,7 +514,7 @@ std::vector<Triangle> DecimationSink::collapse(std::vector<Triangle> triangles, 
   }
   order = {};
   starts.push_back(grouped.size());
-  std::vector<Triangle> out;
+  Faces out;
   for (std::size_t b = 0; b + 1 < starts.size(); ++b) {
     // The target's share up to here, rounded, less what earlier batches kept: a batch that its
     // error bound stopped short leaves the later ones to go further.
@@ -455,19 +522,26 @@ std::vector<Triangle> DecimationSink::collapse(std::vector<Triangle> triangles, 
         std::llround(static_cast<double>(targetTriangles) * static_cast<double>(starts[b + 1]) /
                      static_cast<double>(grouped.size())));
     const std::span<const Triangle> batch(grouped.data() + starts[b], starts[b + 1] - starts[b]);
-    const std::vector<Triangle> simplified =
-        collapseBatch(batch, upTo > out.size() ? upTo - out.size() : 0, original, local, nullptr);
-    out.insert(out.end(), simplified.begin(), simplified.end());
+    const std::span<const LabelPair> batchLabels =
+        groupedLabels.empty() ? std::span<const LabelPair>()
+                              : std::span<const LabelPair>(groupedLabels.data() + starts[b], starts[b + 1] - starts[b]);
+    out.append(
+        collapseBatch(batch, batchLabels, upTo > out.size() ? upTo - out.size() : 0, original, pinned, local, nullptr));
   }
   return out;
 }
 
 // The simplifier on `triangles` with their border locked, as far as the target and the bound.
-// `release`, when given, holds the triangles and is emptied once they are copied.
-std::vector<Triangle> DecimationSink::collapseBatch(std::span<const Triangle> triangles, std::size_t targetTriangles,
-                                                    const OriginalSurface* original, std::vector<unsigned>& local,
-                                                    std::vector<Triangle>* release) const {
+// `release`, when given, holds the triangles and is emptied once they are copied; `labels` (empty
+// outside a label complex) are the triangles' sides, which each kept triangle keeps.
+DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> triangles,
+                                                    std::span<const LabelPair> labels, std::size_t targetTriangles,
+                                                    const OriginalSurface* original,
+                                                    const std::vector<VertexId>& pinned, std::vector<unsigned>& local,
+                                                    Faces* release) const {
   if (triangles.empty()) return {};
+  // The sides, copied before `release` frees them.
+  std::vector<LabelPair> sides(labels.begin(), labels.end());
   // Local ids in order of first use; ids[local] is the global id.
   std::vector<VertexId> ids;
   std::vector<unsigned> indices(triangles.size() * 3);
@@ -482,7 +556,7 @@ std::vector<Triangle> DecimationSink::collapseBatch(std::span<const Triangle> tr
     }
   }
   for (VertexId v : ids) local[v - base_] = ~0u;
-  if (release != nullptr) *release = {};  // `triangles` is gone from here on
+  if (release != nullptr) *release = Faces{};  // `triangles` and `labels` are gone from here on
   std::vector<float> xyz(ids.size() * 3);
   for (std::size_t i = 0; i < ids.size(); ++i) {
     const Vec3f& p = position(ids[i]);
@@ -494,6 +568,13 @@ std::vector<Triangle> DecimationSink::collapseBatch(std::span<const Triangle> tr
   // underestimates how far a collapse moves the surface; fewer collapses then need undoing).
   SimplifyLimits limits;
   limits.targetTriangles = targetTriangles;
+  limits.alongLines = complex_;
+  if (!pinned.empty()) {
+    limits.locked.resize(ids.size());
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      limits.locked[i] = std::binary_search(pinned.begin(), pinned.end(), ids[i]) ? 1 : 0;
+    }
+  }
   const double bound = options_.maxError > 0 ? options_.maxError : 0.5 * options_.maxDistance;
   limits.maxError = bound > 0 ? bound * options_.voxelSize : INFINITY;
   // A collapse that moves the surface at all is measured against the original surface before it is
@@ -520,10 +601,17 @@ std::vector<Triangle> DecimationSink::collapseBatch(std::span<const Triangle> tr
           return true;
         };
   }
-  const std::size_t kept = simplifyTriangles(indices, xyz.data(), ids.size(), limits);
-  std::vector<Triangle> out(kept / 3);
+  std::vector<std::uint32_t> keptFrom;
+  const std::size_t kept =
+      simplifyTriangles(indices, xyz.data(), ids.size(), limits, sides.empty() ? nullptr : &keptFrom);
+  Faces out;
+  out.triangles.resize(kept / 3);
   for (std::size_t t = 0; t < out.size(); ++t) {
-    out[t] = {ids[indices[3 * t]], ids[indices[3 * t + 1]], ids[indices[3 * t + 2]]};
+    out.triangles[t] = {ids[indices[3 * t]], ids[indices[3 * t + 1]], ids[indices[3 * t + 2]]};
+  }
+  if (!sides.empty()) {
+    out.labels.resize(out.size());
+    for (std::size_t t = 0; t < out.size(); ++t) out.labels[t] = sides[keptFrom[t]];
   }
   return out;
 }
@@ -535,10 +623,28 @@ std::vector<Triangle> DecimationSink::collapseBatch(std::span<const Triangle> tr
 // original triangles within a few rings of it are frozen: left out of the next try, so that their
 // outline becomes a locked border, and kept as they are. After a few tries the region is kept
 // whole.
-std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
-                                               ChunkRange originals, Scope& scope) const {
-  if (triangles.empty()) return triangles;
+//
+// A label complex has edges used three or more times (where three or more labels meet, which the
+// simplifier leaves in place: their ends are no closed fans): the result must have each of them as
+// it was, and no other. The vertices in `lock` stay too (their first ring frozen, as a border's).
+DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t originalTriangles, ChunkRange originals,
+                                               const Lock& lock, Scope& scope) const {
+  if (faces.empty()) return faces;
+  const std::vector<Triangle>& triangles = faces.triangles;
   const Shape before = shapeOf(triangles);
+  // A label complex's vertices on lines where three labels meet, and its other odd edges.
+  std::vector<VertexId> lineVertices;
+  std::size_t otherOdd = 0;
+  for (const auto& [key, e] : before.odd) {
+    if (e.uses != 3) {
+      ++otherOdd;
+      continue;
+    }
+    lineVertices.push_back(static_cast<VertexId>(key >> 32));
+    lineVertices.push_back(static_cast<VertexId>(key & 0xffffffffu));
+  }
+  std::sort(lineVertices.begin(), lineVertices.end());
+  lineVertices.erase(std::unique(lineVertices.begin(), lineVertices.end()), lineVertices.end());
   // A block keeps a little more than the ratio: its halves are simplified again in the regions
   // across its seams, which bring them to the ratio. A half that is already below its region's
   // share stays so (nothing can add triangles back), and the whole would fall short of the ratio.
@@ -574,9 +680,10 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
   std::vector<std::uint32_t> aroundFirst, around;
   std::vector<bool> frozen(triangles.size(), false);
   std::size_t frozenCount = 0;
+  const auto stays = [&](VertexId v) { return onBorder(v) || (complex_ && lock.has(v)); };
   for (std::size_t t = 0; t < triangles.size(); ++t) {
     const Triangle& tri = triangles[t];
-    if (onBorder(tri[0]) || onBorder(tri[1]) || onBorder(tri[2])) {
+    if (stays(tri[0]) || stays(tri[1]) || stays(tri[2])) {
       frozen[t] = true;
       ++frozenCount;
     }
@@ -586,30 +693,57 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
   const double limit = options_.maxDistance * options_.voxelSize;
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
     // Every array at its size (growing one would copy it and leave slack).
-    std::vector<Triangle> input, out;
-    input.reserve(triangles.size() - frozenCount);
+    Faces input, result;
+    input.triangles.reserve(triangles.size() - frozenCount);
+    input.labels.reserve(faces.labels.empty() ? 0 : triangles.size() - frozenCount);
     for (std::size_t t = 0; t < triangles.size(); ++t) {
-      if (!frozen[t]) input.push_back(triangles[t]);
+      if (!frozen[t]) input.add(faces, t);
     }
     // Frozen triangles count towards the target: the rest is simplified a little further.
     const std::size_t share = target > frozenCount ? target - frozenCount : 0;
     const OriginalSurface* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
-    std::vector<Triangle> simplified = collapse(std::move(input), share, original);
-    out.reserve(frozenCount + simplified.size());
-    for (std::size_t t = 0; t < triangles.size(); ++t) {
-      if (frozen[t]) out.push_back(triangles[t]);
+    // In a label complex, a vertex with a frozen triangle stays: its triangles in the input can
+    // look like a closed fan where three labels meet (a scalar surface shows it a border edge).
+    std::vector<VertexId> pinned;
+    if (complex_) {
+      for (std::size_t t = 0; t < triangles.size(); ++t) {
+        if (frozen[t]) pinned.insert(pinned.end(), triangles[t].begin(), triangles[t].end());
+      }
+      std::sort(pinned.begin(), pinned.end());
+      pinned.erase(std::unique(pinned.begin(), pinned.end()), pinned.end());
     }
-    out.insert(out.end(), simplified.begin(), simplified.end());
-    // The edges the result should not have.
+    const Faces simplified = collapse(std::move(input), share, original, pinned);
+    result.triangles.reserve(frozenCount + simplified.size());
+    result.labels.reserve(faces.labels.empty() ? 0 : frozenCount + simplified.size());
+    for (std::size_t t = 0; t < triangles.size(); ++t) {
+      if (frozen[t]) result.add(faces, t);
+    }
+    result.append(simplified);
+    const std::vector<Triangle>& out = result.triangles;
+    // The edges the result should not have; a label complex's odd edges as they were.
     std::vector<VertexId> bad;
-    std::size_t border = 0;
+    std::size_t border = 0, oddKept = 0;
     for (const auto& [key, e] : tallyEdges(out)) {
       border += e.uses == 1 ? 1 : 0;
       const auto a = static_cast<VertexId>(key >> 32);
       const auto b = static_cast<VertexId>(key & 0xffffffffu);
+      bool odd = e.uses > 2 || (e.uses == 2 && e.forward != 1);
+      if (odd && complex_) {
+        // Lines where three labels meet are simplified along themselves: a line's edge joins two
+        // vertices that were on such lines. Every other odd edge stays as it was.
+        const auto it = std::lower_bound(before.odd.begin(), before.odd.end(), key,
+                                         [](const auto& entry, std::uint64_t k) { return entry.first < k; });
+        if (it != before.odd.end() && it->first == key && it->second.uses == e.uses &&
+            it->second.forward == e.forward) {
+          odd = false;
+          oddKept += e.uses != 3 ? 1 : 0;
+        } else if (e.uses == 3 && std::binary_search(lineVertices.begin(), lineVertices.end(), a) &&
+                   std::binary_search(lineVertices.begin(), lineVertices.end(), b)) {
+          odd = false;
+        }
+      }
       const bool wrong =
-          (e.uses > 2) || (e.uses == 2 && e.forward != 1) ||
-          (e.uses == 1 && !std::binary_search(before.border.begin(), before.border.end(), key)) ||
+          odd || (e.uses == 1 && !std::binary_search(before.border.begin(), before.border.end(), key)) ||
           (onBorder(a) && onBorder(b) && !std::binary_search(before.edges.begin(), before.edges.end(), key));
       if (wrong) {
         bad.push_back(static_cast<VertexId>(key >> 32));
@@ -624,17 +758,24 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     // Triangles that moved the surface too far, against the grid of the original triangles, which
     // the distance measure of the try that succeeds reuses.
     if (original != nullptr) {
-      for (const Triangle& t : simplified) {
+      for (const Triangle& t : simplified.triangles) {
         if (!triangleWithin(t, *original, limit)) bad.insert(bad.end(), t.begin(), t.end());
       }
     }
-    if (bad.empty() && border == before.border.size() && before.nonManifold == 0 && before.inconsistent == 0) {
+    // A label complex's sheets lie close together (a label one voxel thick): a collapse within the
+    // bound can push one through another.
+    if (complex_) {
+      const std::vector<VertexId> crossing = crossingVertices(out);
+      bad.insert(bad.end(), crossing.begin(), crossing.end());
+    }
+    const bool shaped = complex_ ? oddKept == otherOdd : before.odd.empty();
+    if (bad.empty() && border == before.border.size() && shaped) {
       if (attempt > 0) ++scope.repairedRegions;
       scope.attempts += static_cast<std::uint64_t>(attempt) + 1;
       scope.frozenTriangles += frozenCount - sharedRing;
-      return out;
+      return result;
     }
-    if (before.nonManifold > 0 || before.inconsistent > 0) break;  // not a surface to start with
+    if (!complex_ && !before.odd.empty()) break;  // not a surface to start with
     if (aroundFirst.empty()) {
       aroundFirst.assign(span + 1, 0);
       for (const Triangle& t : triangles) {
@@ -669,7 +810,7 @@ std::vector<Triangle> DecimationSink::simplify(const std::vector<Triangle>& tria
     }
   }
   ++scope.keptRegions;
-  return triangles;
+  return faces;
 }
 
 // The chunks whose original triangles a region is measured against: those that use the vertices of
@@ -904,8 +1045,8 @@ void DecimationSink::measure(const std::vector<Triangle>& triangles, ChunkRange 
 
 // Sends a final region on as one chunk: its vertices that no earlier chunk sent, in the order the
 // triangles first use them.
-void DecimationSink::emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals,
-                          Scope& scope) {
+void DecimationSink::emit(const Faces& faces, std::int64_t slab, ChunkRange originals, Scope& scope) {
+  const std::vector<Triangle>& triangles = faces.triangles;
   if (options_.measure) {
     measure(triangles, originals, scope);
   } else {
@@ -929,8 +1070,92 @@ void DecimationSink::emit(const std::vector<Triangle>& triangles, std::int64_t s
     }
     out_.triangles.push_back(mapped);
   }
+  out_.faceLabels = faces.labels;
   report_.trianglesOut += out_.triangles.size();
   next_.consume(out_);
+}
+
+}  // namespace isoslab
+
+namespace isoslab {
+
+// Pairs of triangles in a grid over their bounding boxes (cells two voxels wide, or wider where
+// there would be more than about two cells a triangle), each pair tested in the one cell that holds
+// the low corner of their boxes' overlap: an edge of either through the other.
+std::vector<VertexId> DecimationSink::crossingVertices(const std::vector<Triangle>& triangles) const {
+  std::vector<VertexId> out;
+  if (triangles.size() < 2) return out;
+  struct Box {
+    Vec3d low, high;
+  };
+  std::vector<Box> boxes(triangles.size());
+  Vec3d low{INFINITY, INFINITY, INFINITY}, high{-INFINITY, -INFINITY, -INFINITY};
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    Box& b = boxes[t];
+    b.low = b.high = toDouble(position(triangles[t][0]));
+    for (std::size_t k = 1; k < 3; ++k) {
+      const Vec3d p = toDouble(position(triangles[t][k]));
+      for (std::size_t d = 0; d < 3; ++d) b.low[d] = std::min(b.low[d], p[d]), b.high[d] = std::max(b.high[d], p[d]);
+    }
+    for (std::size_t d = 0; d < 3; ++d) low[d] = std::min(low[d], b.low[d]), high[d] = std::max(high[d], b.high[d]);
+  }
+  double cell = 2.0 * options_.voxelSize;
+  std::array<std::int64_t, 3> dims{};
+  for (;;) {
+    double cells = 1;
+    for (std::size_t d = 0; d < 3; ++d) {
+      dims[d] = static_cast<std::int64_t>(std::floor((high[d] - low[d]) / cell)) + 1;
+      cells *= static_cast<double>(dims[d]);
+    }
+    if (cells <= 2.0 * static_cast<double>(triangles.size()) + 4096.0) break;
+    cell *= 2;
+  }
+  const auto cellOf = [&](double x, std::size_t d) {
+    return std::clamp(static_cast<std::int64_t>(std::floor((x - low[d]) / cell)), std::int64_t{0}, dims[d] - 1);
+  };
+  const auto indexOf = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return static_cast<std::size_t>(x + dims[0] * (y + dims[1] * z));
+  };
+  const auto forCells = [&](const Box& b, auto&& visit) {
+    for (std::int64_t z = cellOf(b.low[2], 2); z <= cellOf(b.high[2], 2); ++z)
+      for (std::int64_t y = cellOf(b.low[1], 1); y <= cellOf(b.high[1], 1); ++y)
+        for (std::int64_t x = cellOf(b.low[0], 0); x <= cellOf(b.high[0], 0); ++x) visit(indexOf(x, y, z));
+  };
+  std::vector<std::uint32_t> start(static_cast<std::size_t>(dims[0] * dims[1] * dims[2]) + 1, 0);
+  for (const Box& b : boxes) forCells(b, [&](std::size_t i) { ++start[i + 1]; });
+  for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
+  std::vector<std::uint32_t> list(start.back()), fill(start.begin(), start.end() - 1);
+  for (std::uint32_t t = 0; t < boxes.size(); ++t) forCells(boxes[t], [&](std::size_t i) { list[fill[i]++] = t; });
+  for (std::size_t i = 0; i + 1 < start.size(); ++i) {
+    for (std::uint32_t m = start[i]; m < start[i + 1]; ++m) {
+      for (std::uint32_t n = m + 1; n < start[i + 1]; ++n) {
+        const Triangle &s = triangles[list[m]], &t = triangles[list[n]];
+        const Box &bs = boxes[list[m]], &bt = boxes[list[n]];
+        bool apart = false;
+        Vec3d corner{};
+        for (std::size_t d = 0; d < 3; ++d) {
+          apart = apart || bs.low[d] > bt.high[d] || bt.low[d] > bs.high[d];
+          corner[d] = std::max(bs.low[d], bt.low[d]);
+        }
+        if (apart || indexOf(cellOf(corner[0], 0), cellOf(corner[1], 1), cellOf(corner[2], 2)) != i) continue;
+        bool sharing = false;
+        for (VertexId a : s) sharing = sharing || a == t[0] || a == t[1] || a == t[2];
+        if (sharing) continue;
+        const std::array<Vec3d, 3> p{toDouble(position(s[0])), toDouble(position(s[1])), toDouble(position(s[2]))};
+        const std::array<Vec3d, 3> q{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))};
+        bool hit = false;
+        for (std::size_t k = 0; k < 3 && !hit; ++k) {
+          hit = segmentCrosses(p[k], p[(k + 1) % 3], q[0], q[1], q[2]) ||
+                segmentCrosses(q[k], q[(k + 1) % 3], p[0], p[1], p[2]);
+        }
+        if (hit) {
+          out.insert(out.end(), s.begin(), s.end());
+          out.insert(out.end(), t.begin(), t.end());
+        }
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace isoslab

@@ -26,6 +26,7 @@
 // after kAttempts tries it is kept whole.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstddef>
@@ -73,6 +74,11 @@ struct DecimateOptions {
   std::size_t pairBytes = std::size_t{128} << 20;
 };
 
+/// The distance bound of a label map's surfaces, in voxels, without --max-error: a label's boundary
+/// is known only to the voxel (the true one lies anywhere within half a voxel of the voxel faces on
+/// either side), and half a voxel stops the decimation of a 1 mm atlas at a third of its triangles.
+inline constexpr double kLabelDistanceBound = 1.0;
+
 /// Checks the options; returns an error message naming the option, or empty when they are valid.
 std::string checkDecimateOptions(const DecimateOptions& options);
 
@@ -106,6 +112,7 @@ class DecimationSink final : public MeshSink {
   void finish() override;
 
   const DecimationReport& report() const noexcept { return report_; }
+  const DecimateOptions& options() const noexcept { return options_; }
 
  private:
   // Chunks [first, end) of the stream: the original triangles a region's error is measured against.
@@ -148,6 +155,32 @@ class DecimationSink final : public MeshSink {
     std::uint64_t repairedRegions = 0, frozenTriangles = 0, keptRegions = 0, attempts = 0;
     bool block = false;  // a block's simplification (which keeps kBlockSlack times the ratio)
   };
+  // Triangles and, in a label complex, each one's sides (MeshChunk::faceLabels; empty otherwise),
+  // in step.
+  struct Faces {
+    std::vector<Triangle> triangles;
+    std::vector<LabelPair> labels;
+    std::size_t size() const noexcept { return triangles.size(); }
+    bool empty() const noexcept { return triangles.empty(); }
+    void add(const Faces& from, std::size_t t) {
+      triangles.push_back(from.triangles[t]);
+      if (!from.labels.empty()) labels.push_back(from.labels[t]);
+    }
+    void append(const Faces& from) {
+      triangles.insert(triangles.end(), from.triangles.begin(), from.triangles.end());
+      labels.insert(labels.end(), from.labels.begin(), from.labels.end());
+    }
+  };
+  // In a label complex, the vertices that a simplify call must not move because triangles outside
+  // its input use them: a junction of labels can look like a closed fan within the input while the
+  // rest of its triangles lie beyond (a scalar surface shows such a vertex a border edge). Those
+  // below `below`, from `from` on, and those in `curve` (sorted).
+  struct Lock {
+    VertexId below = 0;
+    VertexId from = 0xffffffffu;
+    std::vector<VertexId> curve;
+    bool has(VertexId v) const { return v < below || v >= from || std::binary_search(curve.begin(), curve.end(), v); }
+  };
   // A block waiting to be simplified: chunks [start, end), split at `middle`; `base` is the first
   // chunk that the one-block-at-a-time schedule would still hold then (its ranges are clamped to
   // it, so that the output does not depend on how many blocks are taken at once).
@@ -156,7 +189,8 @@ class DecimationSink final : public MeshSink {
   };
   // A simplify call's input and output.
   struct Work {
-    std::vector<Triangle> input, output;
+    Faces input, output;
+    Lock lock;
     std::int64_t original = 0;
     ChunkRange range;
     std::int64_t slab = 0;
@@ -166,14 +200,14 @@ class DecimationSink final : public MeshSink {
   void queueBlock();
   void processQueued();
   void runAll(std::vector<Work>& works);
-  std::vector<Triangle> simplify(const std::vector<Triangle>& triangles, std::int64_t originalTriangles,
-                                 ChunkRange originals, Scope& scope) const;
-  std::vector<Triangle> collapse(std::vector<Triangle> triangles, std::size_t targetTriangles,
-                                 const OriginalSurface* original) const;
-  std::vector<Triangle> collapseBatch(std::span<const Triangle> triangles, std::size_t targetTriangles,
-                                      const OriginalSurface* original, std::vector<unsigned>& local,
-                                      std::vector<Triangle>* release) const;
-  void emit(const std::vector<Triangle>& triangles, std::int64_t slab, ChunkRange originals, Scope& scope);
+  Faces simplify(const Faces& faces, std::int64_t originalTriangles, ChunkRange originals, const Lock& lock,
+                 Scope& scope) const;
+  Faces collapse(Faces faces, std::size_t targetTriangles, const OriginalSurface* original,
+                 const std::vector<VertexId>& pinned) const;
+  Faces collapseBatch(std::span<const Triangle> triangles, std::span<const LabelPair> labels,
+                      std::size_t targetTriangles, const OriginalSurface* original, const std::vector<VertexId>& pinned,
+                      std::vector<unsigned>& local, Faces* release) const;
+  void emit(const Faces& faces, std::int64_t slab, ChunkRange originals, Scope& scope);
   void measure(const std::vector<Triangle>& triangles, ChunkRange originals, Scope& scope);
   // The chunks whose original triangles measure `triangles`, within chunks [firstChunk, end).
   ChunkRange rangeAround(const std::vector<Triangle>& triangles, std::size_t firstChunk, std::size_t end) const;
@@ -181,6 +215,8 @@ class DecimationSink final : public MeshSink {
   // The original surface of `range`, kept in the scope for the next caller with the same range: the
   // tries, the simplifier's checks and the distance measure of the output share it.
   const OriginalSurface& surfaceFor(ChunkRange range, Scope& scope) const;
+  // The vertices of triangles that pass through one another (triangles that share a vertex aside).
+  std::vector<VertexId> crossingVertices(const std::vector<Triangle>& triangles) const;
   double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
   bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const;
   using Vec3d = std::array<double, 3>;
@@ -209,7 +245,8 @@ class DecimationSink final : public MeshSink {
   std::vector<VertexId> chunkFirst_;
   std::vector<std::int64_t> chunkSlab_;
   std::vector<std::vector<Triangle>> chunkTriangles_;
-  std::size_t chunks_ = 0;  // chunks seen
+  std::vector<std::vector<LabelPair>> chunkLabels_;  // a label complex's only
+  std::size_t chunks_ = 0;                           // chunks seen
 
   // The open block: chunks [blockStart_, chunks_); the blocks closed and not yet simplified; the
   // chunk where the one-block-at-a-time schedule's data would start now; the pending upper half of
@@ -219,8 +256,11 @@ class DecimationSink final : public MeshSink {
   std::size_t scheduleBase_ = 0;
   std::int64_t blockTriangles_ = 0;
   bool hasPending_ = false;
-  std::vector<Triangle> pendingUpper_;
+  Faces pendingUpper_;
   std::size_t pendingMiddle_ = 0;  // the chunk where the pending upper half starts
+  // A label complex's: the vertices that the pending upper half shares with the region before it.
+  std::vector<VertexId> pendingCurve_;
+  bool complex_ = false;
   MeshChunk out_;
 };
 

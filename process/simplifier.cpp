@@ -89,11 +89,72 @@ bool isDisk(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
   return false;
 }
 
+// Whether the triangles around v (as for isDisk) are three sheets that meet along a line through v:
+// two neighbours (the line's, `ends`) with three triangles each, every other neighbour in two
+// triangles wound one each way, and the triangles three fans, each from one end to the other with
+// at least two triangles.
+bool isLine(const std::vector<std::array<std::uint32_t, 2>>& pairs, std::array<std::uint32_t, 2>& ends) {
+  const std::size_t n = pairs.size();
+  if (n < 6 || n > kMaxFan) return false;
+  std::size_t found = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (pairs[i][0] == pairs[i][1]) return false;
+    for (std::size_t side = 0; side < 2; ++side) {
+      const std::uint32_t x = pairs[i][side];
+      std::size_t uses = 0, first = 0;  // first: x's first appearance is at (i, side)
+      for (std::size_t j = 0; j < n; ++j) {
+        for (std::size_t s = 0; s < 2; ++s) {
+          if (pairs[j][s] != x) continue;
+          if (uses++ == 0) first = 2 * j + s;
+        }
+      }
+      if (first != 2 * i + side) continue;  // counted at its first appearance
+      if (uses == 3) {
+        if (found == 2) return false;
+        ends[found++] = x;
+      } else if (uses != 2) {
+        return false;
+      }
+    }
+  }
+  if (found != 2) return false;
+  // The fans: from each triangle at ends[0], across the shared neighbours, to one at ends[1].
+  std::size_t visited = 0, chains = 0;
+  for (std::size_t start = 0; start < n; ++start) {
+    if (pairs[start][0] != ends[0] && pairs[start][1] != ends[0]) continue;
+    ++chains;
+    std::size_t at = start;
+    std::uint32_t from = ends[0];
+    for (;;) {
+      ++visited;
+      const std::size_t in = pairs[at][0] == from ? 0 : 1;
+      const std::uint32_t next = pairs[at][1 - in];
+      if (next == ends[1]) break;
+      if (next == ends[0] || visited > n) return false;
+      std::size_t other = n;
+      for (std::size_t j = 0; j < n; ++j) {
+        if (j != at && (pairs[j][0] == next || pairs[j][1] == next)) other = j;
+      }
+      // A sheet's edge from v is wound one way in each of its two triangles.
+      if (other == n || (pairs[other][0] == next) == (in == 1)) return false;
+      at = other;
+      from = next;
+    }
+    if (at == start) return false;  // a fan of one triangle: the line's ends would be joined
+  }
+  return chains == 3 && visited == n;
+}
+
 class Simplifier {
  public:
-  Simplifier(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount)
-      : idx_(indices), xyz_(xyz), vertices_(vertexCount) {
+  Simplifier(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
+             const SimplifyLimits& limits, std::vector<std::uint32_t>* keptFrom)
+      : idx_(indices), xyz_(xyz), vertices_(vertexCount), origin_(keptFrom) {
     live_ = idx_.size() / 3;
+    if (origin_ != nullptr) {
+      origin_->resize(live_);
+      for (std::size_t t = 0; t < live_; ++t) (*origin_)[t] = static_cast<std::uint32_t>(t);
+    }
     quadrics_.assign(vertexCount, Quadric{});
     for (std::size_t t = 0; t < live_; ++t) {
       const Vec3 a = at(idx_[3 * t]);
@@ -105,6 +166,8 @@ class Simplifier {
     }
     buildAdjacency();
     free_.assign(vertexCount, 0);
+    const std::vector<std::uint8_t>& locked = limits.locked;
+    const bool alongLines = limits.alongLines;
     std::vector<std::array<std::uint32_t, 2>> pairs;
     for (std::uint32_t v = 0; v < vertexCount; ++v) {
       pairs.clear();
@@ -113,7 +176,14 @@ class Simplifier {
         const std::size_t k = t[0] == v ? 0 : t[1] == v ? 1 : 2;
         pairs.push_back({t[(k + 1) % 3], t[(k + 2) % 3]});
       }
-      free_[v] = isDisk(pairs) ? 1 : 0;
+      std::array<std::uint32_t, 2> ends{};
+      free_[v] = isDisk(pairs) ? kDisk : alongLines && isLine(pairs, ends) ? kLine : kStays;
+      if (v < locked.size() && locked[v] != 0) free_[v] = kStays;
+      if (free_[v] == kLine) lineEnds_.push_back({v, ends[0], ends[1]});
+    }
+    if (!lineEnds_.empty()) {
+      lineAt_.assign(vertexCount, kDead);
+      for (std::uint32_t i = 0; i < lineEnds_.size(); ++i) lineAt_[lineEnds_[i][0]] = i;
     }
     mark_.assign(vertexCount, 0);
     seen_.assign(vertexCount, 0);
@@ -126,6 +196,7 @@ class Simplifier {
       check_ = &limits.check;
       checkAbove_ = limits.checkAbove * limits.checkAbove;
     }
+
     for (std::uint32_t pass = 1; live_ > limits.targetTriangles; ++pass) {
       if (!collapsePass(pass, limits.targetTriangles, limit)) break;
       compact();
@@ -153,10 +224,14 @@ class Simplifier {
     std::size_t kept = 0;
     for (std::size_t t = 0; t < idx_.size() / 3; ++t) {
       if (idx_[3 * t] == kDead) continue;
-      if (kept != t) std::memmove(&idx_[3 * kept], &idx_[3 * t], 3 * sizeof(std::uint32_t));
+      if (kept != t) {
+        std::memmove(&idx_[3 * kept], &idx_[3 * t], 3 * sizeof(std::uint32_t));
+        if (origin_ != nullptr) (*origin_)[kept] = (*origin_)[t];
+      }
       ++kept;
     }
     idx_.resize(3 * kept);
+    if (origin_ != nullptr) origin_->resize(kept);
   }
 
   // One pass: the candidates by error, each made where nothing around it has changed. Returns
@@ -169,10 +244,10 @@ class Simplifier {
         const std::uint32_t a = idx_[3 * t + k], b = idx_[3 * t + (k + 1) % 3];
         // Each edge between two triangles once (where it runs from the smaller id); a border
         // edge's ends do not move.
-        if (a > b || (!free_[a] && !free_[b])) continue;
+        if (a > b || (free_[a] != kDisk && free_[b] != kDisk)) continue;
         const Vec3 ab = sub(at(b), at(a));
-        const double abError = free_[a] ? quadrics_[a].error(ab) : INFINITY;
-        const double baError = free_[b] ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
+        const double abError = free_[a] == kDisk ? quadrics_[a].error(ab) : INFINITY;
+        const double baError = free_[b] == kDisk ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
         const double e = std::min(abError, baError);
         if (!(e <= limit)) continue;
         const auto error = static_cast<float>(e);
@@ -181,6 +256,28 @@ class Simplifier {
         // The candidate: its corner (which holds the edge's first end) and 1 when the second end
         // moves.
         keys_.push_back(static_cast<std::uint64_t>(bits) << 32 | (3 * t + k) << 1 | (abError <= baError ? 0u : 1u));
+      }
+    }
+    // A line vertex's collapses onto its neighbours on the line, each named by a corner of a
+    // triangle on the edge, as above.
+    for (const auto& [v, e0, e1] : lineEnds_) {
+      if (free_[v] != kLine) continue;  // collapsed away
+      for (const std::uint32_t e : {e0, e1}) {
+        const double error = quadrics_[v].error(sub(at(e), at(v)));
+        if (!(error <= limit)) continue;
+        for (std::uint32_t i = first_[v]; i < first_[v + 1]; ++i) {
+          const std::uint32_t t = around_[i];
+          const std::uint32_t k = idx_[3 * t] == v ? 0 : idx_[3 * t + 1] == v ? 1 : 2;
+          std::uint32_t corner = kDead, swap = 0;
+          if (idx_[3 * t + (k + 1) % 3] == e) corner = 3 * t + k;
+          if (idx_[3 * t + (k + 2) % 3] == e) corner = 3 * t + (k + 2) % 3, swap = 1;
+          if (corner == kDead) continue;
+          const auto bits32 = static_cast<float>(error);
+          std::uint32_t bits = 0;
+          std::memcpy(&bits, &bits32, sizeof bits);
+          keys_.push_back(static_cast<std::uint64_t>(bits) << 32 | corner << 1 | swap);
+          break;
+        }
       }
     }
     if (keys_.empty()) return false;
@@ -246,32 +343,40 @@ class Simplifier {
       if (t[0] == kDead) continue;
       for (std::size_t k = 0; k < 3; ++k) seen_[t[k]] = inTo;
     }
-    std::array<std::uint32_t, 2> shared{};
-    std::size_t common = 0;
+    // A disk's edge has two triangles, a line's three: the vertices opposite it, which must be
+    // all that the ends share.
+    const bool line = free_[from] == kLine;
+    const std::size_t expect = line ? 3 : 2;
+    std::array<std::uint32_t, 3> shared{};
+    std::size_t common = 0, onEdge = 0;
     for (std::uint32_t i = first_[from]; i < first_[from + 1]; ++i) {
       const std::uint32_t* t = &idx_[3 * around_[i]];
       if (t[0] == kDead) continue;
+      onEdge += (t[0] == to || t[1] == to || t[2] == to) ? 1 : 0;
       for (std::size_t k = 0; k < 3; ++k) {
         const std::uint32_t v = t[k];
         if (v == from || v == to || seen_[v] != inTo) continue;
-        if (common == 2) return false;
+        if (common == expect) return false;
         shared[common++] = v;
         seen_[v] = counted;
       }
     }
-    if (common != 2) return false;
+    if (common != expect || onEdge != expect) return false;
+    const auto isShared = [&](std::uint32_t v) {
+      return std::find(shared.begin(), shared.begin() + static_cast<std::ptrdiff_t>(common), v) !=
+             shared.begin() + static_cast<std::ptrdiff_t>(common);
+    };
     // The triangles that stay: none made twice, none turned over or flattened.
     const Vec3 p = at(from), q = at(to);
     const bool asked = check_ != nullptr && error > checkAbove_;
     made_.clear();
+
     for (std::uint32_t i = first_[from]; i < first_[from + 1]; ++i) {
       const std::uint32_t* t = &idx_[3 * around_[i]];
       if (t[0] == kDead || t[0] == to || t[1] == to || t[2] == to) continue;
       const std::size_t k = t[0] == from ? 0 : t[1] == from ? 1 : 2;
       const std::uint32_t x = t[(k + 1) % 3], y = t[(k + 2) % 3];
-      const bool xShared = x == shared[0] || x == shared[1];
-      const bool yShared = y == shared[0] || y == shared[1];
-      if (xShared && yShared) return false;
+      if (isShared(x) && isShared(y)) return false;
       const Vec3 px = at(x), py = at(y);
       const Vec3 before = cross(sub(px, p), sub(py, p));
       const Vec3 after = cross(sub(px, q), sub(py, q));
@@ -301,6 +406,19 @@ class Simplifier {
       }
     }
     quadrics_[to].addFrom(quadrics_[from], sub(q, p));
+    if (line) {
+      // The line now runs from `from`'s other neighbour on it to `to`.
+      const std::array<std::uint32_t, 3>& mine = lineEnds_[lineAt_[from]];
+      const std::uint32_t other = mine[1] == to ? mine[2] : mine[1];
+      const auto relink = [&](std::uint32_t v, std::uint32_t was, std::uint32_t now) {
+        if (free_[v] != kLine) return;
+        std::array<std::uint32_t, 3>& ends = lineEnds_[lineAt_[v]];
+        for (std::size_t k = 1; k < 3; ++k) ends[k] = ends[k] == was ? now : ends[k];
+      };
+      relink(to, from, other);
+      relink(other, from, to);
+      free_[from] = kStays;
+    }
     // `to` has gained triangles that its list lacks, and its quadric has changed: it waits for the
     // next pass, as does `from`, which is gone.
     mark_[from] = mark_[to] = pass;
@@ -312,12 +430,18 @@ class Simplifier {
   std::vector<std::uint32_t>& idx_;
   const float* xyz_;
   std::size_t vertices_;
+  std::vector<std::uint32_t>* origin_;  // each triangle's index in the input, when asked for
   std::size_t live_ = 0;
   // The working arrays, made for each call and freed after it. (Kept by each thread from call to
   // call, they saved no time measurably on the Philips head and added their largest size to the
   // peak: 78.5 against 76.2 MiB at one thread, 156.8 against 143.8 at two.)
   std::vector<Quadric> quadrics_;
+  // Per vertex: kStays, kDisk (one closed fan) or kLine (inside a line where three sheets meet);
+  // the line vertices with their two neighbours on the line, kept as collapses change them.
+  static constexpr std::uint8_t kStays = 0, kDisk = 1, kLine = 2;
   std::vector<std::uint8_t> free_;
+  std::vector<std::array<std::uint32_t, 3>> lineEnds_;
+  std::vector<std::uint32_t> lineAt_;  // each vertex's entry in lineEnds_ (kDead: none)
   std::vector<std::uint32_t> mark_, seen_;
   std::vector<std::uint32_t> first_, fill_, around_;
   std::vector<std::uint64_t> keys_, spare_;
@@ -331,9 +455,15 @@ class Simplifier {
 }  // namespace
 
 std::size_t simplifyTriangles(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
-                              const SimplifyLimits& limits) {
-  if (indices.size() / 3 <= limits.targetTriangles) return indices.size();
-  Simplifier simplifier(indices, xyz, vertexCount);
+                              const SimplifyLimits& limits, std::vector<std::uint32_t>* keptFrom) {
+  if (indices.size() / 3 <= limits.targetTriangles) {
+    if (keptFrom != nullptr) {
+      keptFrom->resize(indices.size() / 3);
+      for (std::size_t t = 0; t < keptFrom->size(); ++t) (*keptFrom)[t] = static_cast<std::uint32_t>(t);
+    }
+    return indices.size();
+  }
+  Simplifier simplifier(indices, xyz, vertexCount, limits, keptFrom);
   return simplifier.run(limits);
 }
 

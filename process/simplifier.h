@@ -8,6 +8,9 @@
 //     opposite the edge, so no edge comes to be used by more than two triangles, no vertex pinches
 //     and no triangle is made twice;
 //   - no triangle around the moved vertex turns over or loses its area.
+// Optionally (a label complex), a vertex inside a line where three sheets meet moves too, onto a
+// neighbour on the line: each sheet then loses the triangle on the collapsed edge, and the line
+// keeps three sheets on each edge.
 // meshoptimizer 0.18's meshopt_simplify has no such test: it can join two sheets where a surface is
 // thin, and the decimation then had to find each such spot and simplify the whole region again
 // (docs/design.md, "Our own simplifier").
@@ -39,12 +42,21 @@ struct SimplifyLimits {
   /// collapse. The decimation measures them against the original surface there.
   std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)> check;
   double checkAbove = INFINITY;
+  /// Per vertex, nonzero where it must stay whatever its triangles look like (empty: none): a
+  /// vertex whose other triangles are left out of the input.
+  std::vector<std::uint8_t> locked;
+  /// A label complex's lines where three labels meet (three sheets on each of their edges) are
+  /// simplified along themselves: a vertex inside such a line moves onto one of its two neighbours
+  /// on the line, with the tests above for every sheet (false: such vertices stay).
+  bool alongLines = false;
 };
 
 /// Simplifies the triangles `indices` (three ids a triangle, into `xyz`: three floats a vertex) in
 /// place, as far as the limits allow; returns how many indices are kept (three a triangle, in the
-/// order of the triangles they came from).
+/// order of the triangles they came from). With `keptFrom`, it is set to each kept triangle's index in the
+/// input (a collapse only renames a vertex, so a kept triangle keeps what it carried: a label complex's
+/// sides, say).
 std::size_t simplifyTriangles(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
-                              const SimplifyLimits& limits);
+                              const SimplifyLimits& limits, std::vector<std::uint32_t>* keptFrom = nullptr);
 
 }  // namespace isoslab

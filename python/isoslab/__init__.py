@@ -295,8 +295,10 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), select=None, smooth=0, de
 
     `select`: None or "all" for every label, else values, ranges ("7-9") as --labels takes them.
     `smooth`: iterations of the label complex's constrained smoothing (as extract's --smooth on a
-    label map: each interface moves once for both labels). `decimate` is refused until label
-    surfaces can be decimated in the stream.
+    label map: each interface moves once for both labels). `decimate`: the fraction of the label
+    complex's triangles to keep (as extract's --decimate on a label map: each collapse is made for
+    both labels, within a voxel of the surface; lines where three labels meet are simplified along
+    themselves).
     `threads`: None for the default. Errors raise isoslab.Error with the program's message.
     """
     if not isinstance(labels, np.ndarray):
