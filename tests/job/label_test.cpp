@@ -858,25 +858,37 @@ std::int64_t crossings(const std::map<std::int32_t, IndexedMesh>& meshes) {
   return count;
 }
 
-// Issue 37: after --smooth 20 every label is still closed and manifold, its interfaces are the
-// same triangles in both labels (reversed), no triangle of one label crosses one of another, and
-// one thread gives the bytes of two.
+// Issue 37: after --smooth 20, and after --smooth 20 --decimate 0.2, every label is still closed
+// and manifold, its interfaces are the same triangles in both labels (reversed), no triangle of one
+// label crosses one of another, and one thread gives the bytes of two.
 TEST(LabelSmoothing, PhantomsStayClosedSharedAndUncrossed) {
   // The brute force finds a crossing: two triangles through each other.
   IndexedMesh flat{{{0, 0, 0}, {2, 0, 0}, {0, 2, 0}}, {}, {}, {{0, 1, 2}}, {}, 0, {}};
   IndexedMesh through{{{0.5f, 0.5f, -1}, {0.5f, 0.5f, 1}, {3, 3, 0.5f}}, {}, {}, {{0, 1, 2}}, {}, 0, {}};
   EXPECT_EQ(crossings({{1, flat}, {2, through}}), 1);
-  for (const char* input :
-       {"phantom:nested?n=20", "phantom:boxes?n=16", "phantom:touch?at=edge", "phantom:checker?n=12&b=4&labels=27"}) {
+  for (const auto& [input, decimate] :
+       {std::pair{"phantom:nested?n=20", 1.0}, std::pair{"phantom:boxes?n=16", 1.0},
+        std::pair{"phantom:touch?at=edge", 1.0}, std::pair{"phantom:checker?n=12&b=4&labels=27", 1.0},
+        std::pair{"phantom:nested?n=20", 0.2}, std::pair{"phantom:boxes?n=16", 0.2},
+        std::pair{"phantom:touch?at=edge", 0.2}, std::pair{"phantom:checker?n=12&b=4&labels=27", 0.2}}) {
     SCOPED_TRACE(input);
+    SCOPED_TRACE(decimate);
     const std::string dir = testing::tempDir();
     const std::string dir2 = testing::tempDir();
     ExtractSettings s;
     s.inputs = {input};
     s.output = dir + "/{label}.ply";
     s.smoothing.iterations = 20;
+    s.decimate = decimate;
     s.threads = 1;
     const ExtractReport report = runExtract(s);
+    if (decimate < 1) {
+      ASSERT_TRUE(report.decimation.has_value());
+      const DecimationReport& d = report.decimation->result;
+      EXPECT_LT(d.trianglesOut, d.trianglesIn * 7 / 10);
+      EXPECT_LE(d.distanceMax, kLabelDistanceBound + 1e-5);
+      EXPECT_EQ(d.keptRegions, 0u);
+    }
     s.output = dir2 + "/{label}.ply";
     s.threads = 2;
     runExtract(s);

@@ -134,3 +134,39 @@ def test_a_small_label_survives_smoothing(tmp_path):
     assert small["closed"]
     assert -0.15 <= small["volume_change"] < 0
     assert small["largest_displacement"] <= 0.5 + 1e-6
+
+
+def closed_and_manifold(faces):
+    """Each directed edge once, with its reverse: closed, no edge of three or more triangles."""
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    forward = {tuple(e) for e in edges.tolist()}
+    return len(forward) == len(edges) and all((b, a) in forward for a, b in forward)
+
+
+def test_finished_atlas_labels_are_closed_manifold_and_share_every_interface(tmp_path):
+    """--smooth 20 --decimate 0.1 on the atlas: every label's file is closed and manifold (checked
+    here on its triangles), and every interface of the report is that many triangles held by both
+    labels' files, reversed, by position; the decimation stays within its bound of a voxel."""
+    if not os.path.exists(AAL):
+        pytest.skip(f"{AAL} is absent (Debian's mricron-data)")
+    out = tmp_path / "f"
+    out.mkdir()
+    report = run([AAL, "--smooth", "20", "--decimate", "0.1", "-o", str(out / "{label}.ply")], tmp_path)
+    assert len(report["labels"]) == 116
+    decimation = report["decimation"]
+    assert decimation["distance_bound_voxels"] == 1.0
+    assert decimation["distance_max_voxels"] <= 1.0 + 1e-6
+    assert decimation["kept_fraction"] < 0.2
+    keys = {}
+    for label in report["labels"]:
+        assert label["closed"] and label["nonmanifold_edges"] == 0, label["value"]
+        points, faces = read_ply(out / f"{label['value']}.ply")
+        assert closed_and_manifold(faces), label["value"]
+        corners = points[faces].round(5)
+        keys[label["value"]] = (
+            {tuple(map(tuple, c.tolist())) for c in corners},
+            {tuple(map(tuple, c[[0, 2, 1]].tolist())) for c in corners},
+        )
+    for face in report["label_interfaces"]:
+        a, b = face["labels"]
+        assert len(keys[a][0] & keys[b][1]) == face["triangles"], (a, b)
