@@ -1,18 +1,19 @@
 #!/usr/bin/python3
-"""Finished label surfaces (issue 37), in one run: isoslab's streamed --smooth 20 on mricron's AAL
-atlas against 3D Slicer's pipeline in VTK (Debian's VTK 9.1): per label, vtkDiscreteFlyingEdges3D
-then vtkWindowedSincPolyDataFilter (20 iterations, Slicer's pass band for its default smoothing
-factor 0.5: 10^(-4 * 0.5) = 0.01, and isoslab's label default 0.3 for a like-for-like row).
+"""Finished label surfaces (issue 37), in one run: isoslab's streamed --smooth 20 (and --smooth 20
+--decimate 0.1) on mricron's AAL atlas against 3D Slicer's pipeline in VTK (Debian's VTK 9.1): per
+label, vtkDiscreteFlyingEdges3D then vtkWindowedSincPolyDataFilter (20 iterations, Slicer's pass
+band for its default smoothing factor 0.5: 10^(-4 * 0.5) = 0.01, and isoslab's label default 0.3
+for a like-for-like row), then vtkQuadricDecimation to a tenth where the row decimates.
 
 For each: wall time, peak RSS, triangles, the smallest label volume kept (smoothed over unsmoothed
 mesh volume), and the largest gap or overlap between neighbouring labels: every point of an
 interface is in both labels' surfaces before smoothing; afterwards the distance between its two
-copies (0 where the labels share their vertices, as isoslab's do by construction).
+copies (0 where the labels share their vertices, as isoslab's do by construction). After VTK's
+decimation, which moves and drops vertices label by label, the gap at an interface point is the
+distance from the point of one label's decimated surface nearest to its smoothed copy to the other
+label's decimated surface (every 7th interface point, through vtkCellLocator).
 
     /usr/bin/python3 bench/labels_finished.py [--program build/cli/isoslab] [--out /tmp/labels-finished]
-
-Decimation (the issue's --decimate 0.1 and vtkQuadricDecimation) joins when label surfaces can be
-decimated in the stream.
 """
 
 import argparse
@@ -26,7 +27,7 @@ VTK_SCRIPT = r"""
 import sys, json, vtk
 import numpy as np
 from vtk.util import numpy_support
-path, pass_band = sys.argv[1], float(sys.argv[2])
+path, pass_band, decimate = sys.argv[1], float(sys.argv[2]), float(sys.argv[3])
 reader = vtk.vtkNIFTIImageReader()
 reader.SetFileName(path)
 reader.Update()
@@ -36,6 +37,11 @@ labels = [int(v) for v in np.unique(values) if v != 0]
 triangles = 0
 smallest = 1.0
 copies = {}  # unsmoothed point -> [(label, smoothed point)]
+finals = {}  # label -> (decimated surface, its locator)
+def nearest(label, point):
+    closest, cell, sub, d2 = [0.0, 0.0, 0.0], vtk.reference(0), vtk.reference(0), vtk.reference(0.0)
+    finals[label][1].FindClosestPoint(point, closest, cell, sub, d2)
+    return np.array(closest)
 def volume(poly):
     mass = vtk.vtkMassProperties()
     mass.SetInputData(poly)
@@ -60,31 +66,51 @@ for label in labels:
     sinc.NormalizeCoordinatesOn()
     sinc.Update()
     smooth = sinc.GetOutput()
-    triangles += smooth.GetNumberOfCells()
+    final = smooth
+    if decimate < 1:
+        quadric = vtk.vtkQuadricDecimation()
+        quadric.SetInputData(smooth)
+        quadric.SetTargetReduction(1 - decimate)
+        quadric.Update()
+        final = quadric.GetOutput()
+        locator = vtk.vtkCellLocator()
+        locator.SetDataSet(final)
+        locator.BuildLocator()
+        finals[label] = (final, locator)
+    triangles += final.GetNumberOfCells()
     before = volume(raw)
     if before > 0:
-        smallest = min(smallest, volume(smooth) / before)
+        smallest = min(smallest, volume(final) / before)
     a = numpy_support.vtk_to_numpy(raw.GetPoints().GetData())
     b = numpy_support.vtk_to_numpy(smooth.GetPoints().GetData())
     for p, q in zip(map(tuple, a.round(4)), b):
         copies.setdefault(p, []).append((label, q))
 gap = 0.0
-for found in copies.values():
+for n, found in enumerate(copies.values()):
+    if decimate < 1 and n % 7:
+        continue
     for i in range(len(found)):
         for j in range(i + 1, len(found)):
-            if found[i][0] != found[j][0]:
+            if found[i][0] == found[j][0]:
+                continue
+            if decimate < 1:
+                on_a = nearest(found[i][0], [float(x) for x in found[i][1]])
+                gap = max(gap, float(np.linalg.norm(on_a - nearest(found[j][0], list(on_a)))))
+            else:
                 gap = max(gap, float(np.linalg.norm(found[i][1] - found[j][1])))
 print(json.dumps({"triangles": triangles, "smallest_volume_kept": smallest, "largest_gap": gap,
                   "labels": len(labels)}))
 """
 
 
-def isoslab_run(program, aal, out, threads):
-    """isoslab's smoothed labels, a .ply per label; the measures from its report. The gap is 0 by
-    construction (the same vertices in both labels); the test suite checks it."""
+def isoslab_run(program, aal, out, threads, decimate):
+    """isoslab's smoothed (and decimated) labels, a .ply per label; the measures from its report.
+    The gap is 0 by construction (the same vertices in both labels); the test suite checks it."""
     report = os.path.join(out, "r.json")
     command = [program, "extract", aal, "--smooth", "20", "-o", os.path.join(out, "{label}.ply"), "--threads",
                str(threads), "-q", "--report", report]
+    if decimate < 1:
+        command += ["--decimate", str(decimate)]
     wall, rss, _ = timed(command)
     r = json.load(open(report))
     kept = min(l["mesh_volume"] / l["voxel_volume"] for l in r["labels"])
@@ -102,14 +128,18 @@ def main():
         raise SystemExit(f"{aal} is absent (Debian mricron-data)")
     os.makedirs(a.out, exist_ok=True)
     rows = []
-    for threads in (1, 2):
-        rows.append((f"isoslab --smooth 20, {threads} thread(s)", isoslab_run(a.program, aal, a.out, threads)))
-    for band in (0.01, 0.3):
-        wall, rss, stdout = timed(["/usr/bin/python3", "-c", VTK_SCRIPT, aal, str(band)])
-        r = json.loads(stdout)
-        r.update({"wall": wall, "rss_mib": rss})
-        rows.append((f"VTK per label: discrete FE + windowed sinc 20, pass band {band}", r))
-    print("| run | wall s | peak MiB | triangles | smallest volume kept | largest gap or overlap |")
+    for decimate in (1.0, 0.1):
+        finish = " --decimate 0.1" if decimate < 1 else ""
+        for threads in (1, 2):
+            rows.append((f"isoslab --smooth 20{finish}, {threads} thread(s)",
+                         isoslab_run(a.program, aal, a.out, threads, decimate)))
+        for band in (0.01, 0.3):
+            wall, rss, stdout = timed(["/usr/bin/python3", "-c", VTK_SCRIPT, aal, str(band), str(decimate)])
+            r = json.loads(stdout)
+            r.update({"wall": wall, "rss_mib": rss})
+            quadric = " + quadric decimation to 0.1" if decimate < 1 else ""
+            rows.append((f"VTK per label: discrete FE + windowed sinc 20, pass band {band}{quadric}", r))
+    print("| run | wall s | peak MiB | triangles | smallest volume kept | largest gap or overlap (mm) |")
     print("|---|---|---|---|---|---|")
     for name, r in rows:
         print(f"| {name} | {r['wall']:.2f} | {r['rss_mib']:.0f} | {r['triangles']:,} | "
