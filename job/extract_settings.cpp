@@ -223,7 +223,11 @@ void checkLabelSettings(const ExtractSettings& s) {
                              : s.components.minVolume    ? "min_volume"
                              : s.components.minTriangles ? "min_triangles"
                                                          : "seed");
-  if (!s.isos.empty()) refuse(s.smoothing.iterations != 0, "smooth");
+  if (!s.isos.empty()) {
+    refuse(s.smoothing.iterations != 0, "smooth");
+    refuse(s.decimate != 1.0, "decimate");
+    refuse(s.maxError != 0, "max_error");
+  }
   refuse(s.normals, "normals");
   refuse(!s.preview.path.empty(), "preview");
   refuse(s.sphere.has_value(), "sphere");

@@ -420,6 +420,8 @@ TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
        "isoslab: error: -o '" + dir +
            "/one.stl' is one file: label surfaces go to a pattern such as 'labels/{name}.stl' (a file per label), "
            "a .glb or .3mf (a mesh per label) or a .ply of the whole label complex\n"},
+      {"'phantom:sphere?n=8' --iso 0.3,0.6 --decimate 0.2 -o " + dir + "/{iso}.ply", 2,
+       "isoslab: error: --decimate does not apply to several iso values in one pass yet\n"},
       {"'phantom:voxel' --labels all --iso 3 -o " + dir + "/{name}.ply", 2,
        "isoslab: error: --iso and --labels exclude each other: a run meshes an iso value or labels\n"},
       {"'phantom:sphere?n=4' --labels all -o " + dir + "/{name}.ply", 1,
