@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:?usage: scripts/fuzz.sh SECONDS [TARGET...]}
 shift
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(raw volume dicom image_stack mesh extract process printable)
+[ ${#targets[@]} -gt 0 ] || targets=(raw volume dicom image_stack mesh extract process printable label_finish)
 build=build-fuzz
 
 if [ ! -f "$build/build.ninja" ]; then

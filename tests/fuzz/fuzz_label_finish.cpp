@@ -1,0 +1,128 @@
+// Smoothing and decimating a label complex in the stream (process/, issue 37) on small random label
+// volumes, in blocks of two to four slabs: every label's surface must stay closed (each directed
+// edge as often as its reverse) with its Euler characteristic, and every triangle must keep its two
+// labels. abort() on a violation.
+//
+// Input:
+//   0..2  dims: 2 + byte % 9 (2..10)
+//   3     bits 0-2 labels 2 + bits % 6 (background included); bit 3 no smoothing; bit 4 two
+//         threads for the decimation
+//   4     ratio (1 + byte % 100) / 100
+//   5     slabs a block: 2 + byte % 3
+//   then one byte per voxel, x fastest (missing bytes are 0): its label, byte % labels
+#include <map>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "extract/frame.h"
+#include "extract/label_extractor.h"
+#include "fuzz_support.h"
+#include "io/label_source.h"
+#include "io/pad_source.h"
+#include "process/decimation.h"
+#include "process/smoothing.h"
+#include "stream/pipeline.h"
+
+using namespace isoslab;
+
+namespace {
+
+// The whole complex as it streams past.
+class Collect final : public MeshSink {
+ public:
+  void begin(const MeshHeader&) override {}
+  void consume(const MeshChunk& chunk) override {
+    if (chunk.faceLabels.size() != chunk.triangles.size())
+      fuzz::fail("a chunk's triangles and labels differ in number");
+    vertices += chunk.positions.size();
+    triangles.insert(triangles.end(), chunk.triangles.begin(), chunk.triangles.end());
+    sides.insert(sides.end(), chunk.faceLabels.begin(), chunk.faceLabels.end());
+  }
+  void finish() override {}
+
+  std::size_t vertices = 0;
+  std::vector<Triangle> triangles;
+  std::vector<LabelPair> sides;
+};
+
+// A label's surface: its directed edges' balance (0: closed) and Euler characteristic.
+std::pair<std::int64_t, std::int64_t> shapeOf(const Collect& c, std::int32_t label) {
+  std::map<std::pair<VertexId, VertexId>, std::int64_t> directed;
+  std::set<std::pair<VertexId, VertexId>> edges;
+  std::set<VertexId> used;
+  std::int64_t faces = 0;
+  for (std::size_t t = 0; t < c.triangles.size(); ++t) {
+    const bool back = c.sides[t][1] == label, front = c.sides[t][0] == label;
+    if (!back && !front) continue;
+    const Triangle& tri = c.triangles[t];
+    for (std::size_t k = 0; k < 3; ++k) {
+      const VertexId a = tri[k], b = tri[(k + 1) % 3];
+      directed[back ? std::pair{a, b} : std::pair{b, a}] += 1;
+      edges.insert(std::minmax(a, b));
+      used.insert(a);
+    }
+    ++faces;
+  }
+  std::int64_t unbalanced = 0;
+  for (const auto& [e, n] : directed) {
+    const auto it = directed.find({e.second, e.first});
+    unbalanced += std::abs(n - (it == directed.end() ? 0 : it->second));
+  }
+  return {unbalanced, static_cast<std::int64_t>(used.size()) - static_cast<std::int64_t>(edges.size()) + faces};
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  fuzz::Bytes in(data, size);
+  VolumeInfo info;
+  for (auto& d : info.dims) d = 2 + fuzz::takeByte(in) % 9;
+  info.type = VoxelType::kU8;
+  info.reader = "fuzz";
+  info.source = "fuzz";
+  const std::uint8_t flags = fuzz::takeByte(in);
+  const std::uint8_t ratioByte = fuzz::takeByte(in);
+  const std::uint8_t slabsByte = fuzz::takeByte(in);
+  const int labels = 2 + (flags & 7) % 6;
+  std::vector<float> values(static_cast<std::size_t>(info.sliceVoxels() * info.dims[2]));
+  for (float& v : values) v = static_cast<float>(fuzz::takeByte(in) % labels);
+  SmoothOptions smooth;
+  smooth.iterations = (flags & 8) != 0 ? 0 : 20;
+  smooth.passBand = kLabelPassBand;
+  smooth.maxDisplacement = 0.5;
+  DecimateOptions decimate;
+  decimate.ratio = (1 + ratioByte % 100) / 100.0;
+  decimate.maxDistance = kLabelDistanceBound;
+  decimate.blockSlabs = 2 + slabsByte % 3;
+  decimate.blockTriangles = 1;
+  decimate.threads = (flags & 16) != 0 ? 2 : 1;
+
+  auto memory = std::make_unique<fuzz::MemorySource>(info, std::move(values));
+  auto checked = std::make_unique<LabelSource>(std::move(memory), "fuzz", std::nullopt);
+  PadSource source(std::move(checked), 0.0f);
+  const LatticeFrame frame = LatticeFrame::physical(info);
+  auto extractor = makeLabelExtractor(info, frame);
+  Collect before, after;
+  DecimationSink decimation(after, decimate);
+  TeeSink tee({&before, &decimation});
+  SmoothingSink smoothing(tee, smooth);
+  MeshSink& head = smooth.iterations > 0 ? static_cast<MeshSink&>(smoothing) : static_cast<MeshSink&>(tee);
+  try {
+    runPipeline(source, *extractor, head, labelHeader(info, frame), PipelineOptions{});
+  } catch (const Error& e) {
+    fuzz::fail(fmt::format("smoothing and decimation threw: {}", e.what()));
+  }
+  std::set<std::int32_t> present;
+  for (const LabelPair& p : before.sides) present.insert(p.begin(), p.end());
+  present.erase(0);
+  for (const std::int32_t label : present) {
+    const auto was = shapeOf(before, label), now = shapeOf(after, label);
+    if (now.first != 0) fuzz::fail(fmt::format("label {}: {} unbalanced edge uses after decimation", label, now.first));
+    if (now.second != was.second) {
+      fuzz::fail(fmt::format("label {}: Euler characteristic {} became {}", label, was.second, now.second));
+    }
+  }
+  return 0;
+}
