@@ -186,44 +186,49 @@ TEST(Mpi, BatchSpreadsTheInputsOverTheRanks) {
 }
 
 // Label surfaces (issue 35): the .glb of every label, the per-label files and the report (whose
-// voxel counts each rank takes from its own slices) are one process's, on 2 and 3 ranks.
+// voxel counts each rank takes from its own slices) are one process's, on 2 and 3 ranks, as they
+// are and smoothed and decimated (issue 37).
 TEST(Mpi, LabelSurfacesOnRanksAreOneProcesssBytes) {
-  const std::string dir = testing::tempDir();
-  const std::string input = "'phantom:checker?n=40,36,30&b=3&labels=20' -q";
-  const auto one = runCli(fmt::format("extract {} -o {}/one.glb --report {}/one.json", input, dir, dir));
-  ASSERT_EQ(one.exitCode, 0) << one.err;
-  fs::create_directories(dir + "/p1");
-  ASSERT_EQ(runCli(fmt::format("extract {} -o '{}/p1/{{label}}.ply'", input, dir)).exitCode, 0);
-  // The report without its times, memory and paths.
-  const auto stable = [](const std::string& path) {
-    std::istringstream in(slurp(path));
-    std::string out;
-    for (std::string line; std::getline(in, line);) {
-      if (line.find("seconds") == std::string::npos && line.find("_mib") == std::string::npos &&
-          line.find("ring_bytes") == std::string::npos && line.find("\"path\"") == std::string::npos &&
-          line.find("\"ranks\"") == std::string::npos && line.find("\"read\"") == std::string::npos &&
-          line.find("\"extract\"") == std::string::npos && line.find("\"write\"") == std::string::npos &&
-          line.find("\"total\"") == std::string::npos) {
-        out += line + "\n";
+  for (const char* finish : {"", " --smooth 20 --decimate 0.3"}) {
+    SCOPED_TRACE(finish);
+    const std::string dir = testing::tempDir();
+    const std::string input = std::string("'phantom:checker?n=40,36,30&b=3&labels=20' -q") + finish;
+    const auto one = runCli(fmt::format("extract {} -o {}/one.glb --report {}/one.json", input, dir, dir));
+    ASSERT_EQ(one.exitCode, 0) << one.err;
+    fs::create_directories(dir + "/p1");
+    ASSERT_EQ(runCli(fmt::format("extract {} -o '{}/p1/{{label}}.ply'", input, dir)).exitCode, 0);
+    // The report without its times, memory and paths.
+    const auto stable = [](const std::string& path) {
+      std::istringstream in(slurp(path));
+      std::string out;
+      for (std::string line; std::getline(in, line);) {
+        if (line.find("seconds") == std::string::npos && line.find("_mib") == std::string::npos &&
+            line.find("ring_bytes") == std::string::npos && line.find("\"path\"") == std::string::npos &&
+            line.find("\"ranks\"") == std::string::npos && line.find("\"read\"") == std::string::npos &&
+            line.find("\"extract\"") == std::string::npos && line.find("\"write\"") == std::string::npos &&
+            line.find("\"total\"") == std::string::npos) {
+          out += line + "\n";
+        }
+      }
+      return out;
+    };
+    const std::string report = stable(dir + "/one.json");
+    ASSERT_NE(report.find("\"voxels\": "), std::string::npos);
+    for (const int ranks : {2, 3}) {
+      const auto r = runRanks(ranks, fmt::format("extract {} -o {}/r.glb --report {}/r.json", input, dir, dir));
+      ASSERT_EQ(r.exitCode, 0) << r.err;
+      EXPECT_EQ(r.err, "");
+      EXPECT_TRUE(slurp(dir + "/r.glb") == slurp(dir + "/one.glb")) << ranks << " ranks";
+      EXPECT_EQ(stable(dir + "/r.json"), report) << ranks << " ranks";
+      const std::string folder = fmt::format("{}/p{}", dir, ranks);
+      fs::create_directories(folder);
+      ASSERT_EQ(runRanks(ranks, fmt::format("extract {} -o '{}/{{label}}.ply'", input, folder)).exitCode, 0);
+      for (int label = 1; label <= 20; ++label) {
+        EXPECT_TRUE(slurp(fmt::format("{}/{}.ply", folder, label)) == slurp(fmt::format("{}/p1/{}.ply", dir, label)))
+            << ranks << " ranks, label " << label;
       }
     }
-    return out;
-  };
-  const std::string report = stable(dir + "/one.json");
-  ASSERT_NE(report.find("\"voxels\": "), std::string::npos);
-  for (const int ranks : {2, 3}) {
-    const auto r = runRanks(ranks, fmt::format("extract {} -o {}/r.glb --report {}/r.json", input, dir, dir));
-    ASSERT_EQ(r.exitCode, 0) << r.err;
-    EXPECT_EQ(r.err, "");
-    EXPECT_TRUE(slurp(dir + "/r.glb") == slurp(dir + "/one.glb")) << ranks << " ranks";
-    EXPECT_EQ(stable(dir + "/r.json"), report) << ranks << " ranks";
-    const std::string folder = fmt::format("{}/p{}", dir, ranks);
-    fs::create_directories(folder);
-    ASSERT_EQ(runRanks(ranks, fmt::format("extract {} -o '{}/{{label}}.ply'", input, folder)).exitCode, 0);
-    for (int label = 1; label <= 20; ++label) {
-      EXPECT_TRUE(slurp(fmt::format("{}/{}.ply", folder, label)) == slurp(fmt::format("{}/p1/{}.ply", dir, label)))
-          << ranks << " ranks, label " << label;
-    }
+    fs::remove_all(dir);
   }
 }
 
