@@ -972,6 +972,18 @@ Labels voronoiBall(std::int64_t n, int cells, unsigned seed) {
   return l;
 }
 
+// The complex's chunks through the sink that `make` makes in front of a collector, collected.
+template <typename Make>
+Complex through(const Complex& c, const VolumeInfo& info, Make&& make) {
+  Complex out;
+  ComplexSink sink(out);
+  auto step = make(sink);
+  step.begin(labelHeader(info, LatticeFrame::physical(info)));
+  for (const MeshChunk& chunk : c.chunks) step.consume(chunk);
+  step.finish();
+  return out;
+}
+
 // The complex decimated as a stream, in blocks of `slabs` slabs.
 Complex decimateComplex(const Complex& c, const VolumeInfo& info, double ratio, int threads, std::int64_t slabs) {
   DecimateOptions o;
@@ -980,13 +992,7 @@ Complex decimateComplex(const Complex& c, const VolumeInfo& info, double ratio, 
   o.blockSlabs = slabs;
   o.blockTriangles = 1;
   o.threads = threads;
-  Complex out;
-  ComplexSink sink(out);
-  DecimationSink decimation(sink, o);
-  decimation.begin(labelHeader(info, LatticeFrame::physical(info)));
-  for (const MeshChunk& chunk : c.chunks) decimation.consume(chunk);
-  decimation.finish();
-  return out;
+  return through(c, info, [&](MeshSink& next) { return DecimationSink(next, o); });
 }
 
 // The complex smoothed as the label job smooths it (--smooth 20).
@@ -995,13 +1001,7 @@ Complex smoothComplex(const Complex& c, const VolumeInfo& info) {
   o.iterations = 20;
   o.passBand = kLabelPassBand;
   o.maxDisplacement = 0.5;
-  Complex out;
-  ComplexSink sink(out);
-  SmoothingSink smoothing(sink, o);
-  smoothing.begin(labelHeader(info, LatticeFrame::physical(info)));
-  for (const MeshChunk& chunk : c.chunks) smoothing.consume(chunk);
-  smoothing.finish();
-  return out;
+  return through(c, info, [&](MeshSink& next) { return SmoothingSink(next, o); });
 }
 
 double pointSegment(const Vec3f& p, const Vec3f& a, const Vec3f& b) {
