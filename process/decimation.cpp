@@ -1081,7 +1081,8 @@ namespace isoslab {
 
 // Pairs of triangles in a grid over their bounding boxes (cells two voxels wide, or wider where
 // there would be more than about two cells a triangle), each pair tested in the one cell that holds
-// the low corner of their boxes' overlap: an edge of either through the other.
+// the low corner of their boxes' overlap: an edge of either through the other (for two triangles
+// with a corner in common, a fold: the edge opposite it).
 std::vector<VertexId> DecimationSink::crossingVertices(const std::vector<Triangle>& triangles) const {
   std::vector<VertexId> out;
   if (triangles.size() < 2) return out;
@@ -1138,15 +1139,24 @@ std::vector<VertexId> DecimationSink::crossingVertices(const std::vector<Triangl
           corner[d] = std::max(bs.low[d], bt.low[d]);
         }
         if (apart || indexOf(cellOf(corner[0], 0), cellOf(corner[1], 1), cellOf(corner[2], 2)) != i) continue;
-        bool sharing = false;
-        for (VertexId a : s) sharing = sharing || a == t[0] || a == t[1] || a == t[2];
-        if (sharing) continue;
+        // Corners in common: none, every edge is tested; one, the edges opposite it (those from it
+        // cannot pass through the other's inside); an edge, none (a fold there turns a triangle
+        // over, which the simplifier refuses).
+        std::size_t shared = 0, sharedInS = 0, sharedInT = 0;
+        for (std::size_t a = 0; a < 3; ++a) {
+          for (std::size_t b = 0; b < 3; ++b) {
+            if (s[a] == t[b]) ++shared, sharedInS = a, sharedInT = b;
+          }
+        }
+        if (shared > 1) continue;
         const std::array<Vec3d, 3> p{toDouble(position(s[0])), toDouble(position(s[1])), toDouble(position(s[2]))};
         const std::array<Vec3d, 3> q{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))};
         bool hit = false;
         for (std::size_t k = 0; k < 3 && !hit; ++k) {
-          hit = segmentCrosses(p[k], p[(k + 1) % 3], q[0], q[1], q[2]) ||
-                segmentCrosses(q[k], q[(k + 1) % 3], p[0], p[1], p[2]);
+          const bool fromS = shared == 1 && (k == sharedInS || (k + 1) % 3 == sharedInS);
+          const bool fromT = shared == 1 && (k == sharedInT || (k + 1) % 3 == sharedInT);
+          hit = (!fromS && segmentCrosses(p[k], p[(k + 1) % 3], q[0], q[1], q[2])) ||
+                (!fromT && segmentCrosses(q[k], q[(k + 1) % 3], p[0], p[1], p[2]));
         }
         if (hit) {
           out.insert(out.end(), s.begin(), s.end());

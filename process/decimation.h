@@ -215,7 +215,7 @@ class DecimationSink final : public MeshSink {
   // The original surface of `range`, kept in the scope for the next caller with the same range: the
   // tries, the simplifier's checks and the distance measure of the output share it.
   const OriginalSurface& surfaceFor(ChunkRange range, Scope& scope) const;
-  // The vertices of triangles that pass through one another (triangles that share a vertex aside).
+  // The vertices of triangles that pass through one another (or fold over a corner they share).
   std::vector<VertexId> crossingVertices(const std::vector<Triangle>& triangles) const;
   double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
   bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const;

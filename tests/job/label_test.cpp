@@ -816,8 +816,9 @@ bool crosses(const Vec3f& p, const Vec3f& q, const Vec3f& a, const Vec3f& b, con
   return u > eps && v > eps && u + v < 1 - eps && t > eps && t < 1 - eps;
 }
 
-// Pairs of triangles of different labels that cross, by brute force: triangles that share a corner
-// position (interfaces, junction lines) are not compared.
+// Pairs of triangles of different labels that cross, by brute force: an edge of one through the
+// inside of the other, or, for triangles with one corner position in common, the edge opposite it
+// (a fold); triangles with an edge in common (interfaces, junction lines) are not compared.
 std::int64_t crossings(const std::map<std::int32_t, IndexedMesh>& meshes) {
   struct Tri {
     std::array<Vec3f, 3> p;
@@ -844,15 +845,22 @@ std::int64_t crossings(const std::map<std::int32_t, IndexedMesh>& meshes) {
       const Tri& b = all[j];
       if (a.label == b.label) continue;
       if (a.box[1] > b.box[4] || b.box[1] > a.box[4] || a.box[2] > b.box[5] || b.box[2] > a.box[5]) continue;
-      bool shared = false;
-      for (const Vec3f& u : a.p) {
-        for (const Vec3f& v : b.p) shared |= u == v;
+      // Corners in common: none, every edge is tested; one, the edges opposite it (a fold over
+      // the corner); more, none.
+      int shared = 0;
+      std::size_t inA = 0, inB = 0;
+      for (std::size_t u = 0; u < 3; ++u) {
+        for (std::size_t v = 0; v < 3; ++v) {
+          if (a.p[u] == b.p[v]) ++shared, inA = u, inB = v;
+        }
       }
-      if (shared) continue;
+      if (shared > 1) continue;
       bool hit = false;
       for (std::size_t k = 0; k < 3 && !hit; ++k) {
-        hit = crosses(a.p[k], a.p[(k + 1) % 3], b.p[0], b.p[1], b.p[2]) ||
-              crosses(b.p[k], b.p[(k + 1) % 3], a.p[0], a.p[1], a.p[2]);
+        const bool fromA = shared == 1 && (k == inA || (k + 1) % 3 == inA);
+        const bool fromB = shared == 1 && (k == inB || (k + 1) % 3 == inB);
+        hit = (!fromA && crosses(a.p[k], a.p[(k + 1) % 3], b.p[0], b.p[1], b.p[2])) ||
+              (!fromB && crosses(b.p[k], b.p[(k + 1) % 3], a.p[0], a.p[1], a.p[2]));
       }
       count += hit ? 1 : 0;
     }
@@ -1088,12 +1096,12 @@ TEST(LabelDecimation, BlocksKeepEveryLabelClosedNearAndApart) {
     EXPECT_EQ(d.triangles, d2.triangles);
     EXPECT_EQ(d.sides, d2.sides);
     ASSERT_EQ(d.sides.size(), d.triangles.size());
-    // Smooth regions come near the ratio whole (22-27% here) and in blocks of six slabs (35%: what
+    // Smooth regions come near the ratio whole (22-27% here) and in blocks of six slabs (35-41%: what
     // touches a block's seam waits for the region across it, which holds its split curves); their
     // junction lines lose a third of their edges whole. The noise's regions are single voxels.
     if (std::string(name) != "noise") {
       EXPECT_LT(whole.triangles.size(), c.triangles.size() * 3 / 10);
-      EXPECT_LT(d.triangles.size(), c.triangles.size() * 2 / 5);
+      EXPECT_LT(d.triangles.size(), c.triangles.size() * 9 / 20);
       EXPECT_LT(junctionEdges(whole), junctionEdges(c) * 2 / 3);
       EXPECT_LT(junctionEdges(d), junctionEdges(c) * 4 / 5);
     }
