@@ -246,7 +246,8 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
   extract
       ->add_option("--decimate", args.decimate,
                    "Keep this fraction of the triangles, in (0, 1], by quadric-error edge collapses, "
-                   "in the stream; the mesh stays closed and the chunks join")
+                   "in the stream; the mesh stays closed and the chunks join (a label map: once for all "
+                   "labels, interfaces kept shared, within a voxel)")
       ->group(decimateGroup);
   extract
       ->add_option("--max-error", args.maxError,
