@@ -102,11 +102,10 @@ class CollapsingWriter final : public MeshFileSink {
   std::vector<std::pair<std::string, double>> details() const override {
     auto d = writer_->details();
     const DegenerateCounts& c = collapse_.counts();
-    d.emplace_back("degenerate_triangles_removed", static_cast<double>(c.triangles));
-    d.emplace_back("coincident_vertices_merged", static_cast<double>(c.vertices));
-    d.emplace_back("coincident_points_split", static_cast<double>(c.splits));
-    d.emplace_back("coincident_clusters_separated", static_cast<double>(c.refused));
-    d.emplace_back("coincident_vertices_moved", static_cast<double>(c.separated));
+    const std::array<std::int64_t, 5> counts{c.triangles, c.vertices, c.splits, c.refused, c.separated};
+    for (std::size_t k = 0; k < counts.size(); ++k) {
+      d.emplace_back(kDegenerateDetails[k], static_cast<double>(counts[k]));
+    }
     return d;
   }
 

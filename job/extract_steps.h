@@ -77,8 +77,14 @@ std::string expandPattern(const std::string& pattern, std::int32_t value, const 
 /// triangles are collapsed before writing unless settings.keepDegenerate.
 bool printableOutput(const std::string& path);
 
+/// The names of the collapse's counts among a collapsing writer's details(), in their order.
+inline constexpr std::array<const char*, 5> kDegenerateDetails{
+    "degenerate_triangles_removed", "coincident_vertices_merged", "coincident_points_split",
+    "coincident_clusters_separated", "coincident_vertices_moved"};
+
 /// `writer` behind a DegenerateCollapseSink (process/degenerate.h); `remap` for a writer that
-/// holds the whole mesh (3MF). Its details() add the collapse's counts to the writer's.
+/// holds the whole mesh (3MF). Its details() add the collapse's counts (kDegenerateDetails) to the
+/// writer's.
 std::unique_ptr<MeshFileSink> collapsingWriter(std::unique_ptr<MeshFileSink> writer, bool remap);
 
 /// makeMeshWriter, behind the collapse for a printable output unless settings.keepDegenerate.

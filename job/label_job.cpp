@@ -370,8 +370,7 @@ class SurfaceSetRun {
       if (!chain.writer) continue;
       for (const auto& [key, number] : chain.writer->details()) sums[key] += number;
     }
-    for (const char* key : {"degenerate_triangles_removed", "coincident_vertices_merged", "coincident_points_split",
-                            "coincident_clusters_separated", "coincident_vertices_moved"}) {
+    for (const char* key : kDegenerateDetails) {
       if (const auto it = sums.find(key); it != sums.end()) report_.output.details.emplace_back(key, it->second);
     }
   }

@@ -131,11 +131,7 @@ IndexedMesh run(const VolumeInfo& info, const std::vector<float>& values, const 
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   fuzz::Bytes in(data, size);
-  VolumeInfo info;
-  for (auto& d : info.dims) d = 2 + fuzz::takeByte(in) % 7;
-  info.type = VoxelType::kF32;
-  info.reader = "fuzz";
-  info.source = "fuzz";
+  VolumeInfo info = fuzz::takeVolumeInfo(in, 7, VoxelType::kF32);
   const std::uint8_t flags = fuzz::takeByte(in);
   ExtractOptions options;
   const unsigned methodIndex = (flags & 3u) | ((flags >> 4) & 4u);

@@ -77,11 +77,7 @@ std::pair<std::int64_t, std::int64_t> shapeOf(const Collect& c, std::int32_t lab
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   fuzz::Bytes in(data, size);
-  VolumeInfo info;
-  for (auto& d : info.dims) d = 2 + fuzz::takeByte(in) % 9;
-  info.type = VoxelType::kU8;
-  info.reader = "fuzz";
-  info.source = "fuzz";
+  VolumeInfo info = fuzz::takeVolumeInfo(in, 9, VoxelType::kU8);
   const std::uint8_t flags = fuzz::takeByte(in);
   const std::uint8_t ratioByte = fuzz::takeByte(in);
   const std::uint8_t slabsByte = fuzz::takeByte(in);

@@ -26,11 +26,7 @@ using namespace isoslab;
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   fuzz::Bytes in(data, size);
-  VolumeInfo info;
-  for (auto& d : info.dims) d = 2 + fuzz::takeByte(in) % 7;
-  info.type = VoxelType::kF32;
-  info.reader = "fuzz";
-  info.source = "fuzz";
+  VolumeInfo info = fuzz::takeVolumeInfo(in, 7, VoxelType::kF32);
   const std::uint8_t flags = fuzz::takeByte(in);
   ExtractOptions options;
   options.method = kMethods[(flags & 7u) % std::size(kMethods)];

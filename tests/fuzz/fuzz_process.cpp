@@ -32,11 +32,7 @@ using namespace isoslab;
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   fuzz::Bytes in(data, size);
-  VolumeInfo info;
-  for (auto& d : info.dims) d = 2 + fuzz::takeByte(in) % 9;
-  info.type = VoxelType::kF32;
-  info.reader = "fuzz";
-  info.source = "fuzz";
+  VolumeInfo info = fuzz::takeVolumeInfo(in, 9, VoxelType::kF32);
   const std::uint8_t flags = fuzz::takeByte(in);
   const std::uint8_t smoothByte = fuzz::takeByte(in);
   const std::uint8_t decimateByte = fuzz::takeByte(in);

@@ -80,6 +80,15 @@ std::uint8_t takeByte(Bytes& bytes) {
   return b;
 }
 
+VolumeInfo takeVolumeInfo(Bytes& bytes, int span, VoxelType type) {
+  VolumeInfo info;
+  for (auto& d : info.dims) d = 2 + takeByte(bytes) % span;
+  info.type = type;
+  info.reader = "fuzz";
+  info.source = "fuzz";
+  return info;
+}
+
 bool smallEnough(const VolumeInfo& info) {
   const auto& d = info.dims;
   if (d[0] <= 0 || d[1] <= 0 || d[2] <= 0) return false;

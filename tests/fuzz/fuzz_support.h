@@ -34,6 +34,10 @@ std::vector<Bytes> splitFiles(Bytes bytes, std::size_t maxParts);
 /// Takes the first byte off `bytes` (0 when empty).
 std::uint8_t takeByte(Bytes& bytes);
 
+/// A small volume made from the input: its three dims from the next three bytes, each
+/// 2 + byte % `span`, of voxel type `type`, read by "fuzz".
+VolumeInfo takeVolumeInfo(Bytes& bytes, int span, VoxelType type);
+
 /// Whether a volume of `info` is small enough to read in an iteration: dims are checked by the
 /// readers; this only keeps legitimate but large volumes (a gzip bomb, a compressed DICOM that
 /// claims 65535 x 65535) out of the fuzzer's memory limit.
