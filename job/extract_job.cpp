@@ -255,8 +255,9 @@ void runSurfaceSet(const ExtractSettings& settings, ExtractObserver& observer, O
   const VolumeInfo info = input.source->info();
   const int threads = settings.threads > 0 ? settings.threads : defaultExtractThreads(ranks != nullptr);
   CommitGroup outputs;
-  runLabelExtract(settings, observer, std::move(input), report, reporting.slabHook(0, "extract"), threads,
-                  writerOptions(settings, info, threads));
+  const bool components = settings.components.any();
+  runLabelExtract(settings, observer, std::move(input), report, reporting.slabHook(0, "components"),
+                  reporting.slabHook(components ? 1 : 0, "extract"), threads, writerOptions(settings, info, threads));
   report.peakRssMib = peakRssMib();
   const bool primary = ranks == nullptr || ranks->rank() == 0;
   if (!settings.reportPath.empty() && primary) {

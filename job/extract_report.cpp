@@ -75,6 +75,12 @@ void addLabelsJson(Json& r, const ExtractReport& report) {
       j["nonmanifold_edges"] = l.stats.nonManifoldEdges;
       j["euler"] = l.stats.euler;
     }
+    if (const auto& c = l.components) {
+      j["components"] = {{"found", c->components},
+                         {"dropped", c->dropped},
+                         {"voxels_given", c->voxelsGiven},
+                         {"voxels_taken", c->voxelsTaken}};
+    }
     j["splits"] = l.splits;
     j["pinches"] = l.pinches;
     if (l.smoothing) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/volume_info.h"
+#include "io/label_components.h"
 #include "metrics/mesh_stats.h"
 #include "process/decimation.h"
 #include "process/smoothing.h"
@@ -66,6 +67,8 @@ struct ExtractLabel {
   std::string path;           // its file, with a pattern output
   /// With --smooth: its vertices' largest move and how many the displacement limit held back.
   std::optional<std::pair<double, std::int64_t>> smoothing;
+  /// With per-label component rules: its components found and dropped, and the voxels moved.
+  std::optional<LabelChange> components;
 };
 
 /// Where two labels touch (label runs): the smaller value first.
@@ -114,7 +117,7 @@ struct ExtractReport {
   /// one-line JSON text (componentsJson, componentFilterJson of metrics/), summarised, the
   /// largest listed.
   std::string componentsJson;
-  std::string componentFilterJson;  // empty: no filter
+  std::string componentFilterJson;  // empty: no filter (label runs: the per-label rules' summary)
   /// The paper's measures against a sphere (sphereJson of metrics/), as JSON text; empty: none.
   std::string sphereJson;
 

@@ -219,11 +219,12 @@ void checkLabelSettings(const ExtractSettings& s) {
   const auto refuse = [what](bool given, const char* name) {
     require(!given, fmt::format("`{}` does not apply to {} yet", name, what));
   };
-  refuse(s.components.any(), s.components.keepLargest    ? "keep_largest"
-                             : s.components.minVolume    ? "min_volume"
-                             : s.components.minTriangles ? "min_triangles"
-                                                         : "seed");
+  // Label maps take the component rules per label (job/label_steps.cpp), except the seed.
+  refuse(s.components.seed.has_value(), "seed");
   if (!s.isos.empty()) {
+    refuse(s.components.any(), s.components.keepLargest ? "keep_largest"
+                               : s.components.minVolume ? "min_volume"
+                                                        : "min_triangles");
     refuse(s.smoothing.iterations != 0, "smooth");
     refuse(s.decimate != 1.0, "decimate");
     refuse(s.maxError != 0, "max_error");

@@ -3,12 +3,16 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 
 #include "core/volume_info.h"
 #include "encode/mesh_writer.h"
+#include "io/label_components.h"
+#include "io/label_table.h"
 #include "io/slice_source.h"
 #include "job/extract_job.h"
 #include "process/decimation.h"
@@ -61,12 +65,32 @@ std::array<double, 2> scanValueRange(SliceSource& source);
 /// A value of the float slices by its shortest decimal form (999.7, not 999.7000122070312).
 double asFloat(double value);
 
-/// The label run (job/label_job.cpp): opens nothing more than `input`, streams the label complex
-/// into each label's writer (a pattern output) or the complex's .ply, and fills `report`. The
-/// caller writes the report and commits.
+using SlabHook = std::function<void(std::int64_t done, std::int64_t total)>;
+
+/// The label run (job/label_job.cpp): streams the label complex of `input` into each label's
+/// writer (a pattern output) or the complex's .ply, and fills `report`. With per-label component
+/// rules (settings.components), a first pass (`onComponentSlice`) reads `input`, which is then
+/// opened again (reopenInput) for the extraction (`onSlab`). The caller writes the report and
+/// commits.
 void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer, OpenedInput input,
-                     ExtractReport& report, const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads,
+                     ExtractReport& report, const SlabHook& onComponentSlice, const SlabHook& onSlab, int threads,
                      const WriterOptions& writing);
+
+/// The labels that a request keeps (nullopt: every label), names resolved through `table` (named
+/// `tableName` in messages). In a volume of several layers a value selects its label in every
+/// layer, and a name the label it names: `tableKeys` says whether the table's entries are the
+/// file's own layered labels. Throws SettingError for a name that the table lacks (naming the
+/// nearest) or a range too wide.
+std::optional<std::set<std::int32_t>> selectedLabels(const LabelRequest& request, const LabelTable* table,
+                                                     const std::string& tableName, int layers, bool tableKeys);
+
+/// The per-label component rules' first pass (settings.components without a seed): reads `labels`
+/// (a LabelSource: checked and selected) to its end, finds every label's 6-connected components,
+/// chooses by the rules (each label apart; --min-volume against voxels times `voxelVolume`,
+/// --min-triangles against two triangles per voxel face), fills report.componentFilterJson and
+/// the pass's seconds, and returns the second pass's relabelling (io/label_components.h).
+LabelRelabelling chooseLabelComponents(SliceSource& labels, const ExtractSettings& settings, double voxelVolume,
+                                       const SlabHook& onSlice, ExtractReport& report);
 
 /// A label's file from an output pattern: {name} (made fit for a file name), {label} (the
 /// value) and {iso} replaced.

@@ -36,42 +36,6 @@
 namespace isoslab {
 namespace {
 
-// The labels that a request keeps (nothing: every label), with names resolved through the table.
-// In a volume of several layers a value selects its label in every layer, and a name the label
-// it names: `tableKeys` says whether the table's entries are the file's own layered labels.
-std::optional<std::set<std::int32_t>> selectedLabels(const LabelRequest& request, const LabelTable* table,
-                                                     const std::string& tableName, int layers, bool tableKeys) {
-  if (request.all) return std::nullopt;
-  std::set<std::int32_t> keep;
-  const auto keepValue = [&](std::int32_t value) {
-    for (int layer = 0; layer < layers; ++layer) keep.insert(layeredLabel(layer, value));
-  };
-  for (const auto& [lo, hi] : request.ranges) {
-    if (static_cast<std::int64_t>(hi) - lo > 16777216) throw SettingError("`labels` range is too wide");
-    for (std::int64_t v = lo; v <= hi; ++v) {
-      if (v != 0) keepValue(static_cast<std::int32_t>(v));
-    }
-  }
-  for (const std::string& name : request.names) {
-    if (table == nullptr) {
-      throw SettingError(fmt::format("`labels` names '{}', but no label table gives names (`label_table`)", name));
-    }
-    const LabelEntry* e = table->findName(name);
-    if (e == nullptr) {
-      const LabelEntry* near = table->nearest(name);
-      throw SettingError(fmt::format("`labels` names '{}', which {} does not hold; the nearest is '{}' ({})", name,
-                                     tableName, near->name, near->value));
-    }
-    if (tableKeys) {
-      keep.insert(e->value);
-    } else if (e->value != 0) {
-      keepValue(e->value);
-    }
-  }
-  keep.erase(0);
-  return keep;
-}
-
 // Counts the complex's vertices and triangles.
 class ComplexCounter final : public MeshSink {
  public:
@@ -102,7 +66,7 @@ class SurfaceSetRun {
 
   // Names and colours (the table given, else the file's own), the selection, then the source,
   // extractor and header of the stream.
-  void open(OpenedInput input, int& threads) {
+  void open(OpenedInput input, const SlabHook& onComponentSlice, int& threads) {
     info_ = input.source->info();
     std::string tableName = settings_.labelTable;
     if (!settings_.labelTable.empty()) {
@@ -136,9 +100,22 @@ class SurfaceSetRun {
     } else {
       // Labels: checked and counted, padded with background; each layer a label complex.
       const std::string what = settings_.inputs.empty() ? info_.source : settings_.inputs.front();
+      std::optional<LabelRelabelling> relabelling;
+      if (settings_.components.any()) {
+        // Per-label component rules: a first pass finds and chooses, the second relabels.
+        LabelSource first(std::move(input.source), what, keep_);
+        relabelling = chooseLabelComponents(first, settings_, frame_.cellVolume(),
+                                            primary() ? onComponentSlice : SlabHook(), report_);
+        input.source = reopenInput(settings_, input);
+      }
       auto labels = std::make_unique<LabelSource>(std::move(input.source), what, keep_);
       counter_ = labels.get();
-      source_ = std::make_unique<PadSource>(std::move(labels), 0.0f);
+      source_ = std::move(labels);
+      if (relabelling) {
+        changes_ = relabelling->changes;
+        source_ = std::make_unique<RelabelSource>(std::move(source_), what, std::move(*relabelling));
+      }
+      source_ = std::make_unique<PadSource>(std::move(source_), 0.0f);
       extractor_ = makeLayeredLabelExtractor(info_, frame_);
       header_ = labelHeader(info_, frame_);
     }
@@ -338,6 +315,10 @@ class SurfaceSetRun {
     }
     const auto n = counts.find(value);
     l.voxels = n != counts.end() ? n->second : 0;
+    if (const auto c = changes_.find(value); c != changes_.end()) {
+      l.components = c->second;
+      l.voxels += c->second.voxelsTaken - c->second.voxelsGiven;
+    }
     l.voxelVolume = static_cast<double>(l.voxels) * frame_.cellVolume();
     l.topology = settings_.labelTopology;
     l.measured = scene_.has_value() || settings_.labelMeasures;
@@ -394,6 +375,18 @@ class SurfaceSetRun {
                                                absent.size(), present.size(), absent.front()));
       }
     }
+    // Labels whose every component the component rules dropped.
+    std::vector<std::int32_t> gone;
+    for (const auto& [label, c] : changes_) {
+      if (labelValue(label) != 0 && c.dropped > 0 && chains_.count(label) == 0) gone.push_back(label);
+    }
+    if (!gone.empty()) {
+      report_.warnings.push_back(
+          gone.size() == 1 ? fmt::format("label {} ('{}'): the component rules dropped every component of it",
+                                         labelValue(gone[0]), nameOf(gone[0]))
+                           : fmt::format("the component rules dropped every component of {} labels (the first: {})",
+                                         gone.size(), labelValue(gone[0])));
+    }
     if (chains_.empty()) {
       report_.warnings.push_back(isoSet_ ? "no value's surface crosses the volume: nothing was written"
                                          : "no selected label is in the volume: nothing was written");
@@ -410,6 +403,7 @@ class SurfaceSetRun {
   bool tableKeys_ = false;  // the table is the file's own, by layered label
   LabelRequest request_;
   std::optional<std::set<std::int32_t>> keep_;
+  std::map<std::int32_t, LabelChange> changes_;  // by the per-label component rules
   LatticeFrame frame_;
   LabelSource* counter_ = nullptr;
   std::unique_ptr<SliceSource> source_;
@@ -431,12 +425,12 @@ class SurfaceSetRun {
 }  // namespace
 
 void runLabelExtract(const ExtractSettings& settings, ExtractObserver& observer, OpenedInput input,
-                     ExtractReport& report, const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads,
+                     ExtractReport& report, const SlabHook& onComponentSlice, const SlabHook& onSlab, int threads,
                      const WriterOptions& writing) {
   checkLabelSettings(settings);
   report.labelRun = true;
   SurfaceSetRun run(settings, report, writing);
-  run.open(std::move(input), threads);
+  run.open(std::move(input), onComponentSlice, threads);
   const PipelineResult result = run.run(onSlab, threads);
   run.describe(result, observer);
   run.finishOutputs();

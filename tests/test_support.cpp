@@ -37,7 +37,7 @@ VectorSource::VectorSource(std::array<std::int64_t, 3> dims,
 
 bool VectorSource::readSlice(std::span<float> slice) {
   if (next_ >= info_.dims[2]) return false;
-  const auto n = static_cast<std::size_t>(info_.sliceVoxels());
+  const auto n = static_cast<std::size_t>(info_.sliceValues());
   std::copy_n(values_.begin() + static_cast<std::ptrdiff_t>(n * static_cast<std::size_t>(next_)), n, slice.begin());
   ++next_;
   return true;
@@ -45,7 +45,7 @@ bool VectorSource::readSlice(std::span<float> slice) {
 
 const float* VectorSource::lendSlice() {
   if (next_ >= info_.dims[2]) return nullptr;
-  return values_.data() + static_cast<std::size_t>(info_.sliceVoxels()) * static_cast<std::size_t>(next_++);
+  return values_.data() + static_cast<std::size_t>(info_.sliceValues()) * static_cast<std::size_t>(next_++);
 }
 
 Extraction extract(SliceSource& source, Method method, double iso, bool normals) {

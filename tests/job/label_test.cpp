@@ -20,6 +20,7 @@
 #include "extract/label_extractor.h"
 #include "io/label_source.h"
 #include "io/pad_source.h"
+#include "io/volume_writer.h"
 #include "job/extract_job.h"
 #include "process/decimation.h"
 #include "process/label_surfaces.h"
@@ -384,6 +385,121 @@ TEST(LabelPhantoms, TheReportCountsVoxelsAndVolumes) {
   }
 }
 
+// The connected parts of a mesh (triangles that share a vertex).
+std::size_t meshParts(const IndexedMesh& m) {
+  std::vector<std::size_t> parent(m.positions.size());
+  for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  const auto find = [&](std::size_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (const Triangle& t : m.triangles) {
+    parent[find(t[1])] = find(t[0]);
+    parent[find(t[2])] = find(t[0]);
+  }
+  std::set<std::size_t> roots;
+  for (const Triangle& t : m.triangles) roots.insert(find(t[0]));
+  return roots.size();
+}
+
+// Per-label component rules on a volume whose specks are placed by hand: two boxes (labels 1 and 2)
+// side by side, a speck of each inside the other, specks of 1 in the background and on top of 2,
+// and a lone voxel of label 3. Every count below is derived from that layout.
+TEST(LabelComponentRules, SpecksGoToTheLabelAroundThemAndSurfacesStayClosed) {
+  const std::string dir = testing::tempDir();
+  const auto layout = [](std::int64_t x, std::int64_t y, std::int64_t z) -> float {
+    if (x == 5 && y == 5 && z == 5) return 2;                  // A: in box 1
+    if (x == 12 && y == 5 && z == 5) return 1;                 // C: in box 2
+    if (x == 12 && y == 5 && z == 10) return 1;                // D: on box 2, five faces free
+    if (x == 17 && y == 17 && (z == 16 || z == 17)) return 1;  // B: two voxels alone
+    if (x == 18 && y == 2 && z == 2) return 3;                 // E: label 3's only voxel
+    const bool inY = y >= 2 && y <= 9, inZ = z >= 2 && z <= 9;
+    if (inY && inZ && x >= 2 && x <= 9) return 1;    // box 1: 8 x 8 x 8
+    if (inY && inZ && x >= 10 && x <= 15) return 2;  // box 2: 6 x 8 x 8
+    return 0;
+  };
+  testing::VectorSource volume({20, 20, 20}, layout);
+  const std::string input = dir + "/specks.nrrd";
+  writeVolume(volume, input, {});
+  const auto run = [&](const std::function<void(ExtractSettings&)>& rules, const std::string& name) {
+    ExtractSettings s;
+    s.inputs = {input};
+    s.labels = parseLabelRequest("all");
+    s.output = dir + "/" + name + "_{label}.ply";
+    s.labelTopology = true;
+    rules(s);
+    LabelRun r;
+    r.report = runExtract(s);
+    for (const ExtractLabel& l : r.report.labels) r.meshes[l.value] = readMesh(l.path);
+    return r;
+  };
+  const auto closedParts = [](const LabelRun& r, std::int32_t label) {
+    const IndexedMesh& m = r.meshes.at(label);
+    const Topology t = topology(m.positions, m.triangles);
+    EXPECT_EQ(t.unpairedEdges, 0) << "label " << label;
+    EXPECT_EQ(t.nonManifoldEdges, 0) << "label " << label;
+    return meshParts(m);
+  };
+
+  // Without rules: label 1's surface has five parts (its box, the cavity around A, B, C, D) and
+  // label 2's three (its box, the cavity around C, A).
+  const LabelRun plain = run([](ExtractSettings&) {}, "plain");
+  EXPECT_EQ(closedParts(plain, 1), 5u);
+  EXPECT_EQ(closedParts(plain, 2), 3u);
+
+  // --keep-largest 1: A goes to 1 (all its faces), C to 2, B and D to the background (D: five
+  // faces free against one on box 2). The boxes are whole again: 512 and 384 voxels, one part
+  // each with 2 x 6 x 64 = 768 and 2 x (48 + 48 + 64) = 640 triangles; label 3 keeps its voxel.
+  const LabelRun largest = run([](ExtractSettings& s) { s.components.keepLargest = 1; }, "largest");
+  ASSERT_EQ(largest.report.labels.size(), 3u);
+  const ExtractLabel& one = largest.report.labels[0];
+  const ExtractLabel& two = largest.report.labels[1];
+  EXPECT_EQ(one.voxels, 512);
+  EXPECT_EQ(two.voxels, 384);
+  EXPECT_EQ(largest.report.labels[2].voxels, 1);
+  EXPECT_EQ(one.stats.triangles, 768u);
+  EXPECT_EQ(two.stats.triangles, 640u);
+  EXPECT_NEAR(one.stats.volume, 512.0, 1e-9 * 512);
+  EXPECT_EQ(closedParts(largest, 1), 1u);
+  EXPECT_EQ(closedParts(largest, 2), 1u);
+  ASSERT_TRUE(one.components && two.components);
+  EXPECT_EQ(one.components->components, 4u);
+  EXPECT_EQ(one.components->dropped, 3u);
+  EXPECT_EQ(one.components->voxelsGiven, 4);
+  EXPECT_EQ(one.components->voxelsTaken, 1);
+  EXPECT_EQ(two.components->dropped, 1u);
+  EXPECT_EQ(two.components->voxelsTaken, 1);
+  const nlohmann::json filter = nlohmann::json::parse(largest.report.componentFilterJson);
+  EXPECT_EQ(filter["rules"], "--keep-largest 1");
+  EXPECT_EQ(filter["kept"]["count"], 3);  // the two boxes and E
+  EXPECT_EQ(filter["dropped"]["count"], 4);
+  EXPECT_EQ(filter["dropped"]["voxels"], 5);
+  // The interface of the boxes: 64 faces, two triangles each, shared.
+  ASSERT_EQ(largest.report.interfaces.size(), 1u);
+  EXPECT_EQ(largest.report.interfaces[0].triangles, 128u);
+
+  // --min-volume 2 (and --min-triangles 13, the same cut: a voxel has 12 triangles, two have 20):
+  // the one-voxel specks go (A, C, D and E), B stays; label 3 loses its only voxel, and says so.
+  for (const bool byTriangles : {false, true}) {
+    const LabelRun small = run(
+        [&](ExtractSettings& s) {
+          if (byTriangles) {
+            s.components.minTriangles = 13;
+          } else {
+            s.components.minVolume = 2.0;
+          }
+        },
+        byTriangles ? "triangles" : "volume");
+    ASSERT_EQ(small.report.labels.size(), 2u) << byTriangles;
+    EXPECT_EQ(small.report.labels[0].voxels, 511 + 1 + 2);
+    EXPECT_EQ(small.report.labels[1].voxels, 384);
+    EXPECT_EQ(closedParts(small, 1), 2u);  // its box and B
+    EXPECT_EQ(closedParts(small, 2), 1u);
+    ASSERT_FALSE(small.report.warnings.empty());
+    EXPECT_EQ(small.report.warnings.back(), "label 3 ('3'): the component rules dropped every component of it");
+  }
+}
+
 }  // namespace
 }  // namespace isoslab
 
@@ -422,6 +538,10 @@ TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
            "a .glb or .3mf (a mesh per label) or a .ply of the whole label complex\n"},
       {"'phantom:sphere?n=8' --iso 0.3,0.6 --decimate 0.2 -o " + dir + "/{iso}.ply", 2,
        "isoslab: error: --decimate does not apply to several iso values in one pass yet\n"},
+      {"'phantom:sphere?n=8' --iso 0.3,0.6 --keep-largest 1 -o " + dir + "/{iso}.ply", 2,
+       "isoslab: error: --keep-largest does not apply to several iso values in one pass yet\n"},
+      {"'phantom:voxel' --labels all --seed 1,2,3 -o " + dir + "/{name}.ply", 2,
+       "isoslab: error: --seed does not apply to label surfaces yet\n"},
       {"'phantom:voxel' --labels all --iso 3 -o " + dir + "/{name}.ply", 2,
        "isoslab: error: --iso and --labels exclude each other: a run meshes an iso value or labels\n"},
       {"'phantom:sphere?n=4' --labels all -o " + dir + "/{name}.ply", 1,
