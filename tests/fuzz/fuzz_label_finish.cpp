@@ -1,12 +1,13 @@
 // Smoothing and decimating a label complex in the stream (process/, issue 37) on small random label
-// volumes, in blocks of two to four slabs: every label's surface must stay closed (each directed
-// edge as often as its reverse) with its Euler characteristic, and every triangle must keep its two
-// labels. abort() on a violation.
+// volumes, in blocks of two to four slabs, after the per-label component rules when asked: every
+// label's surface must stay closed (each directed edge as often as its reverse) with its Euler
+// characteristic, every triangle must keep its two labels, and the rules applied again to the
+// relabelled volume must drop nothing. abort() on a violation.
 //
 // Input:
 //   0..2  dims: 2 + byte % 9 (2..10)
 //   3     bits 0-2 labels 2 + bits % 6 (background included); bit 3 no smoothing; bit 4 two
-//         threads for the decimation
+//         threads for the decimation; bit 5 --keep-largest 1, bit 6 --min-volume 2 (voxels)
 //   4     ratio (1 + byte % 100) / 100
 //   5     slabs a block: 2 + byte % 3
 //   then one byte per voxel, x fastest (missing bytes are 0): its label, byte % labels
@@ -19,6 +20,7 @@
 #include "extract/frame.h"
 #include "extract/label_extractor.h"
 #include "fuzz_support.h"
+#include "io/label_components.h"
 #include "io/label_source.h"
 #include "io/pad_source.h"
 #include "process/decimation.h"
@@ -73,6 +75,31 @@ std::pair<std::int64_t, std::int64_t> shapeOf(const Collect& c, std::int32_t lab
   return {unbalanced, static_cast<std::int64_t>(used.size()) - static_cast<std::int64_t>(edges.size()) + faces};
 }
 
+// The per-label component rules' relabelling of `values`; abort()s unless applying the rules again
+// to the relabelled volume drops nothing.
+LabelRelabelling relabelled(const VolumeInfo& info, const std::vector<float>& values,
+                            const LabelComponentRules& rules) {
+  const auto components = [&](SliceSource& source) {
+    auto finder = std::make_unique<LabelComponentFinder>(info);
+    std::vector<float> slice(static_cast<std::size_t>(info.sliceValues()));
+    while (source.readSlice(slice)) finder->addSlice(slice);
+    return finder;
+  };
+  fuzz::MemorySource first(info, values);
+  const auto found = components(first);
+  LabelRelabelling relabelling = found->relabelling(selectLabelComponents(found->components(), rules));
+  RelabelSource again(std::make_unique<fuzz::MemorySource>(info, values), "fuzz", relabelling);
+  const auto left = components(again);
+  const std::vector<bool> keep = selectLabelComponents(left->components(), rules);
+  for (std::size_t i = 0; i < keep.size(); ++i) {
+    if (!keep[i]) {
+      fuzz::fail(fmt::format("the relabelled volume's component {} (label {}, {} voxels) breaks the rules", i,
+                             left->components()[i].label, left->components()[i].voxels));
+    }
+  }
+  return relabelling;
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -95,8 +122,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   decimate.blockTriangles = 1;
   decimate.threads = (flags & 16) != 0 ? 2 : 1;
 
+  LabelComponentRules rules;
+  if ((flags & 32) != 0) rules.keepLargest = 1;
+  if ((flags & 64) != 0) rules.minVolume = 2;
+  std::optional<LabelRelabelling> relabelling;
+  if (rules.keepLargest || rules.minVolume) relabelling = relabelled(info, values, rules);
   auto memory = std::make_unique<fuzz::MemorySource>(info, std::move(values));
-  auto checked = std::make_unique<LabelSource>(std::move(memory), "fuzz", std::nullopt);
+  std::unique_ptr<SliceSource> checked = std::make_unique<LabelSource>(std::move(memory), "fuzz", std::nullopt);
+  if (relabelling) checked = std::make_unique<RelabelSource>(std::move(checked), "fuzz", std::move(*relabelling));
   PadSource source(std::move(checked), 0.0f);
   const LatticeFrame frame = LatticeFrame::physical(info);
   auto extractor = makeLabelExtractor(info, frame);

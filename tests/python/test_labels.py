@@ -264,3 +264,115 @@ def test_label_surfaces_decimated_stay_closed_and_touch_where_they_did():
         assert abs(signed_volume(verts, faces) - before) < 0.03 * abs(before), label
     for a_, b_ in adjacency:
         assert triangles(a_) & triangles(b_, reverse=True), (a_, b_)
+
+
+def reference_component_rules(labels, keep_largest=None, min_voxels=None):
+    """Per-label component rules by brute force with SciPy: each label's 6-connected components
+    (scipy.ndimage.label), their voxels and boundary faces (the outside counts as background),
+    the rules (thresholds, then the N largest by faces, ties to the earlier first voxel), groups of
+    touching dropped components, and the label each group takes: the one of the kept components
+    and the background around it with the most shared faces (ties: the lower value). Returns the
+    relabelled volume and per label (found, dropped)."""
+    ndimage = pytest.importorskip("scipy.ndimage")
+    comp = np.full(labels.shape, -1, dtype=np.int64)
+    comp_label, first = [], []
+    for value, box in enumerate(ndimage.find_objects(labels), start=1):  # labels from 1
+        if box is None:
+            continue
+        parts, n = ndimage.label(labels[box] == value)
+        for k in range(1, n + 1):
+            where = parts == k
+            comp[box][where] = len(comp_label)
+            coords = np.argwhere(where)[0] + [s.start for s in box]
+            first.append(np.ravel_multi_index(tuple(coords), labels.shape))
+            comp_label.append(value)
+    n = len(comp_label)
+    comp_label = np.array(comp_label)
+    voxels = np.bincount(comp[comp >= 0], minlength=n)
+    faces = np.zeros(n, dtype=np.int64)
+    background = np.zeros(n, dtype=np.int64)
+    contacts = {}
+    padded_l = np.pad(labels, 1)
+    padded_c = np.pad(comp, 1, constant_values=-1)
+    for axis in range(3):
+        l = np.moveaxis(padded_l, axis, 0)
+        c = np.moveaxis(padded_c, axis, 0)
+        lo_l, hi_l, lo_c, hi_c = l[:-1].ravel(), l[1:].ravel(), c[:-1].ravel(), c[1:].ravel()
+        differ = lo_l != hi_l
+        for a, b, other in ((lo_c, hi_c, hi_l), (hi_c, lo_c, lo_l)):
+            side = differ & (a >= 0)
+            faces += np.bincount(a[side], minlength=n)
+            background += np.bincount(a[side & (other == 0)], minlength=n)
+        both = differ & (lo_c >= 0) & (hi_c >= 0)
+        pairs = np.stack([np.minimum(lo_c[both], hi_c[both]), np.maximum(lo_c[both], hi_c[both])], axis=1)
+        for (p, q), k in zip(*np.unique(pairs, axis=0, return_counts=True)):
+            contacts[(int(p), int(q))] = contacts.get((int(p), int(q)), 0) + int(k)
+    keep = np.ones(n, dtype=bool)
+    if min_voxels is not None:
+        keep &= voxels >= min_voxels
+    if keep_largest is not None:
+        for value in np.unique(comp_label):
+            ids = [i for i in np.flatnonzero(comp_label == value) if keep[i]]
+            ids.sort(key=lambda i: (-faces[i], first[i]))
+            keep[ids[keep_largest:]] = False
+    group = list(range(n))
+
+    def find(i):
+        while group[i] != i:
+            group[i] = group[group[i]]
+            i = group[i]
+        return i
+
+    for (p, q) in contacts:
+        if not keep[p] and not keep[q]:
+            group[max(find(p), find(q))] = min(find(p), find(q))
+    around = {}
+    for i in np.flatnonzero(~keep):
+        around.setdefault(find(i), {}).setdefault(0, 0)
+        around[find(i)][0] += background[i]
+    for (p, q), k in contacts.items():
+        if keep[p] != keep[q]:
+            dropped, kept = (q, p) if keep[p] else (p, q)
+            tally = around.setdefault(find(dropped), {})
+            tally[int(comp_label[kept])] = tally.get(int(comp_label[kept]), 0) + k
+    takes = {g: min(tally, key=lambda v: (-tally[v], v)) for g, tally in around.items()}
+    out = labels.copy()
+    target = np.array([comp_label[i] if keep[i] else takes[find(i)] for i in range(n)])
+    inside = comp >= 0
+    out[inside] = target[comp[inside]]
+    stats = {int(v): (int(np.sum(comp_label == v)), int(np.sum((comp_label == v) & ~keep))) for v in np.unique(comp_label)}
+    return out, stats
+
+
+@pytest.mark.parametrize("rules", [{"keep_largest": 1}, {"min_voxels": 40}])
+def test_atlas_component_rules_against_scipy(rules, tmp_path):
+    """--keep-largest and --min-volume on the AAL atlas: each label's components found, dropped,
+    and the relabelled volume (its voxel counts and every interface's area) as SciPy's brute force
+    gives them; every surface closed and of the relabelled voxels' volume."""
+    path = os.path.join(TEMPLATES, "aal.nii.gz")
+    if not os.path.exists(path):
+        pytest.skip(f"{path} is absent (Debian's mricron-data)")
+    labels, spacing = read_labels(path)
+    voxel = spacing[0] * spacing[1] * spacing[2]
+    args = [path, "-o", str(tmp_path / "{label}.ply")]
+    if "keep_largest" in rules:
+        args += ["--keep-largest", str(rules["keep_largest"])]
+    else:
+        args += ["--min-volume", str(rules["min_voxels"] * voxel - 1e-6)]
+    report = run(args, tmp_path)
+    expected, stats = reference_component_rules(labels, **rules)
+    dropped = sum(d for _, d in stats.values())
+    assert dropped > 10  # the atlas has specks to drop
+    assert report["component_filter"]["dropped"]["count"] == dropped
+    values, counts = np.unique(expected[expected != 0], return_counts=True)
+    assert [entry["value"] for entry in report["labels"]] == values.tolist()
+    for entry, n in zip(report["labels"], counts):
+        assert entry["voxels"] == n
+        assert (entry["components"]["found"], entry["components"]["dropped"]) == stats[entry["value"]]
+        assert entry["closed"] and entry["oriented"]
+        assert entry["mesh_volume"] == pytest.approx(n * voxel, rel=1e-9)
+    found = {tuple(i["labels"]): i["area"] for i in report["label_interfaces"]}
+    wanted = brute_force_interfaces(expected, spacing)
+    assert set(found) == set(wanted)
+    for pair, area in wanted.items():
+        assert found[pair] == pytest.approx(area, rel=1e-9)
