@@ -181,14 +181,16 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
       ->needs(roiOption)
       ->group("Region of interest");
 
-  const std::string componentsGroup = "Connected components (a second pass over the input)";
+  const std::string componentsGroup =
+      "Connected components (a second pass over the input; with labels, each label's voxel components apart, "
+      "a dropped one's voxels going to the label around it)";
   extract->add_option("--keep-largest", args.keepLargest, "Keep only the N largest components (by --component-measure)")
       ->check(CLI::Range(std::uint64_t{1}, std::numeric_limits<std::uint64_t>::max()))
       ->group(componentsGroup);
   extract
       ->add_option("--component-measure", args.componentMeasure,
                    "--keep-largest by triangles or by volume (|enclosed volume|; use --close-boundary for objects "
-                   "that the faces cut)")
+                   "that the faces cut; labels: voxels)")
       ->transform(oneOf("component measure", {"triangles", "volume"}))
       ->capture_default_str()
       ->group(componentsGroup);
@@ -197,7 +199,8 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
       ->group(componentsGroup);
   extract
       ->add_option("--min-volume", args.minVolume,
-                   "Drop components enclosing less volume (output units cubed, |enclosed volume|)")
+                   "Drop components enclosing less volume (output units cubed, |enclosed volume|; labels: voxels "
+                   "times the voxel volume)")
       ->check(CLI::NonNegativeNumber)
       ->group(componentsGroup);
   extract

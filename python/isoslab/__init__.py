@@ -281,8 +281,8 @@ def _label_list(value):
     return ",".join(str(v) for v in value) if isinstance(value, (list, tuple, set)) else str(value)
 
 
-def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), select=None, smooth=0, decimate=1.0, threads=None,
-                   progress=False):
+def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), select=None, smooth=0, decimate=1.0, keep_largest=None,
+                   min_volume=None, threads=None, progress=False):
     """Every label's surface of a label map held in a 3D NumPy integer array, in one streaming pass
     (as `isoslab extract` meshes a segmentation; the array is read in place, a slice at a time).
 
@@ -299,6 +299,11 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), select=None, smooth=0, de
     complex's triangles to keep (as extract's --decimate on a label map: each collapse is made for
     both labels, within a voxel of the surface; lines where three labels meet are simplified along
     themselves).
+    `keep_largest`, `min_volume`: each label's connected components (6-connected voxels) kept, as
+    extract's --keep-largest and --min-volume take them on a label map: the N largest by triangles,
+    those of at least this volume (voxels times the voxel volume, in `spacing`'s units cubed); a
+    dropped component's voxels go to the label around it (the one sharing the most voxel faces with
+    it, or the background), so the surfaces stay closed and shared. The array is read twice.
     `threads`: None for the default. Errors raise isoslab.Error with the program's message.
     """
     if not isinstance(labels, np.ndarray):
@@ -317,6 +322,10 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), select=None, smooth=0, de
         settings["smooth"] = int(smooth)
     if decimate != 1.0:
         settings["decimate"] = float(decimate)
+    if keep_largest is not None:
+        settings["keep_largest"] = int(keep_largest)
+    if min_volume is not None:
+        settings["min_volume"] = float(min_volume)
     if progress is None:
         progress = _terminal_progress()
     elif progress is False:
