@@ -5,10 +5,11 @@
 #include <algorithm>
 #include <numeric>
 #include <stdexcept>
-#include <unordered_map>
+#include <tuple>
 #include <utility>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 
 namespace isoslab {
 namespace {
@@ -68,7 +69,12 @@ class PartNumbering {
       if (y > 0) overlaps(curRow(y - 1), curRow(y), take);
       if (planes_ > 0) overlaps(prevRow(y), curRow(y), take);
       for (Run& r : curRow(y)) {
-        if (r.value != 0 && r.part == kNoPart) r.part = parts_++;
+        if (r.value != 0 && r.part == kNoPart) {
+          if (parts_ == kNoPart - 1) {
+            throw Error("the label map has too many components for the component rules (over 4 billion parts)");
+          }
+          r.part = parts_++;
+        }
       }
     }
     ++planes_;
@@ -97,6 +103,27 @@ std::uint64_t pairKey(std::uint32_t a, std::uint32_t b) {
   return (std::uint64_t{a} << 32) | b;
 }
 
+// Faces between two parts (or components) of different labels: a key pairKey(a, b) and a count.
+struct Contact {
+  std::uint64_t key = 0;
+  std::int64_t faces = 0;
+};
+
+// Sorts `contacts` by key and sums the counts of equal keys.
+void compact(std::vector<Contact>& contacts) {
+  std::sort(contacts.begin(), contacts.end(), [](const Contact& a, const Contact& b) { return a.key < b.key; });
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    throwIfInterruptedEvery(i);
+    if (out > 0 && contacts[out - 1].key == contacts[i].key) {
+      contacts[out - 1].faces += contacts[i].faces;
+    } else {
+      contacts[out++] = contacts[i];
+    }
+  }
+  contacts.resize(out);
+}
+
 // A union-find whose roots are the smallest members, with path halving.
 std::uint32_t findRoot(std::vector<std::uint32_t>& parent, std::uint32_t a) {
   while (parent[a] != a) {
@@ -122,11 +149,14 @@ struct LabelComponentFinder::Layer {
   std::vector<std::uint32_t> parent;
   std::vector<std::int32_t> value;
   std::vector<std::int64_t> voxels, faces, backgroundFaces;
-  // Faces between parts of different labels.
-  std::unordered_map<std::uint64_t, std::int64_t> contacts;
-  // After finish(): per part its component (global index), and the components' contacts.
+  // Faces between parts of different labels: appended (a run of faces between the same two parts
+  // once), compacted when they have doubled since the last compaction.
+  std::vector<Contact> contacts;
+  std::size_t compactAt = std::size_t{1} << 20;
+  // After finish(): per part its component (global index), and the components' contacts (keys of
+  // component pairs, sorted).
   std::vector<std::uint32_t> componentOf;
-  std::map<std::pair<std::uint32_t, std::uint32_t>, std::int64_t> componentContacts;
+  std::vector<Contact> componentContacts;
   std::vector<std::int64_t> componentBackground;  // per component of this layer, from `first`
   std::uint32_t first = 0, end = 0;               // its components' global indices
 
@@ -145,7 +175,12 @@ struct LabelComponentFinder::Layer {
     if (a.value != 0) {
       faces[a.part] += n;
       if (b.value != 0) {
-        contacts[pairKey(a.part, b.part)] += n;
+        const std::uint64_t key = pairKey(a.part, b.part);
+        if (!contacts.empty() && contacts.back().key == key) {
+          contacts.back().faces += n;
+        } else {
+          contacts.push_back({key, n});
+        }
       } else {
         backgroundFaces[a.part] += n;
       }
@@ -191,6 +226,10 @@ struct LabelComponentFinder::Layer {
       if (y > 0) overlaps(numbering.curRow(y - 1), row, between);
       if (z > 0) overlaps(numbering.prevRow(y), row, between);
     }
+    if (contacts.size() >= compactAt) {
+      compact(contacts);
+      compactAt = std::max(compactAt, 2 * contacts.size());
+    }
   }
 };
 
@@ -223,6 +262,7 @@ void LabelComponentFinder::finish() {
     // Roots are their components' first parts, so numbering roots in part order numbers the
     // components in the order of their first voxels.
     for (std::uint32_t p = 0; p < L.parent.size(); ++p) {
+      throwIfInterruptedEvery(p);
       const std::uint32_t root = findRoot(L.parent, p);
       if (root == p) {
         L.componentOf[p] = static_cast<std::uint32_t>(components_.size());
@@ -237,13 +277,15 @@ void LabelComponentFinder::finish() {
       L.componentBackground[L.componentOf[p] - L.first] += L.backgroundFaces[p];
     }
     L.end = static_cast<std::uint32_t>(components_.size());
-    for (const auto& [key, n] : L.contacts) {
-      std::uint32_t a = L.componentOf[key >> 32], b = L.componentOf[key & 0xffffffffu];
-      if (a > b) std::swap(a, b);
-      L.componentContacts[{a, b}] += n;
+    // The parts' contacts become the components' (in place), summed by pair.
+    for (std::size_t i = 0; i < L.contacts.size(); ++i) {
+      throwIfInterruptedEvery(i);
+      Contact& c = L.contacts[i];
+      c.key = pairKey(L.componentOf[c.key >> 32], L.componentOf[c.key & 0xffffffffu]);
     }
-    // The first pass's measures are summed into the components: free them.
-    std::unordered_map<std::uint64_t, std::int64_t>().swap(L.contacts);
+    compact(L.contacts);
+    L.componentContacts = std::move(L.contacts);
+    L.contacts = {};
     for (auto* v : {&L.voxels, &L.faces, &L.backgroundFaces}) std::vector<std::int64_t>().swap(*v);
     std::vector<std::uint32_t>().swap(L.parent);
   }
@@ -290,32 +332,51 @@ LabelRelabelling LabelComponentFinder::relabelling(const std::vector<bool>& keep
     // Dropped components that touch go together (groups by union-find over this layer's).
     std::vector<std::uint32_t> group(L.end - L.first);
     std::iota(group.begin(), group.end(), 0u);
-    for (const auto& [pair, n] : L.componentContacts) {
-      if (!keep[pair.first] && !keep[pair.second]) joinRoots(group, local(pair.first), local(pair.second));
+    const auto ends = [&](const Contact& c) {
+      return std::pair{static_cast<std::uint32_t>(c.key >> 32), static_cast<std::uint32_t>(c.key & 0xffffffffu)};
+    };
+    for (const Contact& c : L.componentContacts) {
+      const auto [a, b] = ends(c);
+      if (!keep[a] && !keep[b]) joinRoots(group, local(a), local(b));
     }
-    // Each group's faces with the labels around it (the kept components' and the background).
-    std::map<std::uint32_t, std::map<std::int32_t, std::int64_t>> around;
+    // Each group's faces with the labels around it (the kept components' and the background), as
+    // (group, value, faces) summed by group and value.
+    struct Around {
+      std::uint32_t group;
+      std::int32_t value;
+      std::int64_t faces;
+    };
+    std::vector<Around> around;
     for (std::uint32_t c = L.first; c < L.end; ++c) {
-      if (!keep[c]) around[findRoot(group, local(c))][0] += L.componentBackground[local(c)];
+      if (!keep[c]) around.push_back({findRoot(group, local(c)), 0, L.componentBackground[local(c)]});
     }
-    for (const auto& [pair, n] : L.componentContacts) {
-      const auto [a, b] = pair;
+    for (std::size_t i = 0; i < L.componentContacts.size(); ++i) {
+      throwIfInterruptedEvery(i);
+      const auto [a, b] = ends(L.componentContacts[i]);
       if (keep[a] == keep[b]) continue;
       const std::uint32_t dropped = keep[a] ? b : a, kept = keep[a] ? a : b;
-      around[findRoot(group, local(dropped))][labelValue(components_[kept].label)] += n;
+      around.push_back(
+          {findRoot(group, local(dropped)), labelValue(components_[kept].label), L.componentContacts[i].faces});
     }
-    std::map<std::uint32_t, std::int32_t> target;  // per group root: the value its voxels take
-    for (const auto& [root, faces] : around) {
-      std::int32_t best = 0;
+    std::sort(around.begin(), around.end(),
+              [](const Around& x, const Around& y) { return std::tie(x.group, x.value) < std::tie(y.group, y.value); });
+    // Per group root: the value its voxels take, the one of the most faces (ties: the lower value,
+    // which comes first).
+    std::vector<std::int32_t> target(group.size(), 0);
+    for (std::size_t i = 0; i < around.size();) {
+      const std::uint32_t g = around[i].group;
       std::int64_t most = -1;
-      for (const auto& [value, n] : faces) {
-        if (n > most) {  // ascending values: ties keep the lower
-          most = n;
-          best = value;
+      while (i < around.size() && around[i].group == g) {
+        const std::int32_t value = around[i].value;
+        std::int64_t faces = 0;
+        for (; i < around.size() && around[i].group == g && around[i].value == value; ++i) faces += around[i].faces;
+        if (faces > most) {
+          most = faces;
+          target[g] = value;
         }
       }
-      target[root] = best;
     }
+    around = {};
     std::vector<std::int32_t> takes(L.end - L.first);
     for (std::uint32_t c = L.first; c < L.end; ++c) {
       const LabelComponent& comp = components_[c];
@@ -325,7 +386,7 @@ LabelRelabelling LabelComponentFinder::relabelling(const std::vector<bool>& keep
       if (keep[c]) continue;
       ++change.dropped;
       change.voxelsGiven += comp.voxels;
-      takes[local(c)] = target.at(findRoot(group, local(c)));
+      takes[local(c)] = target[findRoot(group, local(c))];
       out.changes[layeredLabel(layer, takes[local(c)])].voxelsTaken += comp.voxels;
     }
     std::vector<float>& values = out.partValues.emplace_back(L.componentOf.size());

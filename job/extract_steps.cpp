@@ -158,7 +158,8 @@ OpenedInput openInput(const ExtractSettings& settings, ExtractObserver* observer
   std::vector<std::string> notes;
   OpenedInput opened;
   // A run that may mesh labels reads a segmentation's layers in one pass when no channel picks one.
-  SourceOptions source = settings.source;
+  SourceOptions& source = opened.options;
+  source = settings.source;
   const bool labelRun = settings.labels.has_value() || (!settings.iso && settings.isos.empty());
   if (labelRun && source.dicom.channel < 0) source.dicom.channel = kEveryLayer;
   opened.source = settings.openVolume ? settings.openVolume() : openSource(settings.inputs, source, &notes);
@@ -187,7 +188,7 @@ OpenedInput openInput(const ExtractSettings& settings, ExtractObserver* observer
 }
 
 std::unique_ptr<SliceSource> reopenInput(const ExtractSettings& settings, const OpenedInput& input) {
-  auto reopened = settings.openVolume ? settings.openVolume() : openSource(settings.inputs, settings.source);
+  auto reopened = settings.openVolume ? settings.openVolume() : openSource(settings.inputs, input.options);
   if (input.roiBox) return std::make_unique<CropSource>(std::move(reopened), *input.roiBox);
   return reopened;
 }

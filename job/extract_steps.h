@@ -23,6 +23,7 @@ namespace isoslab {
 struct OpenedInput {
   std::unique_ptr<SliceSource> source;  // cut to the region of interest, when one is set
   std::optional<LatticeBox> roiBox;     // the lattice points the region selected
+  SourceOptions options;                // as it was opened (a segmentation's every layer at once)
 };
 
 /// Opens settings.inputs, refuses a geometry beyond float32 (unless the space is voxel), hands the

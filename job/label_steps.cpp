@@ -54,7 +54,13 @@ LabelRelabelling chooseLabelComponents(SliceSource& labels, const ExtractSetting
   LabelComponentFinder finder(info);
   std::vector<float> slice;
   for (std::int64_t z = 0; readSliceInto(labels, slice); ++z) {
-    finder.addSlice(slice);
+    try {
+      finder.addSlice(slice);
+    } catch (const Interrupted&) {
+      throw;
+    } catch (const Error& e) {  // the finder's own limit, named for the input
+      throw Error(fmt::format("{}: {}", settings.inputs.empty() ? info.source : settings.inputs.front(), e.what()));
+    }
     throwIfInterrupted();
     if (onSlice) onSlice(z + 1, info.dims[2]);
   }

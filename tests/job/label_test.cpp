@@ -759,6 +759,14 @@ TEST(LabelInputs, ALayeredSegNrrdMeshesEveryLayerInOnePass) {
   ASSERT_EQ(byName["labels"].size(), 1u);
   EXPECT_EQ(byName["labels"][0]["layer"], 1);
   EXPECT_TRUE(testing::slurp(dir + "/name/Tumour.ply") == testing::slurp(dir + "/c1/Tumour.ply"));
+  // The component rules, whose second pass opens the file again with every layer.
+  const auto rules = run("rules", "--keep-largest 1 --min-volume 1");
+  for (const auto& [name, layer] : {std::pair{"Liver", "c0"}, std::pair{"Kidney", "c0"}, std::pair{"Tumour", "c1"}}) {
+    EXPECT_TRUE(testing::slurp(dir + "/rules/" + name + ".ply") ==
+                testing::slurp(dir + "/" + layer + "/" + name + ".ply"))
+        << name;
+  }
+  for (const auto& l : rules["labels"]) EXPECT_EQ(l["components"]["found"], 1) << l["name"];
 }
 
 }  // namespace
