@@ -96,29 +96,6 @@ WriterOptions writerOptions(const ExtractSettings& settings, const VolumeInfo& i
   return w;
 }
 
-// The component filter's first pass: finds and measures the components and chooses (on rank 0,
-// which alone sees the mesh). Fills the report's component pieces; returns, per part of the
-// first pass, whether it is kept.
-std::vector<bool> chooseComponents(SliceSource& source, Extractor& extractor, const MeshHeader& header,
-                                   const PipelineOptions& options, const ExtractSettings& settings,
-                                   const ComponentRules& rules, bool primary, ExtractReport& report) {
-  ComponentSink found;
-  found.setSeed(rules.seed);
-  report.seconds.componentPass = runPipeline(source, extractor, found, header, options).totalSeconds;
-  throwIfInterrupted();
-  std::vector<bool> keepPart;
-  if (primary) {
-    const std::vector<bool> kept = selectComponents(found.components(), rules);
-    keepPart = keptParts(found, kept);
-    // The report's pieces now, so that the second pass holds a bit per part and no list.
-    const std::string& what = settings.reportPath;
-    report.componentsJson = reportText(componentsJson(found.components(), 10, &kept), what, -1);
-    report.componentFilterJson =
-        reportText(componentFilterJson(rules, found.components(), kept, found.parts()), what, -1);
-  }
-  return keepPart;
-}
-
 // The sinks of the extraction pass, from the extractor to the writer and the measures:
 // component filter -> smoothing -> decimation -> tee(writer, stats, components, sphere, preview).
 struct SinkChain {

@@ -219,12 +219,10 @@ void checkLabelSettings(const ExtractSettings& s) {
   const auto refuse = [what](bool given, const char* name) {
     require(!given, fmt::format("`{}` does not apply to {} yet", name, what));
   };
-  // Label maps take the component rules per label (job/label_steps.cpp), except the seed.
+  // Label maps take the component rules per label (job/label_steps.cpp), several iso values per
+  // surface (metrics/component_filter.h), except the seed.
   refuse(s.components.seed.has_value(), "seed");
   if (!s.isos.empty()) {
-    refuse(s.components.any(), s.components.keepLargest ? "keep_largest"
-                               : s.components.minVolume ? "min_volume"
-                                                        : "min_triangles");
     refuse(s.smoothing.iterations != 0, "smooth");
     refuse(s.decimate != 1.0, "decimate");
     refuse(s.maxError != 0, "max_error");

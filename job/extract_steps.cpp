@@ -16,7 +16,11 @@
 #include "extract/frame.h"
 #include "io/crop_source.h"
 #include "io/open_source.h"
+#include "metrics/component_filter.h"
+#include "metrics/components.h"
+#include "metrics/report.h"
 #include "process/degenerate.h"
+#include "stream/pipeline.h"
 
 namespace isoslab {
 namespace {
@@ -185,6 +189,26 @@ OpenedInput openInput(const ExtractSettings& settings, ExtractObserver* observer
     opened.roiBox = roi.box;
   }
   return opened;
+}
+
+std::vector<bool> chooseComponents(SliceSource& source, Extractor& extractor, const MeshHeader& header,
+                                   const PipelineOptions& options, const ExtractSettings& settings,
+                                   const ComponentRules& rules, bool primary, ExtractReport& report) {
+  ComponentSink found;
+  found.setSeed(rules.seed);
+  report.seconds.componentPass = runPipeline(source, extractor, found, header, options).totalSeconds;
+  throwIfInterrupted();
+  std::vector<bool> keepPart;
+  if (primary) {
+    const std::vector<bool> kept = selectComponents(found.components(), rules);
+    keepPart = keptParts(found, kept);
+    // The report's pieces now, so that the second pass holds a bit per part and no list.
+    const std::string& what = settings.reportPath;
+    report.componentsJson = reportText(componentsJson(found.components(), 10, &kept), what, -1);
+    report.componentFilterJson =
+        reportText(componentFilterJson(rules, found.components(), kept, found.parts()), what, -1);
+  }
+  return keepPart;
 }
 
 std::unique_ptr<SliceSource> reopenInput(const ExtractSettings& settings, const OpenedInput& input) {

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -15,8 +16,10 @@
 #include "io/label_table.h"
 #include "io/slice_source.h"
 #include "job/extract_job.h"
+#include "metrics/component_filter.h"
 #include "process/decimation.h"
 #include "stream/iso_choice.h"
+#include "stream/pipeline.h"
 
 namespace isoslab {
 
@@ -33,6 +36,14 @@ OpenedInput openInput(const ExtractSettings& settings, ExtractObserver* observer
 
 /// The input opened again (for a second pass), cut to the same box.
 std::unique_ptr<SliceSource> reopenInput(const ExtractSettings& settings, const OpenedInput& input);
+
+/// The component filter's first pass (settings.components; metrics/component_filter.h): runs the
+/// pipeline into a ComponentSink, and on the primary rank (which alone sees the mesh) chooses by
+/// `rules` and fills report.componentsJson, componentFilterJson and the pass's seconds. Returns,
+/// per part of the first pass, whether it is kept (empty on other ranks).
+std::vector<bool> chooseComponents(SliceSource& source, Extractor& extractor, const MeshHeader& header,
+                                   const PipelineOptions& options, const ExtractSettings& settings,
+                                   const ComponentRules& rules, bool primary, ExtractReport& report);
 
 /// The iso value of a run: settings.iso's number, Otsu's threshold or name, else the input's
 /// suggestion (SettingError when it has none). "auto" reads the source to its end, which is then
@@ -90,6 +101,12 @@ std::optional<std::set<std::int32_t>> selectedLabels(const LabelRequest& request
 /// chooses by the rules (each label apart; --min-volume against voxels times `voxelVolume`,
 /// --min-triangles against two triangles per voxel face), fills report.componentFilterJson and
 /// the pass's seconds, and returns the second pass's relabelling (io/label_components.h).
+/// Warnings for the labels whose every component the component rules dropped (`changes`), that
+/// have no surface (`hasSurface`): one naming the label, or one counting several.
+std::vector<std::string> droppedLabelWarnings(const std::map<std::int32_t, LabelChange>& changes,
+                                              const std::function<bool(std::int32_t)>& hasSurface,
+                                              const std::function<std::string(std::int32_t)>& nameOf);
+
 LabelRelabelling chooseLabelComponents(SliceSource& labels, const ExtractSettings& settings, double voxelVolume,
                                        const SlabHook& onSlice, ExtractReport& report);
 

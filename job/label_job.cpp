@@ -97,6 +97,14 @@ class SurfaceSetRun {
       source_ = std::move(input.source);
       if (settings_.closeBoundary) source_ = std::make_unique<PadSource>(std::move(source_));
       if (!extractor_->makeWorker()) threads = 1;
+      if (settings_.components.any()) {
+        // Component rules, each surface its own: a first pass finds and chooses, the second filters.
+        keepPart_ = chooseComponents(*source_, *extractor_, header_, pipelineOptions(onComponentSlice, threads),
+                                     settings_, settings_.components, primary(), report_);
+        source_ = reopenInput(settings_, input);
+        if (settings_.closeBoundary) source_ = std::make_unique<PadSource>(std::move(source_));
+        extractor_ = makeMultiIsoExtractor(o, settings_.isos, info_, frame_);
+      }
     } else {
       // Labels: checked and counted, padded with background; each layer a label complex.
       const std::string what = settings_.inputs.empty() ? info_.source : settings_.inputs.front();
@@ -121,7 +129,7 @@ class SurfaceSetRun {
     }
   }
 
-  PipelineResult run(const std::function<void(std::int64_t, std::int64_t)>& onSlab, int threads) {
+  PipelineResult run(const SlabHook& onSlab, int threads) {
     pattern_ = !settings_.labelSinks && isOutputPattern(settings_.output);
     std::string extension = std::filesystem::path(settings_.output).extension().string();
     for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -141,6 +149,7 @@ class SurfaceSetRun {
     // Areas, volumes and interfaces go to the report and the .glb's extras only.
     split_.emplace([this](std::int32_t label) { return sinkFor(label); }, perLabel_, settings_.labelTopology,
                    scene_.has_value() || settings_.labelMeasures);
+    if (isoSet_) split_->setIsoValues(settings_.isos);
     // The complex as a whole is counted, not measured: its measures are the labels'.
     std::vector<MeshSink*> heads{&*split_, &complexStats_};
     if (!pattern_ && !scene_ && !model_ && !settings_.labelSinks && primary()) {
@@ -165,13 +174,9 @@ class SurfaceSetRun {
       smoothing_.emplace(*head, smooth);
       head = &*smoothing_;
     }
-    PipelineOptions options;
-    options.threads = threads;
-    options.maxThreadBytes = (static_cast<std::size_t>(settings_.maxMemoryMiB) << 20) / 2;
-    if (settings_.sequentialVoxels >= 0) options.sequentialVoxels = settings_.sequentialVoxels;
-    options.onSlab = onSlab;
+    if (isoSet_ && settings_.components.any()) head = &filter_.emplace(*head, std::move(keepPart_));
+    PipelineOptions options = pipelineOptions(onSlab, threads);
     if (ranked()) {
-      options.ranks = settings_.ranks;
       if (counter_ != nullptr) {
         // Each rank counts the voxels of its own slabs' top slices (slab z's is slice z of the
         // input), so that every slice is counted once; rank 0 adds the others' counts.
@@ -183,6 +188,16 @@ class SurfaceSetRun {
       }
     }
     return runPipeline(*source_, *extractor_, *head, header_, options);
+  }
+
+  PipelineOptions pipelineOptions(const SlabHook& onSlab, int threads) const {
+    PipelineOptions options;
+    options.threads = threads;
+    options.maxThreadBytes = (static_cast<std::size_t>(settings_.maxMemoryMiB) << 20) / 2;
+    if (settings_.sequentialVoxels >= 0) options.sequentialVoxels = settings_.sequentialVoxels;
+    options.onSlab = onSlab;
+    if (ranked()) options.ranks = settings_.ranks;
+    return options;
   }
 
   // The report: the complex as a whole, each label, the interfaces and the warnings.
@@ -375,17 +390,10 @@ class SurfaceSetRun {
                                                absent.size(), present.size(), absent.front()));
       }
     }
-    // Labels whose every component the component rules dropped.
-    std::vector<std::int32_t> gone;
-    for (const auto& [label, c] : changes_) {
-      if (labelValue(label) != 0 && c.dropped > 0 && chains_.count(label) == 0) gone.push_back(label);
-    }
-    if (!gone.empty()) {
-      report_.warnings.push_back(
-          gone.size() == 1 ? fmt::format("label {} ('{}'): the component rules dropped every component of it",
-                                         labelValue(gone[0]), nameOf(gone[0]))
-                           : fmt::format("the component rules dropped every component of {} labels (the first: {})",
-                                         gone.size(), labelValue(gone[0])));
+    for (std::string& w : droppedLabelWarnings(
+             changes_, [this](std::int32_t l) { return chains_.count(l) != 0; },
+             [this](std::int32_t l) { return nameOf(l); })) {
+      report_.warnings.push_back(std::move(w));
     }
     if (chains_.empty()) {
       report_.warnings.push_back(isoSet_ ? "no value's surface crosses the volume: nothing was written"
@@ -418,6 +426,8 @@ class SurfaceSetRun {
   std::optional<LabelSplitSink> split_;
   std::optional<DecimationSink> decimation_;
   std::optional<SmoothingSink> smoothing_;
+  std::vector<bool> keepPart_;  // several iso values: the component rules' first pass's choice
+  std::optional<ComponentFilterSink> filter_;
   ComplexCounter complexStats_;
   std::unique_ptr<MeshFileSink> complexWriter_;
 };

@@ -103,4 +103,20 @@ LabelRelabelling chooseLabelComponents(SliceSource& labels, const ExtractSetting
   return relabelling;
 }
 
+std::vector<std::string> droppedLabelWarnings(const std::map<std::int32_t, LabelChange>& changes,
+                                              const std::function<bool(std::int32_t)>& hasSurface,
+                                              const std::function<std::string(std::int32_t)>& nameOf) {
+  std::vector<std::int32_t> gone;
+  for (const auto& [label, c] : changes) {
+    if (labelValue(label) != 0 && c.dropped > 0 && !hasSurface(label)) gone.push_back(label);
+  }
+  if (gone.empty()) return {};
+  if (gone.size() == 1) {
+    return {fmt::format("label {} ('{}'): the component rules dropped every component of it", labelValue(gone[0]),
+                        nameOf(gone[0]))};
+  }
+  return {fmt::format("the component rules dropped every component of {} labels (the first: {})", gone.size(),
+                      labelValue(gone[0]))};
+}
+
 }  // namespace isoslab

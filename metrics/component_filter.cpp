@@ -75,14 +75,21 @@ std::vector<bool> selectComponents(const std::vector<Component>& components, con
     });
     if (nearest != candidates.end()) candidates = {*nearest};
   }
-  if (rules.keepLargest && candidates.size() > *rules.keepLargest) {
-    const auto n = static_cast<std::ptrdiff_t>(*rules.keepLargest);
-    std::partial_sort(candidates.begin(), candidates.begin() + n, candidates.end(), [&](std::size_t a, std::size_t b) {
+  if (rules.keepLargest) {
+    // The N largest of each surface (several iso values in one pass: each its own N).
+    std::stable_sort(candidates.begin(), candidates.end(), [&](std::size_t a, std::size_t b) {
+      if (components[a].label != components[b].label) return components[a].label < components[b].label;
       const double ma = measureOf(components[a], rules.measure);
       const double mb = measureOf(components[b], rules.measure);
       return ma != mb ? ma > mb : a < b;
     });
-    candidates.resize(static_cast<std::size_t>(n));
+    std::vector<std::size_t> largest;
+    std::uint64_t rank = 0;  // within its surface
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+      if (k > 0 && components[candidates[k]].label != components[candidates[k - 1]].label) rank = 0;
+      if (rank++ < *rules.keepLargest) largest.push_back(candidates[k]);
+    }
+    candidates = std::move(largest);
   }
   std::vector<bool> kept(components.size(), false);
   for (std::size_t i : candidates) kept[i] = true;
@@ -157,7 +164,8 @@ void ComponentFilterSink::emitHeld() {
   const auto newId = [&](VertexId v) {
     return v >= held_.firstVertex ? heldIds_[v - held_.firstVertex] : previousIds_[v - previousFirst_];
   };
-  for (const Triangle& t : held_.triangles) {
+  for (std::size_t n = 0; n < held_.triangles.size(); ++n) {
+    const Triangle& t = held_.triangles[n];
     const Triangle mapped{newId(t[0]), newId(t[1]), newId(t[2])};
     // A triangle's vertices are one part's: kept or dropped together.
     if (mapped[0] == kDropped) {
@@ -166,6 +174,7 @@ void ComponentFilterSink::emitHeld() {
       continue;
     }
     out_.triangles.push_back(mapped);
+    if (!held_.faceLabels.empty()) out_.faceLabels.push_back(held_.faceLabels[n]);
     ++keptTriangles_;
   }
   previousFirst_ = held_.firstVertex;

@@ -30,7 +30,8 @@ enum class ComponentMeasure { kTriangles, kVolume };
 /// Which components to keep. Every rule given applies: first the thresholds, then the seed, then
 /// the N largest of what remains.
 struct ComponentRules {
-  /// Keep the N largest by `measure` (ties go to the lower id).
+  /// Keep the N largest by `measure` (ties go to the lower id); in a stream of several surfaces
+  /// (Component::label), the N largest of each.
   std::optional<std::uint64_t> keepLargest;
   ComponentMeasure measure = ComponentMeasure::kTriangles;
   /// Keep those with at least this many triangles.

@@ -166,6 +166,7 @@ void ComponentSink::consume(const MeshChunk& chunk) {
     }
     Component& part = live_[record_[root]];
     part.firstVertex = std::min({part.firstVertex, t[0], t[1], t[2]});
+    if (!chunk.faceLabels.empty()) part.label = chunk.faceLabels[n][1];
     ++part.triangles;
     const TriangleMeasure m = measureTriangle(a, b, c);
     part.area += 0.5 * m.twiceArea;

@@ -28,6 +28,9 @@ struct Component {
   std::uint64_t id = 0;
   /// The smallest vertex id that a triangle of the component uses.
   VertexId firstVertex = 0;
+  /// In a stream of several surfaces (several iso values in one pass: MeshChunk::faceLabels), the
+  /// surface of its triangles (their back side's label); 0 for a single surface.
+  std::int32_t label = 0;
   std::uint64_t triangles = 0;
   double area = 0;
   /// Enclosed volume by the divergence theorem, signed as MeshStats::volume.

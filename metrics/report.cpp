@@ -63,6 +63,7 @@ nlohmann::ordered_json componentsJson(const std::vector<Component>& components, 
     const Component& c = components[*i];
     nlohmann::ordered_json e;
     e["id"] = c.id;
+    if (c.label != 0) e["label"] = c.label;
     e["triangles"] = c.triangles;
     e["area"] = c.area;
     e["volume"] = c.volume;

@@ -51,6 +51,8 @@ std::uint32_t LabelSplitSink::streamOf(std::int32_t label) {
       s.sink = sink;
       MeshHeader h = header_;
       h.iso = labelValue(label);  // a layered label (core/volume_info.h) as its value
+      if (label >= 1 && static_cast<std::size_t>(label) <= isos_.size())
+        h.iso = isos_[static_cast<std::size_t>(label) - 1];
       sink->begin(h);
     }
   }

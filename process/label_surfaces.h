@@ -35,6 +35,10 @@ class LabelSplitSink final : public MeshSink {
   /// measured (for a run that reports nothing per label).
   explicit LabelSplitSink(SinkFor sinkFor, bool perLabel = true, bool topology = true, bool measures = true);
 
+  /// Several iso values in one pass: surface k's header (label k, from 1) names isos[k - 1] as its
+  /// iso value, not k.
+  void setIsoValues(std::vector<double> isos) { isos_ = std::move(isos); }
+
   void begin(const MeshHeader& header) override;
   void consume(const MeshChunk& chunk) override;
   void finish() override;
@@ -108,6 +112,7 @@ class LabelSplitSink final : public MeshSink {
   VertexId idFor(std::uint32_t stream, VertexId v, const MeshChunk& chunk);
 
   SinkFor sinkFor_;
+  std::vector<double> isos_;
   bool perLabel_ = true;
   bool topology_ = true;
   bool measures_ = true;

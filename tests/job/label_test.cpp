@@ -538,8 +538,8 @@ TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
            "a .glb or .3mf (a mesh per label) or a .ply of the whole label complex\n"},
       {"'phantom:sphere?n=8' --iso 0.3,0.6 --decimate 0.2 -o " + dir + "/{iso}.ply", 2,
        "isoslab: error: --decimate does not apply to several iso values in one pass yet\n"},
-      {"'phantom:sphere?n=8' --iso 0.3,0.6 --keep-largest 1 -o " + dir + "/{iso}.ply", 2,
-       "isoslab: error: --keep-largest does not apply to several iso values in one pass yet\n"},
+      {"'phantom:sphere?n=8' --iso 0.3,0.6 --seed 1,2,3 -o " + dir + "/{iso}.ply", 2,
+       "isoslab: error: --seed does not apply to several iso values in one pass yet\n"},
       {"'phantom:voxel' --labels all --seed 1,2,3 -o " + dir + "/{name}.ply", 2,
        "isoslab: error: --seed does not apply to label surfaces yet\n"},
       {"'phantom:voxel' --labels all --iso 3 -o " + dir + "/{name}.ply", 2,
@@ -785,6 +785,28 @@ std::multiset<std::array<std::array<float, 3>, 3>> triangleSet(const IndexedMesh
     out.insert(p);
   }
   return out;
+}
+
+// The component rules apply to each value's surface: each file is the bytes of that value's own
+// run with the same rules (its header naming its iso value), whichever rule drops what.
+TEST(SeveralIsoValues, ComponentRulesApplyToEachSurface) {
+  const std::string dir = testing::tempDir();
+  const std::string input = "'phantom:head?n=64' --close-boundary -q";
+  for (const std::string rules : {"--keep-largest 1", "--min-triangles 100", "--keep-largest 2 --min-volume 50"}) {
+    SCOPED_TRACE(rules);
+    const auto both = testing::runCli("extract " + input + " --iso 0,300 " + rules + " -o '" + dir +
+                                      "/{iso}.ply' --report " + dir + "/r.json");
+    ASSERT_EQ(both.exitCode, 0) << both.err;
+    const auto report = nlohmann::json::parse(testing::slurp(dir + "/r.json"));
+    EXPECT_GT(report["component_filter"]["dropped"]["count"].get<int>(), 10);
+    for (const char* iso : {"0", "300"}) {
+      const auto one = testing::runCli("extract " + input + " --iso " + iso + " " + rules + " -o " + dir + "/one.ply");
+      ASSERT_EQ(one.exitCode, 0) << one.err;
+      const std::string own = testing::slurp(dir + "/one.ply");
+      EXPECT_NE(own.find(std::string("comment isoslab mc iso ") + iso + " "), std::string::npos);
+      EXPECT_TRUE(testing::slurp(dir + "/" + iso + ".ply") == own) << iso;
+    }
+  }
 }
 
 TEST(SeveralIsoValues, OnePassGivesEachValuesOwnSurface) {
