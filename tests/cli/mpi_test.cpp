@@ -233,23 +233,28 @@ TEST(Mpi, LabelSurfacesOnRanksAreOneProcesssBytes) {
 }
 
 // Several iso values in one pass (issue 35): each rank runs every value's slab workers, and the
-// .glb and the per-value files are one process's.
+// .glb and the per-value files are one process's, also with the component rules (issue 37).
 TEST(Mpi, IsoListsOnRanksAreOneProcesssBytes) {
-  const std::string dir = testing::tempDir();
-  const std::string input = "'phantom:head?n=40,36,30&noise=40' --iso skin,300 --close-boundary -q";
-  ASSERT_EQ(runCli(fmt::format("extract {} -o {}/one.glb", input, dir)).exitCode, 0);
-  ASSERT_EQ(runCli(fmt::format("extract {} -o '{}/one-{{iso}}.ply'", input, dir)).exitCode, 0);
-  for (const int ranks : {2, 3}) {
-    const auto r = runRanks(ranks, fmt::format("extract {} -o {}/r.glb", input, dir));
-    ASSERT_EQ(r.exitCode, 0) << r.err;
-    EXPECT_EQ(r.err, "");
-    EXPECT_TRUE(slurp(dir + "/r.glb") == slurp(dir + "/one.glb")) << ranks << " ranks";
-    ASSERT_EQ(runRanks(ranks, fmt::format("extract {} -o '{}/r-{{iso}}.ply'", input, dir)).exitCode, 0);
-    for (const char* iso : {"-400", "300"}) {
-      const std::string one = slurp(fmt::format("{}/one-{}.ply", dir, iso));
-      EXPECT_FALSE(one.empty());
-      EXPECT_TRUE(slurp(fmt::format("{}/r-{}.ply", dir, iso)) == one) << ranks << " ranks, iso " << iso;
+  for (const char* rules : {"", " --keep-largest 1"}) {
+    SCOPED_TRACE(rules);
+    const std::string dir = testing::tempDir();
+    const std::string input =
+        std::string("'phantom:head?n=40,36,30&noise=40' --iso skin,300 --close-boundary -q") + rules;
+    ASSERT_EQ(runCli(fmt::format("extract {} -o {}/one.glb", input, dir)).exitCode, 0);
+    ASSERT_EQ(runCli(fmt::format("extract {} -o '{}/one-{{iso}}.ply'", input, dir)).exitCode, 0);
+    for (const int ranks : {2, 3}) {
+      const auto r = runRanks(ranks, fmt::format("extract {} -o {}/r.glb", input, dir));
+      ASSERT_EQ(r.exitCode, 0) << r.err;
+      EXPECT_EQ(r.err, "");
+      EXPECT_TRUE(slurp(dir + "/r.glb") == slurp(dir + "/one.glb")) << ranks << " ranks";
+      ASSERT_EQ(runRanks(ranks, fmt::format("extract {} -o '{}/r-{{iso}}.ply'", input, dir)).exitCode, 0);
+      for (const char* iso : {"-400", "300"}) {
+        const std::string one = slurp(fmt::format("{}/one-{}.ply", dir, iso));
+        EXPECT_FALSE(one.empty());
+        EXPECT_TRUE(slurp(fmt::format("{}/r-{}.ply", dir, iso)) == one) << ranks << " ranks, iso " << iso;
+      }
     }
+    fs::remove_all(dir);
   }
 }
 
