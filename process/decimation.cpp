@@ -1082,7 +1082,7 @@ namespace isoslab {
 // Pairs of triangles in a grid over their bounding boxes (cells two voxels wide, or wider where
 // there would be more than about two cells a triangle), each pair tested in the one cell that holds
 // the low corner of their boxes' overlap: an edge of either through the other (for two triangles
-// with a corner in common, a fold: the edge opposite it).
+// with a corner in common, a fold: the edge opposite it), or both on the same three points.
 std::vector<VertexId> DecimationSink::crossingVertices(const std::vector<Triangle>& triangles) const {
   std::vector<VertexId> out;
   if (triangles.size() < 2) return out;
@@ -1148,9 +1148,19 @@ std::vector<VertexId> DecimationSink::crossingVertices(const std::vector<Triangl
             if (s[a] == t[b]) ++shared, sharedInS = a, sharedInT = b;
           }
         }
-        if (shared > 1) continue;
         const std::array<Vec3d, 3> p{toDouble(position(s[0])), toDouble(position(s[1])), toDouble(position(s[2]))};
         const std::array<Vec3d, 3> q{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))};
+        // Two triangles on the same three points (by id, or by position: the copies of a split
+        // vertex lie on one point) press a label flat or fold a sheet onto itself.
+        const auto among = [](const Vec3d& x, const std::array<Vec3d, 3>& set) {
+          return x == set[0] || x == set[1] || x == set[2];
+        };
+        if (among(p[0], q) && among(p[1], q) && among(p[2], q) && among(q[0], p) && among(q[1], p) && among(q[2], p)) {
+          out.insert(out.end(), s.begin(), s.end());
+          out.insert(out.end(), t.begin(), t.end());
+          continue;
+        }
+        if (shared > 1) continue;
         bool hit = false;
         for (std::size_t k = 0; k < 3 && !hit; ++k) {
           const bool fromS = shared == 1 && (k == sharedInS || (k + 1) % 3 == sharedInS);

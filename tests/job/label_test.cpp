@@ -1232,6 +1232,43 @@ std::size_t junctionEdges(const Complex& c) {
 // from the others (no crossing); the lines where three labels meet are simplified along
 // themselves; the thread count changes nothing. Interfaces stay shared by construction (each is
 // one set of triangles with a label on each side).
+// Two triangles on the same three points: a label pressed flat (a 0|2 and a 1|2 triangle on one
+// another) or a sheet folded onto itself. The copies of a split vertex lie on one point, so
+// collapses onto them made such pairs (a hostile search's smallest case, 3 x 3 x 2 voxels, at
+// --decimate 0.1 --max-error 1: two pairs) until the crossing search flagged them.
+TEST(LabelDecimation, NoTwoTrianglesLieOnTheSamePoints) {
+  const std::string dir = testing::tempDir();
+  const std::array<std::array<std::array<float, 2>, 3>, 3> labels{
+      {{{{2, 0}, {2, 1}, {1, 1}}}, {{{1, 2}, {0, 2}, {0, 1}}}, {{{1, 1}, {1, 1}, {0, 0}}}}};
+  testing::VectorSource volume({2, 3, 3}, [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return labels[static_cast<std::size_t>(z)][static_cast<std::size_t>(y)][static_cast<std::size_t>(x)];
+  });
+  writeVolume(volume, dir + "/v.nrrd", {});
+  for (const double maxError : {1.0, 2.0}) {
+    ExtractSettings s;
+    s.inputs = {dir + "/v.nrrd"};
+    s.labels = parseLabelRequest("all");
+    s.decimate = 0.1;
+    s.maxError = maxError;
+    s.threads = 1;
+    s.output = dir + "/complex.ply";
+    const ExtractReport r = runExtract(s);
+    EXPECT_GT(r.decimation->result.trianglesOut, 0u);
+    const IndexedMesh m = readMesh(s.output);
+    std::map<std::array<std::array<float, 3>, 3>, std::size_t> seen;
+    for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+      std::array<std::array<float, 3>, 3> corners{};
+      for (std::size_t k = 0; k < 3; ++k) {
+        const Vec3f& p = m.positions[m.triangles[t][k]];
+        corners[k] = {p.x, p.y, p.z};
+      }
+      std::sort(corners.begin(), corners.end());
+      const auto [it, fresh] = seen.emplace(corners, t);
+      EXPECT_TRUE(fresh) << "--max-error " << maxError << ": triangles " << it->second << " and " << t;
+    }
+  }
+}
+
 TEST(LabelDecimation, BlocksKeepEveryLabelClosedNearAndApart) {
   for (const auto& [name, labels] :
        {std::pair{"voronoi", voronoiBall(22, 7, 5)}, std::pair{"voronoi small cells", voronoiBall(18, 16, 9)},
