@@ -39,7 +39,7 @@ void overlaps(std::span<Run> a, std::span<Run> b, F&& f) {
 // The part numbering of one layer's planes, the same in both passes (the header's comment).
 class PartNumbering {
  public:
-  PartNumbering(std::int64_t nx, std::int64_t ny) : nx_(nx), ny_(ny) {}
+  PartNumbering(std::int64_t nx, std::int64_t ny, const std::string& what) : nx_(nx), ny_(ny), what_(what) {}
 
   // Numbers the next plane's runs; join(a, b) is told of two parts that touch (may be null).
   template <class Join>
@@ -71,7 +71,8 @@ class PartNumbering {
       for (Run& r : curRow(y)) {
         if (r.value != 0 && r.part == kNoPart) {
           if (parts_ == kNoPart - 1) {
-            throw Error("the label map has too many components for the component rules (over 4 billion parts)");
+            throw Error(fmt::format(
+                "{}: the label map has too many components for the component rules (over 4 billion parts)", what_));
           }
           r.part = parts_++;
         }
@@ -92,6 +93,7 @@ class PartNumbering {
   }
 
   std::int64_t nx_, ny_;
+  std::string what_;  // the input, in messages
   std::vector<Run> prev_, cur_;
   std::vector<std::uint32_t> prevRows_, curRows_;  // row y's runs: [rows[y], rows[y + 1])
   std::int64_t planes_ = 0;
@@ -142,7 +144,7 @@ void joinRoots(std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_
 
 // One layer's numbering and measures.
 struct LabelComponentFinder::Layer {
-  Layer(std::int64_t nx, std::int64_t ny) : numbering(nx, ny) {}
+  Layer(std::int64_t nx, std::int64_t ny, const std::string& what) : numbering(nx, ny, what) {}
 
   PartNumbering numbering;
   // Per part.
@@ -233,8 +235,8 @@ struct LabelComponentFinder::Layer {
   }
 };
 
-LabelComponentFinder::LabelComponentFinder(const VolumeInfo& info) : info_(info) {
-  for (int l = 0; l < info.layers; ++l) layers_.push_back(std::make_unique<Layer>(info.dims[0], info.dims[1]));
+LabelComponentFinder::LabelComponentFinder(const VolumeInfo& info, const std::string& what) : info_(info) {
+  for (int l = 0; l < info.layers; ++l) layers_.push_back(std::make_unique<Layer>(info.dims[0], info.dims[1], what));
 }
 
 LabelComponentFinder::~LabelComponentFinder() = default;
@@ -407,7 +409,7 @@ RelabelSource::RelabelSource(std::unique_ptr<SliceSource> inner, std::string wha
       relabelling_(std::move(relabelling)),
       planes_(std::make_unique<Planes>()) {
   const VolumeInfo& in = inner_->info();
-  for (int l = 0; l < in.layers; ++l) planes_->numbering.emplace_back(in.dims[0], in.dims[1]);
+  for (int l = 0; l < in.layers; ++l) planes_->numbering.emplace_back(in.dims[0], in.dims[1], what_);
 }
 
 RelabelSource::~RelabelSource() = default;

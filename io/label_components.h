@@ -66,8 +66,9 @@ struct LabelRelabelling {
 
 class LabelComponentFinder {
  public:
-  /// `info`: the volume's dims and layers.
-  explicit LabelComponentFinder(const VolumeInfo& info);
+  /// `info`: the volume's dims and layers; `what` names it in messages. addSlice() throws
+  /// isoslab::Error "WHAT: the label map has too many components ..." past 2^32 - 1 parts.
+  LabelComponentFinder(const VolumeInfo& info, const std::string& what);
   ~LabelComponentFinder();
   LabelComponentFinder(const LabelComponentFinder&) = delete;
   LabelComponentFinder& operator=(const LabelComponentFinder&) = delete;

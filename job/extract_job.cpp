@@ -190,15 +190,6 @@ ExtractOptions extractOptions(const ExtractSettings& settings, double iso, bool 
   return options;
 }
 
-PipelineOptions pipelineOptionsOf(const ExtractSettings& settings, RankGroup* ranks, int threads) {
-  PipelineOptions p;
-  p.ranks = ranks;
-  p.threads = threads;
-  p.maxThreadBytes = (static_cast<std::size_t>(settings.maxMemoryMiB) << 20) / 2;
-  if (settings.sequentialVoxels >= 0) p.sequentialVoxels = settings.sequentialVoxels;
-  return p;
-}
-
 // The warnings after the run: the readers' (this rank's, then the other ranks'), then an empty
 // surface's; handed to `observer` (nullptr: a rank that does not report).
 void collectWarnings(const ExtractSettings& settings, SliceSource& source, const PipelineResult& run,

@@ -191,6 +191,15 @@ OpenedInput openInput(const ExtractSettings& settings, ExtractObserver* observer
   return opened;
 }
 
+PipelineOptions pipelineOptionsOf(const ExtractSettings& settings, RankGroup* ranks, int threads) {
+  PipelineOptions p;
+  p.ranks = ranks;
+  p.threads = threads;
+  p.maxThreadBytes = (static_cast<std::size_t>(settings.maxMemoryMiB) << 20) / 2;
+  if (settings.sequentialVoxels >= 0) p.sequentialVoxels = settings.sequentialVoxels;
+  return p;
+}
+
 std::vector<bool> chooseComponents(SliceSource& source, Extractor& extractor, const MeshHeader& header,
                                    const PipelineOptions& options, const ExtractSettings& settings,
                                    const ComponentRules& rules, bool primary, ExtractReport& report) {

@@ -37,6 +37,10 @@ OpenedInput openInput(const ExtractSettings& settings, ExtractObserver* observer
 /// The input opened again (for a second pass), cut to the same box.
 std::unique_ptr<SliceSource> reopenInput(const ExtractSettings& settings, const OpenedInput& input);
 
+/// The pipeline's options that the settings give: threads, the memory cap, the sequential cut-off
+/// and the ranks (nullptr: one process).
+PipelineOptions pipelineOptionsOf(const ExtractSettings& settings, RankGroup* ranks, int threads);
+
 /// The component filter's first pass (settings.components; metrics/component_filter.h): runs the
 /// pipeline into a ComponentSink, and on the primary rank (which alone sees the mesh) chooses by
 /// `rules` and fills report.componentsJson, componentFilterJson and the pass's seconds. Returns,
@@ -107,8 +111,8 @@ std::vector<std::string> droppedLabelWarnings(const std::map<std::int32_t, Label
                                               const std::function<bool(std::int32_t)>& hasSurface,
                                               const std::function<std::string(std::int32_t)>& nameOf);
 
-LabelRelabelling chooseLabelComponents(SliceSource& labels, const ExtractSettings& settings, double voxelVolume,
-                                       const SlabHook& onSlice, ExtractReport& report);
+LabelRelabelling chooseLabelComponents(SliceSource& labels, const std::string& what, const ExtractSettings& settings,
+                                       double voxelVolume, const SlabHook& onSlice, ExtractReport& report);
 
 /// A label's file from an output pattern: {name} (made fit for a file name), {label} (the
 /// value) and {iso} replaced.

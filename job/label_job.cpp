@@ -112,7 +112,7 @@ class SurfaceSetRun {
       if (settings_.components.any()) {
         // Per-label component rules: a first pass finds and chooses, the second relabels.
         LabelSource first(std::move(input.source), what, keep_);
-        relabelling = chooseLabelComponents(first, settings_, frame_.cellVolume(),
+        relabelling = chooseLabelComponents(first, what, settings_, frame_.cellVolume(),
                                             primary() ? onComponentSlice : SlabHook(), report_);
         input.source = reopenInput(settings_, input);
       }
@@ -191,12 +191,8 @@ class SurfaceSetRun {
   }
 
   PipelineOptions pipelineOptions(const SlabHook& onSlab, int threads) const {
-    PipelineOptions options;
-    options.threads = threads;
-    options.maxThreadBytes = (static_cast<std::size_t>(settings_.maxMemoryMiB) << 20) / 2;
-    if (settings_.sequentialVoxels >= 0) options.sequentialVoxels = settings_.sequentialVoxels;
+    PipelineOptions options = pipelineOptionsOf(settings_, ranked() ? settings_.ranks : nullptr, threads);
     options.onSlab = onSlab;
-    if (ranked()) options.ranks = settings_.ranks;
     return options;
   }
 

@@ -46,21 +46,14 @@ std::optional<std::set<std::int32_t>> selectedLabels(const LabelRequest& request
   return keep;
 }
 
-LabelRelabelling chooseLabelComponents(SliceSource& labels, const ExtractSettings& settings, double voxelVolume,
-                                       const std::function<void(std::int64_t, std::int64_t)>& onSlice,
-                                       ExtractReport& report) {
+LabelRelabelling chooseLabelComponents(SliceSource& labels, const std::string& what, const ExtractSettings& settings,
+                                       double voxelVolume, const SlabHook& onSlice, ExtractReport& report) {
   const auto start = std::chrono::steady_clock::now();
   const VolumeInfo& info = labels.info();
-  LabelComponentFinder finder(info);
+  LabelComponentFinder finder(info, what);
   std::vector<float> slice;
   for (std::int64_t z = 0; readSliceInto(labels, slice); ++z) {
-    try {
-      finder.addSlice(slice);
-    } catch (const Interrupted&) {
-      throw;
-    } catch (const Error& e) {  // the finder's own limit, named for the input
-      throw Error(fmt::format("{}: {}", settings.inputs.empty() ? info.source : settings.inputs.front(), e.what()));
-    }
+    finder.addSlice(slice);
     throwIfInterrupted();
     if (onSlice) onSlice(z + 1, info.dims[2]);
   }

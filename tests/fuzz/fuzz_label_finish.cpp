@@ -80,7 +80,7 @@ std::pair<std::int64_t, std::int64_t> shapeOf(const Collect& c, std::int32_t lab
 LabelRelabelling relabelled(const VolumeInfo& info, const std::vector<float>& values,
                             const LabelComponentRules& rules) {
   const auto components = [&](SliceSource& source) {
-    auto finder = std::make_unique<LabelComponentFinder>(info);
+    auto finder = std::make_unique<LabelComponentFinder>(info, "fuzz");
     std::vector<float> slice(static_cast<std::size_t>(info.sliceValues()));
     while (source.readSlice(slice)) finder->addSlice(slice);
     return finder;

@@ -242,7 +242,7 @@ TEST(LabelComponents, MatchBruteForceAndRelabelAsItDoes) {
     SCOPED_TRACE(::testing::Message() << "trial " << trial << " dims " << v.dims[0] << "x" << v.dims[1] << "x"
                                       << v.dims[2] << " layers " << v.layers);
     // The components.
-    LabelComponentFinder finder(v.source()->info());
+    LabelComponentFinder finder(v.source()->info(), "trial");
     {
       auto source = v.source();
       std::vector<float> slice(static_cast<std::size_t>(source->info().sliceValues()));
@@ -323,7 +323,7 @@ TEST(LabelComponents, ASecondPassOverOtherDataIsRefused) {
   Volume v;
   v.dims = {4, 1, 2};
   v.values = {1, 0, 1, 0, 0, 0, 0, 0};  // two specks of label 1
-  LabelComponentFinder finder(v.source()->info());
+  LabelComponentFinder finder(v.source()->info(), "trial");
   std::vector<float> slice(4);
   for (auto s = v.source(); s->readSlice(slice);) finder.addSlice(slice);
   ASSERT_EQ(finder.components().size(), 2u);
