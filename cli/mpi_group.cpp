@@ -2,7 +2,7 @@
 
 #include <cstdlib>
 
-#include "io/modules.h"
+#include "core/modules.h"
 
 namespace isoslab::cli {
 

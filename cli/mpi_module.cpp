@@ -1,4 +1,4 @@
-// The MPI module (libisoslab_mpi.so, io/modules.h): the ranks of `isoslab extract` under mpirun
+// The MPI module (libisoslab_mpi.so, core/modules.h): the ranks of `isoslab extract` under mpirun
 // over MPI's world communicator. A module, loaded only by a program that mpirun started, so that
 // every other run pays nothing for binding Open MPI's libraries at start-up (cli/mpi_group.h).
 #include <mpi.h>

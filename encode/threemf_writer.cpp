@@ -4,9 +4,10 @@
 
 #include <limits>
 
-#include "Model/COM/NMR_DLLInterfaces.h"
 #include "core/error.h"
 #include "core/interrupt.h"
+#include "core/modules.h"
+#include "encode/threemf_module.h"
 
 namespace isoslab {
 namespace {
@@ -46,11 +47,19 @@ std::string uuid(int kind, int index) {
   return fmt::format("{:08x}-0000-4000-8000-{:012x}", kind, index);
 }
 
+// lib3mf's functions, from the 3MF module, loaded on first use.
+const ThreeMfApi& lib3mf() {
+  using Entry = const ThreeMfApi* (*)();
+  static const ThreeMfApi* const api =
+      reinterpret_cast<Entry>(moduleSymbol(LoadableModule::kThreeMf, kThreeMfModuleEntry, "3MF files"))();
+  return *api;
+}
+
 // Releases a lib3mf instance at the end of a scope.
 struct Released {
   PLib3MFBase* instance = nullptr;
   ~Released() {
-    if (instance != nullptr) lib3mf_release(instance);
+    if (instance != nullptr) lib3mf().release(instance);
   }
 };
 
@@ -59,30 +68,31 @@ struct Released {
 ThreeMfModel::ThreeMfModel(std::string path) : path_(std::move(path)) {}
 
 ThreeMfModel::~ThreeMfModel() {
-  if (materials_ != nullptr) lib3mf_release(materials_);
-  if (model_ != nullptr) lib3mf_release(model_);
+  if (materials_ != nullptr) lib3mf().release(materials_);
+  if (model_ != nullptr) lib3mf().release(model_);
 }
 
 void ThreeMfModel::fail(Handle instance, const char* what) const {
   DWORD code = 0;
   LPCSTR message = nullptr;
   std::string detail;
-  if (instance != nullptr && lib3mf_getlasterror(instance, &code, &message) == LIB3MF_OK && message != nullptr) {
+  if (instance != nullptr && lib3mf().getLastError(instance, &code, &message) == LIB3MF_OK && message != nullptr) {
     detail = fmt::format(": {} (lib3mf error {:#x})", message, code);
   }
   throw Error(fmt::format("{}: cannot {} the 3MF model{}", path_, what, detail));
 }
 
 void ThreeMfModel::begin() {
+  lib3mf();  // a missing module is said before anything is made
   file_ = std::make_unique<AtomicFile>(path_);
   // A 3MF is a zip package, which lib3mf writes with seeks: a pipe fails here, in one line, not
   // inside lib3mf.
   file_->seek(0);
-  if (lib3mf_createmodel(&model_) != LIB3MF_OK) fail(nullptr, "create");
-  if (lib3mf_model_setunit(model_, MODELUNIT_MILLIMETER) != LIB3MF_OK) fail(model_, "set the unit of");
+  if (lib3mf().createModel(&model_) != LIB3MF_OK) fail(nullptr, "create");
+  if (lib3mf().setUnit(model_, MODELUNIT_MILLIMETER) != LIB3MF_OK) fail(model_, "set the unit of");
   // The production extension's identities, made up by lib3mf at random, are fixed here: the same
   // run gives the same bytes.
-  if (lib3mf_model_setbuilduuidutf8(model_, uuid(0, 0).c_str()) != LIB3MF_OK) fail(model_, "identify the build of");
+  if (lib3mf().setBuildUuid(model_, uuid(0, 0).c_str()) != LIB3MF_OK) fail(model_, "identify the build of");
 }
 
 void ThreeMfModel::addObject(const std::string& name, const std::optional<std::array<std::uint8_t, 3>>& color,
@@ -111,50 +121,50 @@ void ThreeMfModel::addObject(const std::string& name, const std::optional<std::a
   }
   Released mesh;
   ++objects_;
-  if (lib3mf_model_addmeshobject(model_, &mesh.instance) != LIB3MF_OK) fail(model_, "add an object to");
-  if (lib3mf_object_setuuidutf8(mesh.instance, uuid(1, objects_).c_str()) != LIB3MF_OK) {
+  if (lib3mf().addMeshObject(model_, &mesh.instance) != LIB3MF_OK) fail(model_, "add an object to");
+  if (lib3mf().setObjectUuid(mesh.instance, uuid(1, objects_).c_str()) != LIB3MF_OK) {
     fail(mesh.instance, "identify an object of");
   }
-  if (lib3mf_object_setnameutf8(mesh.instance, name.c_str()) != LIB3MF_OK) fail(mesh.instance, "name an object of");
-  if (lib3mf_meshobject_setgeometry(mesh.instance, vertices.data(), static_cast<DWORD>(vertices.size()), faces.data(),
-                                    static_cast<DWORD>(faces.size())) != LIB3MF_OK) {
+  if (lib3mf().setObjectName(mesh.instance, name.c_str()) != LIB3MF_OK) fail(mesh.instance, "name an object of");
+  if (lib3mf().setGeometry(mesh.instance, vertices.data(), static_cast<DWORD>(vertices.size()), faces.data(),
+                           static_cast<DWORD>(faces.size())) != LIB3MF_OK) {
     fail(mesh.instance, "set an object's mesh in");
   }
   if (color) {
     if (materials_ == nullptr) {
-      if (lib3mf_model_addbasematerialgroup(model_, &materials_) != LIB3MF_OK) fail(model_, "add materials to");
+      if (lib3mf().addBaseMaterialGroup(model_, &materials_) != LIB3MF_OK) fail(model_, "add materials to");
       DWORD id = 0;
-      if (lib3mf_basematerial_getresourceid(materials_, &id) != LIB3MF_OK) fail(materials_, "add materials to");
+      if (lib3mf().getResourceId(materials_, &id) != LIB3MF_OK) fail(materials_, "add materials to");
       materialGroup_ = id;
     }
     DWORD material = 0;
     const auto [r, g, b] = *color;
-    if (lib3mf_basematerial_addmaterialutf8(materials_, name.c_str(), r, g, b, &material) != LIB3MF_OK) {
+    if (lib3mf().addMaterial(materials_, name.c_str(), r, g, b, &material) != LIB3MF_OK) {
       fail(materials_, "add a material to");
     }
     Released handler;
-    if (lib3mf_object_createdefaultpropertyhandler(mesh.instance, &handler.instance) != LIB3MF_OK ||
-        lib3mf_defaultpropertyhandler_setbasematerial(handler.instance, materialGroup_, material) != LIB3MF_OK) {
+    if (lib3mf().createDefaultPropertyHandler(mesh.instance, &handler.instance) != LIB3MF_OK ||
+        lib3mf().setBaseMaterial(handler.instance, materialGroup_, material) != LIB3MF_OK) {
       fail(mesh.instance, "colour an object of");
     }
   }
   Released item;
-  if (lib3mf_model_addbuilditem(model_, mesh.instance, nullptr, &item.instance) != LIB3MF_OK ||
-      lib3mf_builditem_setuuidutf8(item.instance, uuid(2, objects_).c_str()) != LIB3MF_OK) {
+  if (lib3mf().addBuildItem(model_, mesh.instance, nullptr, &item.instance) != LIB3MF_OK ||
+      lib3mf().setBuildItemUuid(item.instance, uuid(2, objects_).c_str()) != LIB3MF_OK) {
     fail(model_, "add a build item to");
   }
 }
 
 std::int64_t ThreeMfModel::write() {
   Released writer;
-  if (lib3mf_model_querywriter(model_, "3mf", &writer.instance) != LIB3MF_OK) fail(model_, "make a writer for");
+  if (lib3mf().queryWriter(model_, "3mf", &writer.instance) != LIB3MF_OK) fail(model_, "make a writer for");
   Sink sink{file_.get(), {}};
-  const auto result = lib3mf_writer_writetocallback(writer.instance, reinterpret_cast<void*>(&writeBytes),
-                                                    reinterpret_cast<void*>(&seekTo), &sink);
+  const auto result = lib3mf().writeToCallback(writer.instance, reinterpret_cast<void*>(&writeBytes),
+                                               reinterpret_cast<void*>(&seekTo), &sink);
   if (!sink.error.empty()) throw Error(sink.error);
   if (result != LIB3MF_OK) fail(writer.instance, "write");
   // The model is written: its memory goes before the file is committed.
-  lib3mf_release(model_);
+  lib3mf().release(model_);
   model_ = nullptr;
   const std::int64_t bytes = file_->size();
   file_->commit();

@@ -5,7 +5,7 @@
 
 #include "io/dicom_module.h"
 #include "io/dicom_seg.h"
-#include "io/modules.h"
+#include "core/modules.h"
 
 namespace isoslab {
 namespace {

@@ -1,4 +1,4 @@
-// The DICOM module's entry (libisoslab_dicom.so, io/modules.h): DCMTK's readers behind one table
+// The DICOM module's entry (libisoslab_dicom.so, core/modules.h): DCMTK's readers behind one table
 // of functions. The program and the library hold only io/dicom_forward.cpp, whose scanDicom,
 // openDicomSeries, isDicomSegmentation and openDicomSegmentation load the module on the first
 // DICOM file and call through this table, so that a run that reads no DICOM pays nothing for

@@ -11,7 +11,7 @@
 
 #include "core/error.h"
 #include "io/file_list.h"
-#include "io/modules.h"
+#include "core/modules.h"
 
 namespace fs = std::filesystem;
 

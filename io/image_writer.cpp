@@ -6,7 +6,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/interrupt.h"
-#include "io/modules.h"
+#include "core/modules.h"
 
 namespace isoslab {
 

@@ -186,3 +186,47 @@ TEST(Writers, OutputsGetTheUsualPermissions) {
 
 }  // namespace
 }  // namespace isoslab
+
+namespace isoslab {
+namespace {
+
+// lib3mf (with libzip, libcrypto and libbz2) comes from a module loaded only for a 3MF output
+// (core/modules.h): the dynamic loader's log of a PLY run names none of them.
+TEST(ThreeMfModule, IsLoadedOnlyForA3mf) {
+  const std::string dir = testing::tempDir();
+  ::setenv("LD_DEBUG", "files", 1);
+  const auto ply = testing::runCli("extract 'phantom:sphere?n=16' -o " + dir + "/p.ply -q");
+  const auto threeMf = testing::runCli("extract 'phantom:sphere?n=16' -o " + dir + "/p.3mf -q");
+  ::unsetenv("LD_DEBUG");
+  ASSERT_EQ(ply.exitCode, 0) << ply.err;
+  ASSERT_EQ(threeMf.exitCode, 0) << threeMf.err;
+  EXPECT_NE(ply.err.find("file=libdraco"), std::string::npos) << "no loader log";
+  for (const char* library : {"libisoslab_3mf.so", "lib3MF", "libzip", "libcrypto"}) {
+    EXPECT_EQ(ply.err.find(library), std::string::npos) << library;
+  }
+  EXPECT_NE(threeMf.err.find("libisoslab_3mf.so"), std::string::npos);
+  EXPECT_NE(threeMf.err.find("lib3MF"), std::string::npos);
+}
+
+// A program whose 3MF module is missing says so in one line and leaves no output; its other
+// formats still work.
+TEST(ThreeMfModule, AMissingModuleIsOneLine) {
+  const std::string dir = testing::tempDir();
+  fs::copy_file(ISOSLAB_CLI_PATH, dir + "/isoslab");
+  const auto run = [&](const std::string& output) {
+    const std::string cmd = "env -u ISOSLAB_3MF_MODULE " + dir + "/isoslab extract 'phantom:sphere?n=16' -o " + dir +
+                            "/" + output + " -q >" + dir + "/out 2>" + dir + "/err </dev/null";
+    const int status = std::system(cmd.c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  EXPECT_NE(run("p.3mf"), 0);
+  EXPECT_EQ(slurp(dir + "/err"),
+            "isoslab: error: 3MF files need the 3MF module libisoslab_3mf.so, which was not found\n");
+  EXPECT_EQ(slurp(dir + "/out"), "");
+  EXPECT_FALSE(fs::exists(dir + "/p.3mf"));
+  EXPECT_EQ(run("p.stl"), 0) << slurp(dir + "/err");
+  EXPECT_TRUE(fs::exists(dir + "/p.stl"));
+}
+
+}  // namespace
+}  // namespace isoslab

@@ -444,7 +444,7 @@ TEST(Dicom, ADicomdirListsTheSeriesFiles) {
   EXPECT_TRUE(x.mesh.positions == reference().mesh.positions);
 }
 
-// DCMTK and Open MPI come from modules loaded only when needed (io/modules.h): the dynamic
+// DCMTK and Open MPI come from modules loaded only when needed (core/modules.h): the dynamic
 // loader's own log (LD_DEBUG=files, on the program's stderr) names the libraries it maps. A run on
 // a phantom maps neither; a DICOM series maps the DICOM module and DCMTK, and still not MPI.
 TEST(Dicom, DcmtkAndMpiAreLoadedOnlyWhenNeeded) {

@@ -1,4 +1,4 @@
-#include "io/modules.h"
+#include "core/modules.h"
 
 #include <dlfcn.h>
 
@@ -30,7 +30,8 @@ struct ModuleName {
 };
 constexpr ModuleName kNames[] = {{"libisoslab_oiio.so", "ISOSLAB_OIIO_MODULE", "OpenImageIO"},
                                  {"libisoslab_dicom.so", "ISOSLAB_DICOM_MODULE", "DICOM"},
-                                 {"libisoslab_mpi.so", "ISOSLAB_MPI_MODULE", "MPI"}};
+                                 {"libisoslab_mpi.so", "ISOSLAB_MPI_MODULE", "MPI"},
+                                 {"libisoslab_3mf.so", "ISOSLAB_3MF_MODULE", "3MF"}};
 
 Module load(const ModuleName& name) {
   Module m;
@@ -79,6 +80,10 @@ const Module& module(LoadableModule which) {
     case LoadableModule::kDicom: {
       static const Module dicom = load(kNames[1]);
       return dicom;
+    }
+    case LoadableModule::kThreeMf: {
+      static const Module threeMf = load(kNames[3]);
+      return threeMf;
     }
     case LoadableModule::kMpi:
       break;
