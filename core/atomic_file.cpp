@@ -163,6 +163,36 @@ void AtomicFile::seek(std::int64_t offset) {
   written_ = std::min(written_, offset);
 }
 
+bool AtomicFile::insertFront(std::int64_t bytes) {
+  if (file_ == nullptr) throw Error(std::string(path_) + ": write after close");
+  if (direct_) throw Error(std::string(path_) + ": cannot move data in a device or pipe");
+  if (std::fflush(file_) != 0) fail("write");
+  const int fd = ::fileno(file_);
+  bool moved = false;
+  if (bytes > 0 && size_ > 0) {
+    // The extents after 0 move up by `bytes`; the file system first writes the data out (most of it
+    // is on its way already, through the write-behind), then drops it from the page cache.
+    moved = ::fallocate(fd, FALLOC_FL_INSERT_RANGE, 0, bytes) == 0;
+  }
+  if (!moved && bytes > 0 && size_ > 0) {
+    // Copied up, from the end, in 1 MiB steps (a step never overwrites what it has not read yet).
+    constexpr std::int64_t kStep = std::int64_t{1} << 20;
+    const std::unique_ptr<char[]> buf(new char[static_cast<std::size_t>(std::min(kStep, size_))]);
+    for (std::int64_t end = size_; end > 0;) {
+      const std::int64_t start = std::max<std::int64_t>(0, end - kStep);
+      const auto n = static_cast<std::size_t>(end - start);
+      if (::pread(fd, buf.get(), n, start) != static_cast<ssize_t>(n)) fail("write");
+      if (::pwrite(fd, buf.get(), n, start + bytes) != static_cast<ssize_t>(n)) fail("write");
+      end = start;
+    }
+  }
+  size_ += bytes;
+  if (std::fseek(file_, 0, SEEK_SET) != 0) fail("seek");
+  position_ = 0;
+  written_ = 0;
+  return moved;
+}
+
 void AtomicFile::commit() {
   if (file_ == nullptr) throw Error(std::string(path_) + ": commit after close");
   if (std::fflush(file_) != 0) fail("write");

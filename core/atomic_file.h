@@ -47,6 +47,13 @@ class AtomicFile {
   void seek(std::int64_t offset);
   /// Bytes written so far (the current end of file).
   std::int64_t size() const noexcept { return size_; }
+  /// Makes room for `bytes` at the start of the file: what was written moves up by `bytes`, the
+  /// write position goes to 0, and the caller writes the first `bytes` bytes before commit(). Where
+  /// the file system can (ext4 and XFS: FALLOC_FL_INSERT_RANGE, with `bytes` a multiple of its
+  /// block size, 4096 on most, and the file not empty), the data stays where it is on the disk and
+  /// only its extents move; elsewhere it is copied up, from the end. Not for a direct output.
+  /// Returns whether the data was moved without a copy.
+  bool insertFront(std::int64_t bytes);
   /// Flushes, closes and renames onto the destination. Throws on any failure, removing the
   /// temporary file. While a CommitGroup is active, the rename is left to the group.
   void commit();

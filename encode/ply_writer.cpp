@@ -15,6 +15,9 @@ namespace isoslab {
 namespace {
 
 constexpr std::uint64_t kMaxCount = 4294967295ULL;
+// A padding comment line: "comment\n" at least, 80 bytes at most.
+constexpr std::size_t kLeastPad = 8;
+constexpr std::size_t kLongestPad = 80;
 
 }  // namespace
 
@@ -30,13 +33,22 @@ std::string PlyWriter::header(std::uint64_t vertices, std::uint64_t faces, std::
   // A label complex: each face's labels, in front (the side its normal points to) and behind.
   if (meshHeader_.labels) tail += "property int label_front\nproperty int label_back\n";
   tail += "end_header\n";
-  // A comment line pads the header to exactly padTo bytes, so that it can be written last.
-  std::string pad = "comment";
-  if (padTo > 0) {
-    const std::size_t base = head.size() + tail.size() + pad.size() + 1;
-    if (padTo > base) pad.append(padTo - base, ' ');
+  // Comment lines of spaces pad the header to exactly padTo bytes (a line is "comment" and up to 72
+  // spaces, so that no reader meets a long line); padTo 0 asks for one bare comment line, the
+  // least that a pad can be. The pad goes before the counts, which are written last.
+  const std::size_t bare = head.size() + tail.size();
+  std::size_t pad = padTo == 0 ? kLeastPad : padTo - std::min(padTo, bare);
+  if (pad > 0 && pad < kLeastPad) throw Error(fmt::format("{}: a PLY header cannot be padded by {} bytes", path_, pad));
+  std::string lines;
+  while (pad > 0) {
+    // The last lines share what is left, each at least a bare "comment\n".
+    const std::size_t line = pad <= kLongestPad ? pad : std::min(kLongestPad, pad - kLeastPad);
+    lines += "comment";
+    lines.append(line - kLeastPad, ' ');
+    lines += "\n";
+    pad -= line;
   }
-  return head + pad + "\n" + tail;
+  return head + lines + tail;
 }
 
 std::int64_t PlyWriter::binaryBytes(std::uint64_t vertices, std::uint64_t triangles, const MeshHeader& header) {
@@ -54,10 +66,17 @@ void PlyWriter::begin(const MeshHeader& header) {
   meshHeader_ = header;
   file_ = std::make_unique<AtomicFile>(path_);
   const std::string folder = std::filesystem::path(path_).parent_path().string();
-  faces_ = std::make_unique<SpoolFile>(folder.empty() ? "." : folder, path_);
-  reserved_ = this->header(kMaxCount, kMaxCount, 0).size();
-  const std::string blank(reserved_, ' ');
-  file_->write(blank.data(), blank.size());
+  spool_ = std::make_unique<SpoolFile>(folder.empty() ? "." : folder, path_);
+  // The faces (most of the bytes) go straight to the file, the vertices to the spool; finish() then
+  // makes room before the faces for the header and the vertices (AtomicFile::insertFront). A device
+  // or a pipe cannot make room: there the vertices go straight to the file after a reserved
+  // header, and the faces to the spool.
+  facesFirst_ = !file_->direct();
+  if (!facesFirst_) {
+    reserved_ = this->header(kMaxCount, kMaxCount, 0).size();
+    const std::string blank(reserved_, ' ');
+    file_->write(blank.data(), blank.size());
+  }
 }
 
 namespace {
@@ -83,22 +102,35 @@ void writeRecords(std::unique_ptr<char[]>& buffer, Sink& sink, std::size_t count
 void PlyWriter::consume(const MeshChunk& chunk) {
   throwIfInterrupted();
   static_assert(sizeof(Vec3f) == 12 && sizeof(Triangle) == 12 && sizeof(LabelPair) == 8);
-  if (!meshHeader_.normals) {  // the positions are the vertex records as they are
-    file_->write(chunk.positions.data(), chunk.positions.size() * sizeof(Vec3f));
-  } else {
-    writeRecords(buffer_, *file_, chunk.positions.size(), 24, [&](std::size_t v, char* out) {
+  AtomicFile& file = *file_;
+  SpoolFile& spool = *spool_;
+  const auto writeVertices = [&](auto& sink) {
+    if (!meshHeader_.normals) {  // the positions are the vertex records as they are
+      sink.write(chunk.positions.data(), chunk.positions.size() * sizeof(Vec3f));
+      return;
+    }
+    writeRecords(buffer_, sink, chunk.positions.size(), 24, [&](std::size_t v, char* out) {
       std::memcpy(out, &chunk.positions[v], 12);
       std::memcpy(out + 12, &chunk.normals[v], 12);
     });
+  };
+  const auto writeFaces = [&](auto& sink) {
+    // Each face: its count (3), its ids and, in a label complex, its labels in front and behind.
+    const std::size_t record = meshHeader_.labels ? 21 : 13;
+    writeRecords(buffer_, sink, chunk.triangles.size(), record, [&](std::size_t n, char* out) {
+      *out = 3;
+      std::memcpy(out + 1, &chunk.triangles[n], 12);
+      if (record == 21) std::memcpy(out + 13, &chunk.faceLabels[n], 8);
+    });
+  };
+  if (facesFirst_) {
+    writeVertices(spool);
+    writeFaces(file);
+  } else {
+    writeVertices(file);
+    writeFaces(spool);
   }
   vertices_ += chunk.positions.size();
-  // Each face: its count (3), its ids and, in a label complex, its labels in front and behind.
-  const std::size_t record = meshHeader_.labels ? 21 : 13;
-  writeRecords(buffer_, *faces_, chunk.triangles.size(), record, [&](std::size_t n, char* out) {
-    *out = 3;
-    std::memcpy(out + 1, &chunk.triangles[n], 12);
-    if (record == 21) std::memcpy(out + 13, &chunk.faceLabels[n], 8);
-  });
   faceCount_ += chunk.triangles.size();
   if (vertices_ > kMaxCount || faceCount_ > kMaxCount) {
     throw Error(fmt::format("{}: the mesh exceeds PLY's 32-bit counts", path_));
@@ -106,12 +138,27 @@ void PlyWriter::consume(const MeshChunk& chunk) {
 }
 
 void PlyWriter::finish() {
-  throwIfInterrupted();  // copying the faces' spool takes a while
-  faces_->copyTo(*file_);
-  faces_.reset();
-  const std::string head = header(vertices_, faceCount_, reserved_);
-  file_->seek(0);
-  file_->write(head.data(), head.size());
+  throwIfInterrupted();  // copying the spool takes a while
+  if (facesFirst_) {
+    // The header is padded so that it and the vertices fill whole blocks of 4 KiB: the faces then
+    // move up by whole blocks, which ext4 and XFS do without copying them. A fixed unit (not the
+    // file system's), so that the bytes are the same on every disk.
+    const auto vertexBytes = static_cast<std::size_t>(spool_->size());
+    constexpr std::size_t block = 4096;
+    const std::size_t bare = header(vertices_, faceCount_, 1).size();
+    std::size_t pad = (block - (bare + vertexBytes) % block) % block;
+    if (pad > 0 && pad < kLeastPad) pad += block;
+    const std::string head = header(vertices_, faceCount_, bare + pad);
+    file_->insertFront(static_cast<std::int64_t>(head.size() + vertexBytes));
+    file_->write(head.data(), head.size());
+    spool_->copyTo(*file_);
+  } else {
+    spool_->copyTo(*file_);
+    const std::string head = header(vertices_, faceCount_, reserved_);
+    file_->seek(0);
+    file_->write(head.data(), head.size());
+  }
+  spool_.reset();
   bytes_ = file_->size();
   file_->commit();
   file_.reset();

@@ -1,6 +1,8 @@
-// Binary little-endian PLY, streamed: vertices go straight to the output after a reserved header,
-// faces to a spool file beside it until the vertex count is known; finish() appends the faces,
-// writes the header and renames the file into place.
+// Binary little-endian PLY, streamed: the faces (most of the bytes) go straight to the output and
+// the vertices to a spool file beside it until the counts are known; finish() makes room before the
+// faces (without copying them where the file system can move extents), writes the header and the
+// vertices there, and renames the file into place. A device or a pipe gets the vertices straight
+// after a reserved header and the faces through the spool.
 #pragma once
 
 #include <memory>
@@ -28,12 +30,15 @@ class PlyWriter final : public MeshFileSink {
   std::int64_t bytes() const noexcept override { return bytes_; }
 
  private:
+  /// The header, padded with comment lines to exactly `padTo` bytes (at least the bare header
+  /// plus 8, or 0 for one bare comment line; 1 gives the bare header).
   std::string header(std::uint64_t vertices, std::uint64_t faces, std::size_t padTo) const;
 
   std::string path_;
   MeshHeader meshHeader_;
   std::unique_ptr<AtomicFile> file_;
-  std::unique_ptr<SpoolFile> faces_;
+  std::unique_ptr<SpoolFile> spool_;  // the vertices, or the faces of a direct output
+  bool facesFirst_ = true;
   std::size_t reserved_ = 0;
   std::uint64_t vertices_ = 0;
   std::uint64_t faceCount_ = 0;

@@ -525,7 +525,7 @@ TEST(Cli, AFullDiskLeavesNoPartialFile) {
   std::ifstream f(dir + "/err");
   std::string line;
   std::getline(f, line);
-  EXPECT_EQ(line, "isoslab: error: " + dir + "/big.ply: cannot write the spool file: File too large");
+  EXPECT_EQ(line, "isoslab: error: " + dir + "/big.ply: cannot write: File too large");
   EXPECT_FALSE(fs::exists(dir + "/big.ply"));
   EXPECT_EQ(testing::fileCount(dir), 1);  // only the captured stderr
 }

@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
+#include <sys/statfs.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -8,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "encode/indexed_mesh.h"
 #include "encode/mesh_reader.h"
@@ -226,6 +229,72 @@ TEST(ThreeMfModule, AMissingModuleIsOneLine) {
   EXPECT_FALSE(fs::exists(dir + "/p.3mf"));
   EXPECT_EQ(run("p.stl"), 0) << slurp(dir + "/err");
   EXPECT_TRUE(fs::exists(dir + "/p.stl"));
+}
+
+}  // namespace
+}  // namespace isoslab
+
+namespace isoslab {
+namespace {
+
+// AtomicFile::insertFront moves what was written up and leaves the front to be written: by moving
+// extents (a multiple of 4096 on ext4 or XFS) or by copying, from the end, in 1 MiB steps (here 3.5
+// MiB, so that steps overlap what they move).
+TEST(AtomicFile, InsertFrontMovesWhatWasWrittenUp) {
+  const std::string dir = testing::tempDir();
+  std::string body(std::size_t{7} << 19, '\0');
+  for (std::size_t i = 0; i < body.size(); ++i) body[i] = static_cast<char>('a' + (i * 7 + i / 4099) % 26);
+  for (const std::int64_t front : {std::int64_t{5000}, std::int64_t{8192}, std::int64_t{3} << 20}) {
+    const std::string path = dir + "/f" + std::to_string(front);
+    AtomicFile file(path);
+    file.write(body.data(), body.size());
+    file.insertFront(front);
+    EXPECT_EQ(file.size(), static_cast<std::int64_t>(body.size()) + front);
+    const std::string head(static_cast<std::size_t>(front), '#');
+    file.write(head.data(), head.size());
+    file.commit();
+    EXPECT_TRUE(slurp(path) == head + body) << front;
+  }
+  // Nothing written yet: the front is all there is.
+  AtomicFile empty(dir + "/empty");
+  EXPECT_FALSE(empty.insertFront(4096));
+  empty.write(std::string(4096, 'x').data(), 4096);
+  empty.commit();
+  EXPECT_EQ(slurp(dir + "/empty"), std::string(4096, 'x'));
+}
+
+// A PLY is the same bytes on a disk that moves the faces' extents (ext4 here) and on one that
+// copies them (tmpfs): the header pads the header and the vertices to whole 4 KiB blocks either way,
+// with comment lines (of spaces) of at most 80 bytes.
+TEST(PlyWriter, TheSameBytesWhetherTheFacesMoveOrAreCopied) {
+  struct statfs shm {};
+  if (::statfs("/dev/shm", &shm) != 0 || shm.f_type != 0x01021994) GTEST_SKIP() << "no tmpfs at /dev/shm";
+  const std::string disk = testing::tempDir();
+  const std::string memory = "/dev/shm/isoslab-ply-" + std::to_string(::getpid());
+  fs::create_directories(memory);
+  for (const char* options : {"", " --labels all"}) {
+    const std::string input = *options != 0 ? "'phantom:nested?n=40'" : "'phantom:sphere?n=40&r=15'";
+    const auto a = testing::runCli("extract " + input + options + " -q -o " + disk + "/m.ply");
+    const auto b = testing::runCli("extract " + input + options + " -q -o " + memory + "/m.ply");
+    ASSERT_EQ(a.exitCode, 0) << a.err;
+    ASSERT_EQ(b.exitCode, 0) << b.err;
+    const std::string bytes = slurp(disk + "/m.ply");
+    EXPECT_TRUE(bytes == slurp(memory + "/m.ply")) << options;
+    const std::size_t end = bytes.find("end_header\n") + 11;
+    std::istringstream header(bytes.substr(0, end));
+    std::size_t vertices = 0;
+    bool normals = false;
+    for (std::string line; std::getline(header, line);) {
+      if (line.find_first_not_of(' ', 7) == std::string::npos) {  // a pad
+        EXPECT_LE(line.size() + 1, 80u) << line;
+      }
+      std::sscanf(line.c_str(), "element vertex %zu", &vertices);
+      normals = normals || line == "property float nx";
+    }
+    ASSERT_GT(vertices, 0u);
+    EXPECT_EQ((end + vertices * (normals ? 24 : 12)) % 4096, 0u) << options;
+  }
+  fs::remove_all(memory);
 }
 
 }  // namespace
