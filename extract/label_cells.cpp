@@ -141,35 +141,45 @@ CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept {
   return out;
 }
 
-void forEachPinch(const std::array<std::int32_t, 8>& labels, const CellGroups& groups,
-                  const std::function<void(std::int32_t, int)>& pinched) {
-  // Per label: its quads (crossed edges touching it), joined where they share an edge copy; each
-  // vertex copy should hold one group.
+namespace {
+
+// kEdgeEnds[e]: the corner mask of edge e's two ends.
+constexpr std::array<std::uint8_t, 12> kEdgeEnds = [] {
+  std::array<std::uint8_t, 12> t{};
+  for (std::size_t e = 0; e < 12; ++e) {
+    t[e] = static_cast<std::uint8_t>((1u << kLabelEdgeCorners[e][0]) | (1u << kLabelEdgeCorners[e][1]));
+  }
+  return t;
+}();
+
+// forEachPinch without the std::function: a fresh pattern of the cell cache pays for this, a few
+// thousand a run on an atlas. The faces' splits are the groups' (computed once, not per label),
+// and a label's quads are a 12-bit mask of the crossed edges with an end at one of its corners.
+template <class Pinched>
+void pinchesOf(const std::array<std::int32_t, 8>& labels, const CellGroups& groups, Pinched&& pinched) {
+  std::uint32_t crossed = 0;
+  for (std::size_t e = 0; e < 12; ++e) crossed |= static_cast<std::uint32_t>(groups.edge[e] != 0xff) << e;
+  std::uint32_t seen = 0;
   for (std::size_t c = 0; c < 8; ++c) {
+    if (((seen >> c) & 1u) != 0) continue;
     const std::int32_t l = labels[c];
-    bool earlier = false;
-    for (std::size_t d = 0; d < c && !earlier; ++d) earlier = labels[d] == l;
-    if (earlier) continue;
-    auto touches = [&](int e) {
-      const auto& ends = kLabelEdgeCorners[static_cast<std::size_t>(e)];
-      return groups.edge[static_cast<std::size_t>(e)] != 0xff &&
-             (labels[static_cast<std::size_t>(ends[0])] == l || labels[static_cast<std::size_t>(ends[1])] == l);
-    };
+    std::uint32_t corners = 0;
+    for (std::size_t d = c; d < 8; ++d) corners |= static_cast<std::uint32_t>(labels[d] == l) << d;
+    seen |= corners;
+    // Per label: its quads (crossed edges touching it), joined where they share an edge copy; each
+    // vertex copy should hold one group.
+    std::uint32_t touch = 0;
+    for (std::size_t e = 0; e < 12; ++e) {
+      touch |= static_cast<std::uint32_t>((kEdgeEnds[e] & corners) != 0) << e;
+    }
+    touch &= crossed;
+    const auto touches = [touch](int e) { return ((touch >> e) & 1u) != 0; };
     std::array<int, 12> parent{};
     for (int e = 0; e < 12; ++e) parent[static_cast<std::size_t>(e)] = e;
-    for (const auto& corners : kLabelFaceCorners) {
-      std::array<std::int32_t, 4> f{};
-      for (std::size_t k = 0; k < 4; ++k) {
-        f[k] = labels[static_cast<std::size_t>(corners[k])];
-      }
-      const auto& edges = kFaceEdges[static_cast<std::size_t>(&corners - kLabelFaceCorners.data())];
-      const int split = faceSplit(f);
-      std::array<std::array<int, 2>, 2> pairs{};
-      if (split == 1) {
-        pairs = {{{edges[3], edges[0]}, {edges[1], edges[2]}}};
-      } else if (split == 2) {
-        pairs = {{{edges[0], edges[1]}, {edges[2], edges[3]}}};
-      } else {  // one edge copy: the label's two quads in it (if any)
+    for (std::size_t face = 0; face < 6; ++face) {
+      const auto& edges = kFaceEdges[face];
+      const int split = groups.faceSplitOf(static_cast<int>(face));
+      if (split == 0) {  // one edge copy: the label's two quads in it (if any)
         int a = -1;
         for (int e : edges) {
           if (!touches(e)) continue;
@@ -181,6 +191,9 @@ void forEachPinch(const std::array<std::int32_t, 8>& labels, const CellGroups& g
         }
         continue;
       }
+      const std::array<std::array<int, 2>, 2> pairs =
+          split == 1 ? std::array<std::array<int, 2>, 2>{{{edges[3], edges[0]}, {edges[1], edges[2]}}}
+                     : std::array<std::array<int, 2>, 2>{{{edges[0], edges[1]}, {edges[2], edges[3]}}};
       for (const auto& p : pairs) {
         if (touches(p[0]) && touches(p[1])) join(parent, p[0], p[1]);
       }
@@ -193,6 +206,13 @@ void forEachPinch(const std::array<std::int32_t, 8>& labels, const CellGroups& g
       if (f > 1) pinched(l, f - 1);
     }
   }
+}
+
+}  // namespace
+
+void forEachPinch(const std::array<std::int32_t, 8>& labels, const CellGroups& groups,
+                  const std::function<void(std::int32_t, int)>& pinched) {
+  pinchesOf(labels, groups, pinched);
 }
 
 void appendSplits(const std::array<std::int32_t, 8>& labels, const CellGroups& g, std::vector<std::int32_t>& splits) {
@@ -275,7 +295,7 @@ const CellGroups& LabelCellCache::manyLabels(const CellLabels& cell, std::uint32
       pattern[corner] = background ? rank : rank + 1;
     }
     found.groups = groupCell(pattern);
-    forEachPinch(pattern, found.groups, [&](std::int32_t label, int extra) {
+    pinchesOf(pattern, found.groups, [&](std::int32_t label, int extra) {
       found.pinches.emplace_back(static_cast<std::uint8_t>(background ? label : label - 1), extra);
     });
   }
