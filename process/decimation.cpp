@@ -471,24 +471,36 @@ void DecimationSink::trim(std::size_t firstChunk) {
 DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTriangles,
                                                const OriginalSurface* original,
                                                const std::vector<VertexId>& pinned) const {
-  // Local ids by vertex (relative to base_), ~0u where unused: one array for every batch, each
+  if (faces.triangles.empty()) return {};
+  // The triangles' ids span [low, high]: the arrays below are that long, not as long as the sink's
+  // whole window of vertices (a block's region is a small part of it, and an array per call that
+  // spans the window was most of the decimation's page faults).
+  VertexId low = faces.triangles.front()[0], high = low;
+  for (const Triangle& t : faces.triangles) {
+    for (const VertexId v : t) {
+      low = std::min(low, v);
+      high = std::max(high, v);
+    }
+  }
+  const std::size_t span = static_cast<std::size_t>(high - low) + 1;
+  // Local ids by vertex (relative to low), ~0u where unused: one array for every batch, each
   // batch resetting the entries it set.
-  std::vector<unsigned> local(positions_.size(), ~0u);
+  std::vector<unsigned> local(span, ~0u);
   if (faces.size() <= options_.batchTriangles) {
-    return collapseBatch(faces.triangles, faces.labels, targetTriangles, original, pinned, local, &faces);
+    return collapseBatch(faces.triangles, faces.labels, targetTriangles, original, pinned, local, low, &faces);
   }
   const std::vector<Triangle>& triangles = faces.triangles;
-  // Components: union-find over the vertices (ids relative to base_), the smaller root winning.
-  std::vector<std::uint32_t> parent(positions_.size());
+  // Components: union-find over the vertices (ids relative to low), the smaller root winning.
+  std::vector<std::uint32_t> parent(span);
   for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
   const auto find = [&](std::uint32_t x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
   };
   for (const Triangle& t : triangles) {
-    const std::uint32_t a = find(t[0] - base_);
+    const std::uint32_t a = find(t[0] - low);
     for (std::size_t k = 1; k < 3; ++k) {
-      const std::uint32_t b = find(t[k] - base_);
+      const std::uint32_t b = find(t[k] - low);
       if (a != b) parent[std::max(a, b)] = std::min(a, b);
     }
   }
@@ -497,7 +509,7 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
   // any batch runs, and the batches are ranges of it (the simplifier's working set sits beside as
   // little as may be).
   std::vector<std::pair<std::uint32_t, std::uint32_t>> order(triangles.size());  // (root, triangle)
-  for (std::uint32_t t = 0; t < triangles.size(); ++t) order[t] = {find(triangles[t][0] - base_), t};
+  for (std::uint32_t t = 0; t < triangles.size(); ++t) order[t] = {find(triangles[t][0] - low), t};
   parent = {};
   std::sort(order.begin(), order.end());
   std::vector<Triangle> grouped(triangles.size());
@@ -525,8 +537,8 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
     const std::span<const LabelPair> batchLabels =
         groupedLabels.empty() ? std::span<const LabelPair>()
                               : std::span<const LabelPair>(groupedLabels.data() + starts[b], starts[b + 1] - starts[b]);
-    out.append(
-        collapseBatch(batch, batchLabels, upTo > out.size() ? upTo - out.size() : 0, original, pinned, local, nullptr));
+    out.append(collapseBatch(batch, batchLabels, upTo > out.size() ? upTo - out.size() : 0, original, pinned, local,
+                             low, nullptr));
   }
   return out;
 }
@@ -538,7 +550,7 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
                                                     std::span<const LabelPair> labels, std::size_t targetTriangles,
                                                     const OriginalSurface* original,
                                                     const std::vector<VertexId>& pinned, std::vector<unsigned>& local,
-                                                    Faces* release) const {
+                                                    VertexId low, Faces* release) const {
   if (triangles.empty()) return {};
   // The sides, copied before `release` frees them.
   std::vector<LabelPair> sides(labels.begin(), labels.end());
@@ -547,7 +559,7 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
   std::vector<unsigned> indices(triangles.size() * 3);
   for (std::size_t t = 0; t < triangles.size(); ++t) {
     for (std::size_t k = 0; k < 3; ++k) {
-      unsigned& l = local[triangles[t][k] - base_];
+      unsigned& l = local[triangles[t][k] - low];
       if (l == ~0u) {
         l = static_cast<unsigned>(ids.size());
         ids.push_back(triangles[t][k]);
@@ -555,7 +567,7 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
       indices[3 * t + k] = l;
     }
   }
-  for (VertexId v : ids) local[v - base_] = ~0u;
+  for (VertexId v : ids) local[v - low] = ~0u;
   if (release != nullptr) *release = Faces{};  // `triangles` and `labels` are gone from here on
   std::vector<float> xyz(ids.size() * 3);
   for (std::size_t i = 0; i < ids.size(); ++i) {

@@ -206,7 +206,7 @@ class DecimationSink final : public MeshSink {
                  const std::vector<VertexId>& pinned) const;
   Faces collapseBatch(std::span<const Triangle> triangles, std::span<const LabelPair> labels,
                       std::size_t targetTriangles, const OriginalSurface* original, const std::vector<VertexId>& pinned,
-                      std::vector<unsigned>& local, Faces* release) const;
+                      std::vector<unsigned>& local, VertexId low, Faces* release) const;
   void emit(const Faces& faces, std::int64_t slab, ChunkRange originals, Scope& scope);
   void measure(const std::vector<Triangle>& triangles, ChunkRange originals, Scope& scope);
   // The chunks whose original triangles measure `triangles`, within chunks [firstChunk, end).
