@@ -4,6 +4,7 @@
 #include <memory>
 
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -169,20 +170,42 @@ bool AtomicFile::insertFront(std::int64_t bytes) {
   if (std::fflush(file_) != 0) fail("write");
   const int fd = ::fileno(file_);
   bool moved = false;
-  if (bytes > 0 && size_ > 0) {
+  // The file-size limit (ulimit -f): fallocate does not check it, so a file that would pass it is
+  // copied, and the copy's write fails as any write past the limit does.
+  struct rlimit limit {};
+  const bool underLimit = ::getrlimit(RLIMIT_FSIZE, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY ||
+                          static_cast<rlim_t>(size_ + bytes) <= limit.rlim_cur;
+  if (bytes > 0 && size_ > 0 && underLimit) {
     // The extents after 0 move up by `bytes`; the file system first writes the data out (most of it
     // is on its way already, through the write-behind), then drops it from the page cache.
     moved = ::fallocate(fd, FALLOC_FL_INSERT_RANGE, 0, bytes) == 0;
   }
   if (!moved && bytes > 0 && size_ > 0) {
     // Copied up, from the end, in 1 MiB steps (a step never overwrites what it has not read yet).
+    // A short transfer is retried for the rest, so that a failure reports its own reason (a full
+    // disk, the size limit), not whatever errno held before.
+    const auto transfer = [&](auto call, char* data, std::size_t n, std::int64_t at) {
+      while (n > 0) {
+        errno = 0;
+        const ssize_t done = call(fd, data, n, at);
+        if (done < 0 && errno == EINTR) continue;
+        if (done <= 0) {
+          if (errno == 0) errno = EIO;
+          fail("write");
+        }
+        data += done;
+        n -= static_cast<std::size_t>(done);
+        at += done;
+      }
+    };
     constexpr std::int64_t kStep = std::int64_t{1} << 20;
     const std::unique_ptr<char[]> buf(new char[static_cast<std::size_t>(std::min(kStep, size_))]);
     for (std::int64_t end = size_; end > 0;) {
       const std::int64_t start = std::max<std::int64_t>(0, end - kStep);
       const auto n = static_cast<std::size_t>(end - start);
-      if (::pread(fd, buf.get(), n, start) != static_cast<ssize_t>(n)) fail("write");
-      if (::pwrite(fd, buf.get(), n, start + bytes) != static_cast<ssize_t>(n)) fail("write");
+      transfer([](int f, char* d, std::size_t c, std::int64_t o) { return ::pread(f, d, c, o); }, buf.get(), n, start);
+      transfer([](int f, char* d, std::size_t c, std::int64_t o) { return ::pwrite(f, d, c, o); }, buf.get(), n,
+               start + bytes);
       end = start;
     }
   }

@@ -19,7 +19,9 @@ const char anchor = 0;
 
 struct Module {
   void* handle = nullptr;
-  std::string errors;
+  std::string path;    // the file loaded, or the one the variable named
+  std::string errors;  // the loader's reason for the last file that would not load
+  bool named = false;  // the variable named the file: nothing else is tried
 };
 
 // The module's file name and the variable that may name its path.
@@ -36,7 +38,17 @@ constexpr ModuleName kNames[] = {{"libisoslab_oiio.so", "ISOSLAB_OIIO_MODULE", "
 Module load(const ModuleName& name) {
   Module m;
   std::vector<std::string> candidates;
-  if (const char* env = std::getenv(name.variable)) candidates.emplace_back(env);
+  if (const char* env = std::getenv(name.variable); env != nullptr && *env != 0) {
+    // A file the user named is the one to load, or the reason it cannot be is the error.
+    m.named = true;
+    m.path = env;
+    m.handle = ::dlopen(env, RTLD_NOW | RTLD_LOCAL);
+    if (m.handle == nullptr) {
+      const char* why = ::dlerror();
+      m.errors = why != nullptr ? why : "cannot be loaded";
+    }
+    return m;
+  }
   // Installed: relative to the file that holds this code (the program, libisoslab.so or the
   // Python module), then to the program.
   std::error_code ec;
@@ -65,8 +77,12 @@ Module load(const ModuleName& name) {
   for (const std::string& path : candidates) {
     if (!fs::exists(path, ec)) continue;
     m.handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (m.handle != nullptr) return m;
-    m.errors = ::dlerror();
+    if (m.handle != nullptr) {
+      m.path = path;
+      return m;
+    }
+    const char* why = ::dlerror();
+    m.errors = why != nullptr ? why : "cannot be loaded";
   }
   return m;
 }
@@ -99,8 +115,10 @@ void* moduleSymbol(LoadableModule which, const char* symbol, const char* what) {
   void* address = m.handle != nullptr ? ::dlsym(m.handle, symbol) : nullptr;
   if (address == nullptr) {
     const ModuleName& name = kNames[static_cast<std::size_t>(which)];
-    throw Error(std::string(what) + " need the " + name.library + " module " + name.file + ", which was not found" +
-                (m.errors.empty() ? std::string() : ": " + m.errors));
+    const std::string needs = std::string(what) + " need the " + name.library + " module " + name.file;
+    if (m.handle != nullptr) throw Error(needs + ", but " + m.path + " lacks its entry " + symbol);
+    if (m.named) throw Error(needs + ", but $" + name.variable + " names one that cannot be loaded: " + m.errors);
+    throw Error(needs + (m.errors.empty() ? ", which was not found" : ", which could not be loaded: " + m.errors));
   }
   return address;
 }

@@ -51,10 +51,22 @@ std::string PlyWriter::header(std::uint64_t vertices, std::uint64_t faces, std::
   return head + lines + tail;
 }
 
+std::string PlyWriter::blockHeader(std::uint64_t vertices, std::uint64_t faces) const {
+  // Padded so that the header and the vertices fill whole blocks of 4 KiB: the faces then move up
+  // by whole blocks, which ext4 and XFS do without copying them. A fixed unit (not the file
+  // system's), so that the bytes are the same on every disk.
+  constexpr std::size_t kBlock = 4096;
+  const std::size_t vertexBytes = static_cast<std::size_t>(vertices) * (meshHeader_.normals ? 24 : 12);
+  const std::size_t bare = header(vertices, faces, 1).size();
+  std::size_t pad = (kBlock - (bare + vertexBytes) % kBlock) % kBlock;
+  if (pad > 0 && pad < kLeastPad) pad += kBlock;
+  return header(vertices, faces, bare + pad);
+}
+
 std::int64_t PlyWriter::binaryBytes(std::uint64_t vertices, std::uint64_t triangles, const MeshHeader& header) {
   PlyWriter w("");
   w.meshHeader_ = header;
-  const auto headerBytes = static_cast<std::int64_t>(w.header(kMaxCount, kMaxCount, 0).size());
+  const auto headerBytes = static_cast<std::int64_t>(w.blockHeader(vertices, triangles).size());
   return headerBytes + static_cast<std::int64_t>(vertices) * (header.normals ? 24 : 12) +
          static_cast<std::int64_t>(triangles) * (header.labels ? 21 : 13);
 }
@@ -140,16 +152,8 @@ void PlyWriter::consume(const MeshChunk& chunk) {
 void PlyWriter::finish() {
   throwIfInterrupted();  // copying the spool takes a while
   if (facesFirst_) {
-    // The header is padded so that it and the vertices fill whole blocks of 4 KiB: the faces then
-    // move up by whole blocks, which ext4 and XFS do without copying them. A fixed unit (not the
-    // file system's), so that the bytes are the same on every disk.
-    const auto vertexBytes = static_cast<std::size_t>(spool_->size());
-    constexpr std::size_t block = 4096;
-    const std::size_t bare = header(vertices_, faceCount_, 1).size();
-    std::size_t pad = (block - (bare + vertexBytes) % block) % block;
-    if (pad > 0 && pad < kLeastPad) pad += block;
-    const std::string head = header(vertices_, faceCount_, bare + pad);
-    file_->insertFront(static_cast<std::int64_t>(head.size() + vertexBytes));
+    const std::string head = blockHeader(vertices_, faceCount_);
+    file_->insertFront(static_cast<std::int64_t>(head.size()) + spool_->size());
     file_->write(head.data(), head.size());
     spool_->copyTo(*file_);
   } else {

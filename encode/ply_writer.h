@@ -23,7 +23,8 @@ class PlyWriter final : public MeshFileSink {
   void consume(const MeshChunk& chunk) override;
   void finish() override;
 
-  /// Size of the binary PLY this writer makes for a mesh of these counts.
+  /// Size of the binary PLY this writer makes for a mesh of these counts (to a file; a device
+  /// output's header is padded otherwise).
   static std::int64_t binaryBytes(std::uint64_t vertices, std::uint64_t triangles, const MeshHeader& header);
 
   /// Size of the finished file.
@@ -33,6 +34,9 @@ class PlyWriter final : public MeshFileSink {
   /// The header, padded with comment lines to exactly `padTo` bytes (at least the bare header
   /// plus 8, or 0 for one bare comment line; 1 gives the bare header).
   std::string header(std::uint64_t vertices, std::uint64_t faces, std::size_t padTo) const;
+  /// The header of a file written faces first: padded so that it and the vertices fill whole
+  /// blocks of 4 KiB.
+  std::string blockHeader(std::uint64_t vertices, std::uint64_t faces) const;
 
   std::string path_;
   MeshHeader meshHeader_;

@@ -2,6 +2,7 @@
 #include <dcmtk/dcmdata/dcdeftag.h>
 #include <dcmtk/dcmdata/dcfilefo.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <fmt/format.h>
 
@@ -528,6 +529,39 @@ TEST(Cli, AFullDiskLeavesNoPartialFile) {
   EXPECT_EQ(line, "isoslab: error: " + dir + "/big.ply: cannot write: File too large");
   EXPECT_FALSE(fs::exists(dir + "/big.ply"));
   EXPECT_EQ(testing::fileCount(dir), 1);  // only the captured stderr
+}
+
+// A PLY whose faces fit under the file-size limit but whose whole file does not: the room made
+// before the faces (fallocate, which does not check the limit) must not let it pass.
+TEST(Cli, AFileSizeLimitStopsAPlyWhoseFacesFitUnderIt) {
+  const std::string dir = testing::tempDir();
+  const std::string cmd = std::string("bash -c \"ulimit -f 1000; exec ") + ISOSLAB_CLI_PATH +
+                          " extract 'phantom:sphere?n=100&r=40' --normals -q -o " + dir + "/big.ply\" 2>" + dir +
+                          "/err";
+  EXPECT_NE(std::system(cmd.c_str()), 0);
+  EXPECT_EQ(slurp(dir + "/err"), "isoslab: error: " + dir + "/big.ply: cannot write: File too large\n");
+  EXPECT_FALSE(fs::exists(dir + "/big.ply"));
+  EXPECT_EQ(testing::fileCount(dir), 1);  // only the captured stderr
+  // Under the limit the same run writes the file, and the report's binary PLY size is its size.
+  const auto r =
+      runCli("extract 'phantom:sphere?n=100&r=40' --normals -q -o " + dir + "/ok.ply --report " + dir + "/r.json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+  EXPECT_EQ(report["output"]["ratio_to_binary_ply"].get<double>(), 1.0);
+}
+
+// Where the file system cannot move the faces (tmpfs), they are copied up; a copy that the limit
+// stops says why (not the reason the move was refused).
+TEST(Cli, ACopyThatTheLimitStopsSaysWhy) {
+  if (!fs::is_directory("/dev/shm")) GTEST_SKIP() << "no /dev/shm";
+  const std::string dir = "/dev/shm/isoslab-limit-" + std::to_string(::getpid());
+  fs::create_directories(dir);
+  const std::string cmd = std::string("bash -c \"ulimit -f 130; exec ") + ISOSLAB_CLI_PATH +
+                          " extract 'phantom:sphere?n=40&r=15' -q -o " + dir + "/x.ply\" 2>" + dir + "/err";
+  EXPECT_NE(std::system(cmd.c_str()), 0);
+  EXPECT_EQ(slurp(dir + "/err"), "isoslab: error: " + dir + "/x.ply: cannot write: File too large\n");
+  EXPECT_EQ(testing::fileCount(dir), 1);
+  fs::remove_all(dir);
 }
 
 TEST(Cli, DicomFolderChoosesTheLargestSeriesAndSaysSo) {

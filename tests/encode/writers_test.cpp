@@ -229,6 +229,23 @@ TEST(ThreeMfModule, AMissingModuleIsOneLine) {
   EXPECT_FALSE(fs::exists(dir + "/p.3mf"));
   EXPECT_EQ(run("p.stl"), 0) << slurp(dir + "/err");
   EXPECT_TRUE(fs::exists(dir + "/p.stl"));
+  // A module that the variable names is the one loaded, or the line says why it cannot be.
+  std::ofstream(dir + "/bogus.so") << std::string(200, 'x');
+  const auto named = [&](const std::string& module) {
+    const std::string cmd = "ISOSLAB_3MF_MODULE=" + module + " " + ISOSLAB_CLI_PATH +
+                            " extract 'phantom:sphere?n=16' -o " + dir + "/q.3mf -q 2>" + dir + "/err </dev/null";
+    return std::system(cmd.c_str());
+  };
+  EXPECT_NE(named(dir + "/bogus.so"), 0);
+  EXPECT_EQ(slurp(dir + "/err"),
+            "isoslab: error: 3MF files need the 3MF module libisoslab_3mf.so, but "
+            "$ISOSLAB_3MF_MODULE names one that cannot be loaded: " +
+                dir + "/bogus.so: invalid ELF header\n");
+  const std::string other = fs::path(ISOSLAB_CLI_PATH).parent_path().parent_path().string() + "/io/libisoslab_dicom.so";
+  EXPECT_NE(named(other), 0);
+  EXPECT_EQ(slurp(dir + "/err"), "isoslab: error: 3MF files need the 3MF module libisoslab_3mf.so, but " + other +
+                                     " lacks its entry isoslab_3mf_module\n");
+  EXPECT_FALSE(fs::exists(dir + "/q.3mf"));
 }
 
 }  // namespace
