@@ -79,9 +79,11 @@ std::string folderOf(const std::string& path) {
 AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), target_(followLinks(path_)) {
   // Something that is not a regular file cannot be replaced by a rename without destroying it
   // (as root, `--report /dev/null` would replace the device node): write to it in place.
+  // The kernel follows the links itself: /dev/stdout ends at /proc/self/fd/1, whose target is no
+  // path when it is a pipe ("pipe:[N]"), which followLinks cannot follow.
   struct stat st {};
-  if (::stat(target_.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) {
-    const int fd = ::open(target_.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+  if (::stat(path_.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) {
+    const int fd = ::open(path_.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
     if (fd < 0) throw Error(std::string(path_) + ": cannot open the output: " + std::strerror(errno));
     file_ = ::fdopen(fd, "wb");
     if (file_ == nullptr) {

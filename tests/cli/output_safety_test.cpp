@@ -17,6 +17,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
+std::string contents(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
 fs::path freshFolder(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("isoslab-output-safety-" + std::to_string(::getpid()) + "-" + name);
   fs::remove_all(dir);
@@ -149,5 +154,22 @@ TEST(OutputSafety, AFifoAndDevNullAreWrittenInPlace) {
   EXPECT_EQ(run({"extract", "phantom:sphere?n=16", "-o", (dir / "n.ply").string(), "--report", "/dev/null", "-q"}), 0);
   ASSERT_EQ(::stat("/dev/null", &st), 0);
   EXPECT_TRUE(S_ISCHR(st.st_mode));
+  fs::remove_all(dir);
+}
+
+// /dev/stdout when stdout is a pipe: the link chain ends at /proc/self/fd/1, whose target is no
+// path ("pipe:[N]"); the kernel still opens it, so the mesh goes down the pipe.
+TEST(OutputSafety, DevStdoutOnAPipeIsWrittenInPlace) {
+  const fs::path dir = freshFolder("pipe");
+  fs::create_symlink("/dev/stdout", dir / "out.obj");
+  const std::string cmd = std::string(ISOSLAB_CLI_PATH) + " extract 'phantom:sphere?n=16' -q -o " +
+                          (dir / "out.obj").string() + " 2>" + (dir / "err").string() + " | cat > " +
+                          (dir / "piped.obj").string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  EXPECT_EQ(run({"extract", "phantom:sphere?n=16", "-q", "-o", (dir / "file.obj").string()}), 0);
+  EXPECT_EQ(contents(dir / "err"), "");
+  const std::string piped = contents(dir / "piped.obj");
+  EXPECT_GT(piped.size(), 1000u);
+  EXPECT_TRUE(piped == contents(dir / "file.obj"));
   fs::remove_all(dir);
 }
