@@ -270,20 +270,22 @@ const CellGroups& LabelCellCache::manyLabels(const CellLabels& cell, std::uint32
       key |= rank << (3 * corner);
     }
   }
-  if (slots_.size() < 2 * (patterns_ + 1)) {  // grow: every pattern to its slot in the larger table
-    std::vector<Slot> old(std::max<std::size_t>(1024, 2 * slots_.size()));
+  if (slots_.size() < 2 * (patterns_.size() + 1)) {  // grow, keeping every pattern's index
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> old(std::max<std::size_t>(1024, 2 * slots_.size()));
     old.swap(slots_);
-    for (const Slot& entry : old) {
-      if (entry.key == 0) continue;
-      std::size_t at = slotOfKey(entry.key, slots_.size());
-      while (slots_[at].key != 0) at = (at + 1) & (slots_.size() - 1);
+    for (const auto& entry : old) {
+      if (entry.first == 0) continue;
+      std::size_t at = slotOfKey(entry.first, slots_.size());
+      while (slots_[at].first != 0) at = (at + 1) & (slots_.size() - 1);
       slots_[at] = entry;
     }
   }
   std::size_t at = slotOfKey(key + 1, slots_.size());
-  while (slots_[at].key != 0 && slots_[at].key != key + 1) at = (at + 1) & (slots_.size() - 1);
-  Slot& found = slots_[at];
-  if (found.key == 0) {
+  while (slots_[at].first != 0 && slots_[at].first != key + 1) at = (at + 1) & (slots_.size() - 1);
+  const bool fresh = slots_[at].first == 0;
+  if (fresh) slots_[at] = {key + 1, static_cast<std::uint32_t>(patterns_.size())};
+  Pattern& found = fresh ? patterns_.emplace_back() : patterns_[slots_[at].second];
+  if (fresh) {
     // Ranks keep the connection order (0 stays the background's rank only when 0 is there, and the
     // rule only compares labels), so the pattern's copies are the cell's.
     std::array<std::int32_t, 8> pattern{};
@@ -292,19 +294,13 @@ const CellGroups& LabelCellCache::manyLabels(const CellLabels& cell, std::uint32
       const auto rank = static_cast<std::int32_t>((key >> (3 * corner)) & 7u);
       pattern[corner] = background ? rank : rank + 1;
     }
-    found.key = key + 1;
     found.groups = groupCell(pattern);
-    found.pinchFirst = static_cast<std::uint32_t>(pinches_.size());
     pinchesOf(pattern, found.groups, [&](std::int32_t label, int extra) {
-      pinches_.emplace_back(static_cast<std::uint8_t>(background ? label : label - 1),
-                            static_cast<std::uint8_t>(extra));
+      found.pinches.emplace_back(static_cast<std::uint8_t>(background ? label : label - 1), extra);
     });
-    found.pinchCount = static_cast<std::uint8_t>(pinches_.size() - found.pinchFirst);
-    ++patterns_;
   }
-  for (std::uint32_t k = found.pinchFirst; k < found.pinchFirst + found.pinchCount; ++k) {
-    const auto [rank, extra] = pinches_[k];
-    for (int n = 0; n < extra; ++n) pinches.push_back(distinct[rank]);
+  for (const auto& [rank, extra] : found.pinches) {
+    for (int k = 0; k < extra; ++k) pinches.push_back(distinct[rank]);
   }
   return found.groups;
 }

@@ -150,23 +150,17 @@ class LabelCellCache {
   }
 
  private:
-  // A pattern in the table: its key + 1 (0: an empty slot), its copies and its pinches, so that a
-  // cell of a pattern seen before reads one slot (the patterns of an atlas are thousands, met in
-  // no order: a second array to look in was a second cache miss a cell).
-  struct Slot {
-    std::uint32_t key = 0;
-    std::uint32_t pinchFirst = 0;  // in pinches_
+  struct Pattern {
     CellGroups groups;
-    std::uint8_t pinchCount = 0;
+    std::vector<std::pair<std::uint8_t, int>> pinches;  // (rank, extra fans)
   };
   // A cell of three labels or more; isA and isB: the corners of its first two labels.
   const CellGroups& manyLabels(const CellLabels& cell, std::uint32_t isA, std::uint32_t isB,
                                std::vector<std::int32_t>& pinches);
-  // The patterns seen: an open-addressed table, a power of two in size and at most half full, and
-  // their pinches, (rank, extra fans) each.
-  std::vector<Slot> slots_;
-  std::size_t patterns_ = 0;
-  std::vector<std::pair<std::uint8_t, std::uint8_t>> pinches_;
+  // The patterns seen, and an open-addressed table of their keys (key + 1, 0: empty) and indices,
+  // a power of two in size and at most half full.
+  std::vector<Pattern> patterns_;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> slots_;
 };
 
 /// The row spans of a slice of labels (RowSpan::first and last: the first and last x >= 1 where a
