@@ -135,6 +135,8 @@ check_installed() {  # check_installed PROGRAM PYTHONPATH: the program, its modu
     fail "$prog could not read a TIFF stack (the OpenImageIO module)"
   (cd "$work" && env -u ISOSLAB_DICOM_MODULE "$prog" extract "$work/dicom" --iso 950 -o "$work/dicom.ply" -q) ||
     fail "$prog could not read a DICOM series (the DICOM module)"
+  (cd "$work" && env -u ISOSLAB_3MF_MODULE "$prog" extract 'phantom:sphere?n=16&r=5' -o "$work/sphere.3mf" -q &&
+    [ -s "$work/sphere.3mf" ]) || fail "$prog could not write a 3MF file (the 3MF module)"
   env -u ISOSLAB_PROGRAM -u ISOSLAB_OIIO_MODULE -u ISOSLAB_DICOM_MODULE PYTHONPATH="$pythonpath" /usr/bin/python3 -B - "$work" "$version" <<'EOF' ||
 import os, sys
 import isoslab
