@@ -34,10 +34,10 @@ std::string PlyWriter::header(std::uint64_t vertices, std::uint64_t faces, std::
   if (meshHeader_.labels) tail += "property int label_front\nproperty int label_back\n";
   tail += "end_header\n";
   // Comment lines of spaces pad the header to exactly padTo bytes (a line is "comment" and up to 72
-  // spaces, so that no reader meets a long line); padTo 0 asks for one bare comment line, the
-  // least that a pad can be. The pad goes before the counts, which are written last.
+  // spaces, so that no reader meets a long line); a padTo no larger than the bare header asks for
+  // no pad. The pad goes before the counts, which are written last.
   const std::size_t bare = head.size() + tail.size();
-  std::size_t pad = padTo == 0 ? kLeastPad : padTo - std::min(padTo, bare);
+  std::size_t pad = padTo - std::min(padTo, bare);
   if (pad > 0 && pad < kLeastPad) throw Error(fmt::format("{}: a PLY header cannot be padded by {} bytes", path_, pad));
   std::string lines;
   while (pad > 0) {
@@ -57,7 +57,7 @@ std::string PlyWriter::blockHeader(std::uint64_t vertices, std::uint64_t faces) 
   // system's), so that the bytes are the same on every disk.
   constexpr std::size_t kBlock = 4096;
   const std::size_t vertexBytes = static_cast<std::size_t>(vertices) * (meshHeader_.normals ? 24 : 12);
-  const std::size_t bare = header(vertices, faces, 1).size();
+  const std::size_t bare = header(vertices, faces, 0).size();
   std::size_t pad = (kBlock - (bare + vertexBytes) % kBlock) % kBlock;
   if (pad > 0 && pad < kLeastPad) pad += kBlock;
   return header(vertices, faces, bare + pad);
@@ -85,7 +85,8 @@ void PlyWriter::begin(const MeshHeader& header) {
   // header, and the faces to the spool.
   facesFirst_ = !file_->direct();
   if (!facesFirst_) {
-    reserved_ = this->header(kMaxCount, kMaxCount, 0).size();
+    // The largest counts' header and room for one pad line, so that any count's header pads to it.
+    reserved_ = this->header(kMaxCount, kMaxCount, 0).size() + kLeastPad;
     const std::string blank(reserved_, ' ');
     file_->write(blank.data(), blank.size());
   }

@@ -32,7 +32,7 @@ class PlyWriter final : public MeshFileSink {
 
  private:
   /// The header, padded with comment lines to exactly `padTo` bytes (at least the bare header
-  /// plus 8, or 0 for one bare comment line; 1 gives the bare header).
+  /// plus 8); a `padTo` no larger than the bare header gives the bare header.
   std::string header(std::uint64_t vertices, std::uint64_t faces, std::size_t padTo) const;
   /// The header of a file written faces first: padded so that it and the vertices fill whole
   /// blocks of 4 KiB.

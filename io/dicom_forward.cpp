@@ -3,9 +3,9 @@
 // under the same names; this file is never linked into it.
 #include <filesystem>
 
+#include "core/modules.h"
 #include "io/dicom_module.h"
 #include "io/dicom_seg.h"
-#include "core/modules.h"
 
 namespace isoslab {
 namespace {

@@ -10,8 +10,8 @@
 #include <filesystem>
 
 #include "core/error.h"
-#include "io/file_list.h"
 #include "core/modules.h"
+#include "io/file_list.h"
 
 namespace fs = std::filesystem;
 

@@ -31,19 +31,24 @@ struct EdgeUse {
   std::uint32_t forward = 0;  // uses from the smaller id to the larger
 };
 
+// The smallest and largest vertex id of `triangles` (not empty): per-vertex arrays of a region span
+// these, not the sink's whole window of vertices.
+std::pair<VertexId, VertexId> idRange(const std::vector<Triangle>& triangles) {
+  VertexId low = triangles.front()[0], high = low;
+  for (const Triangle& t : triangles) {
+    low = std::min({low, t[0], t[1], t[2]});
+    high = std::max({high, t[0], t[1], t[2]});
+  }
+  return {low, high};
+}
+
 // Every edge of the triangles, sorted by key (smaller id << 32 | larger id): its uses and how many
 // run from the smaller id to the larger. Linear: the uses are bucketed by their smaller id (a
 // counting sort over the ids' range), then each vertex's few uses are sorted by the larger id.
 std::vector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(const std::vector<Triangle>& triangles) {
   std::vector<std::pair<std::uint64_t, EdgeUse>> edges;
   if (triangles.empty()) return edges;
-  VertexId low = triangles.front()[0], high = low;
-  for (const Triangle& t : triangles) {
-    for (VertexId v : t) {
-      low = std::min(low, v);
-      high = std::max(high, v);
-    }
-  }
+  const auto [low, high] = idRange(triangles);
   std::vector<std::uint32_t> offsets(static_cast<std::size_t>(high - low) + 2, 0);
   // An edge from a vertex to itself (a triangle that repeats an id) is no edge.
   for (const Triangle& t : triangles) {
@@ -472,16 +477,8 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
                                                const OriginalSurface* original,
                                                const std::vector<VertexId>& pinned) const {
   if (faces.triangles.empty()) return {};
-  // The triangles' ids span [low, high]: the arrays below are that long, not as long as the sink's
-  // whole window of vertices (a block's region is a small part of it, and an array per call that
-  // spans the window was most of the decimation's page faults).
-  VertexId low = faces.triangles.front()[0], high = low;
-  for (const Triangle& t : faces.triangles) {
-    for (const VertexId v : t) {
-      low = std::min(low, v);
-      high = std::max(high, v);
-    }
-  }
+  // The arrays below span the triangles' ids, not the sink's whole window of vertices.
+  const auto [low, high] = idRange(faces.triangles);
   const std::size_t span = static_cast<std::size_t>(high - low) + 1;
   // Local ids by vertex (relative to low), ~0u where unused: one array for every batch, each
   // batch resetting the entries it set.
@@ -680,11 +677,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   // Fans per vertex (core/fans.h), ids relative to `first`: a collapse must not pinch two sheets
   // together at a vertex.
   // Per-vertex arrays span the region's ids only (not the sink's whole window).
-  VertexId first = triangles.front()[0], last = first;
-  for (const Triangle& t : triangles) {
-    first = std::min({first, t[0], t[1], t[2]});
-    last = std::max({last, t[0], t[1], t[2]});
-  }
+  const auto [first, last] = idRange(triangles);
   const std::size_t span = static_cast<std::size_t>(last - first) + 1;
   const auto fansOf = [&](const std::vector<Triangle>& tris) { return fanCounts(tris, span, first); };
   const std::vector<std::uint32_t> fansBefore = fansOf(triangles);
