@@ -677,7 +677,9 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   // Fans per vertex (core/fans.h), ids relative to `first`: a collapse must not pinch two sheets
   // together at a vertex.
   // Per-vertex arrays span the region's ids only (not the sink's whole window).
-  const auto [first, last] = idRange(triangles);
+  // Plain variables, not a structured binding: the lambdas below capture `first` (clang 14 cannot).
+  const std::pair<VertexId, VertexId> range = idRange(triangles);
+  const VertexId first = range.first, last = range.second;
   const std::size_t span = static_cast<std::size_t>(last - first) + 1;
   const auto fansOf = [&](const std::vector<Triangle>& tris) { return fanCounts(tris, span, first); };
   const std::vector<std::uint32_t> fansBefore = fansOf(triangles);
