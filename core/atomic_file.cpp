@@ -1,6 +1,7 @@
 #include "core/atomic_file.h"
 
 #include <algorithm>
+#include <atomic>
 #include <memory>
 
 #include <fcntl.h>
@@ -13,6 +14,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <system_error>
 #include <utility>
 #include <vector>
 
@@ -54,7 +56,17 @@ std::string followLinks(const std::string& path) {
 std::mutex gGroupMutex;
 CommitGroup* gActiveGroup = nullptr;
 
+// Background flushes running in the process: at most two, since the disk takes one at a time.
+std::atomic<int> gFlushes{0};
+constexpr int kMaxFlushes = 2;
+
 }  // namespace
+
+// A background fdatasync's state: whether it has finished, and the errno it failed with (0: none).
+struct AtomicFile::Flush {
+  std::atomic<bool> done{true};
+  std::atomic<int> error{0};
+};
 
 void makeOutputFolder(const std::string& path) {
   std::error_code ec;
@@ -124,17 +136,22 @@ AtomicFile::AtomicFile(AtomicFile&& other) noexcept
       file_(std::exchange(other.file_, nullptr)),
       size_(other.size_),
       position_(other.position_),
-      written_(other.written_) {}
+      written_(other.written_),
+      flush_(std::move(other.flush_)),
+      flusher_(std::move(other.flusher_)) {}
 
 AtomicFile::~AtomicFile() {
+  joinFlush();
   if (file_ != nullptr) {
     std::fclose(file_);
     if (!direct_) ::unlink(tempPath_.c_str());
   }
 }
 
-void AtomicFile::fail(const char* what) {
-  const int err = errno;
+void AtomicFile::fail(const char* what) { failWith(errno, what); }
+
+void AtomicFile::failWith(int err, const char* what) {
+  joinFlush();
   if (file_ != nullptr) {
     std::fclose(file_);
     file_ = nullptr;
@@ -149,13 +166,49 @@ void AtomicFile::write(const void* data, std::size_t size) {
   if (std::fwrite(data, 1, size, file_) != size) fail("write");
   position_ += static_cast<std::int64_t>(size);
   size_ = std::max(size_, position_);
-  // Every few MiB written in order, the disk is asked to start writing them (not waited for), so
-  // that commit()'s fsync waits only for the last of the data. A hint: where it cannot be given
-  // (a device, a file system without it), nothing changes.
+  // Every few MiB written in order, the disk is asked to start writing them (not waited for), and
+  // a thread of its own makes what was written so far durable (fdatasync) while the caller goes
+  // on. commit()'s fsync then waits only for the last few MiB: a disk's flush takes time in
+  // proportion to what was written since the last one (about 0.7 ms a MiB on this project's test
+  // machine), and so the flushes overlap the work instead of following it. Where the hint cannot
+  // be given (a device, a file system without it), nothing changes.
   if (!direct_ && position_ - written_ >= kWriteBehindBytes) {
     if (std::fflush(file_) != 0) fail("write");
     ::sync_file_range(::fileno(file_), written_, position_ - written_, SYNC_FILE_RANGE_WRITE);
     written_ = position_;
+    checkFlush();
+    startFlush();
+  }
+}
+
+void AtomicFile::startFlush() {
+  if (!flush_) flush_ = std::make_shared<Flush>();
+  if (!flush_->done.load(std::memory_order_acquire)) return;  // the last one still runs: it is enough
+  if (flusher_.joinable()) flusher_.join();
+  if (gFlushes.fetch_add(1) >= kMaxFlushes) {
+    gFlushes.fetch_sub(1);
+    return;
+  }
+  flush_->done.store(false, std::memory_order_relaxed);
+  try {
+    flusher_ = std::thread([fd = ::fileno(file_), flush = flush_] {
+      if (::fdatasync(fd) != 0 && errno != EINVAL) flush->error.store(errno);
+      gFlushes.fetch_sub(1);
+      flush->done.store(true, std::memory_order_release);
+    });
+  } catch (const std::system_error&) {  // no thread to be had: commit() syncs it all
+    flush_->done.store(true, std::memory_order_relaxed);
+    gFlushes.fetch_sub(1);
+  }
+}
+
+void AtomicFile::joinFlush() {
+  if (flusher_.joinable()) flusher_.join();
+}
+
+void AtomicFile::checkFlush() {
+  if (flush_ && flush_->done.load(std::memory_order_acquire) && flush_->error.load() != 0) {
+    failWith(flush_->error.load(), "write");
   }
 }
 
@@ -170,6 +223,8 @@ bool AtomicFile::insertFront(std::int64_t bytes) {
   if (file_ == nullptr) throw Error(std::string(path_) + ": write after close");
   if (direct_) throw Error(std::string(path_) + ": cannot move data in a device or pipe");
   if (std::fflush(file_) != 0) fail("write");
+  joinFlush();
+  checkFlush();
   const int fd = ::fileno(file_);
   bool moved = false;
   // The file-size limit (ulimit -f): fallocate does not check it, so a file that would pass it is
@@ -227,6 +282,8 @@ void AtomicFile::commit() {
     }
     return;
   }
+  joinFlush();
+  checkFlush();
   if (::fsync(::fileno(file_)) != 0 && errno != EINVAL) fail("write");
   std::FILE* f = std::exchange(file_, nullptr);
   if (std::fclose(f) != 0) {
