@@ -148,7 +148,9 @@ AtomicFile::~AtomicFile() {
   }
 }
 
-void AtomicFile::fail(const char* what) { failWith(errno, what); }
+void AtomicFile::fail(const char* what) {
+  failWith(errno, what);
+}
 
 void AtomicFile::failWith(int err, const char* what) {
   joinFlush();
