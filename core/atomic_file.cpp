@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <memory>
+#include <new>
 
 #include <fcntl.h>
 #include <sys/resource.h>
@@ -60,6 +61,11 @@ CommitGroup* gActiveGroup = nullptr;
 std::atomic<int> gFlushes{0};
 constexpr int kMaxFlushes = 2;
 
+// The bytes of IoBuffer's large buffers in use, and their budget.
+std::atomic<std::size_t> gBufferBytes{0};
+constexpr std::size_t kLargeBuffer = std::size_t{256} << 10;
+constexpr std::size_t kBufferBudget = std::size_t{8} << 20;
+
 }  // namespace
 
 // A background fdatasync's state: whether it has finished, and the errno it failed with (0: none).
@@ -67,6 +73,24 @@ struct AtomicFile::Flush {
   std::atomic<bool> done{true};
   std::atomic<int> error{0};
 };
+
+IoBuffer::IoBuffer(IoBuffer&& other) noexcept : data_(std::move(other.data_)), size_(std::exchange(other.size_, 0)) {}
+
+IoBuffer::~IoBuffer() {
+  if (size_ != 0) gBufferBytes.fetch_sub(size_);
+}
+
+void IoBuffer::attach(std::FILE* file) {
+  if (gBufferBytes.fetch_add(kLargeBuffer) + kLargeBuffer <= kBufferBudget) {
+    data_.reset(new (std::nothrow) char[kLargeBuffer]);
+    if (data_ && std::setvbuf(file, data_.get(), _IOFBF, kLargeBuffer) == 0) {
+      size_ = kLargeBuffer;
+      return;
+    }
+    data_.reset();
+  }
+  gBufferBytes.fetch_sub(kLargeBuffer);
+}
 
 void makeOutputFolder(const std::string& path) {
   std::error_code ec;
@@ -104,7 +128,7 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), target_(follo
       throw Error(std::string(path_) + ": cannot open the output: " + std::strerror(err));
     }
     direct_ = true;
-    std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
+    buffer_.attach(file_);
     return;
   }
   const std::string folder = folderOf(target_);
@@ -125,7 +149,7 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)), target_(follo
   const mode_t mask = ::umask(0);
   ::umask(mask);
   ::fchmod(::fileno(file_), 0666 & ~mask);
-  std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
+  buffer_.attach(file_);
 }
 
 AtomicFile::AtomicFile(AtomicFile&& other) noexcept
@@ -133,6 +157,7 @@ AtomicFile::AtomicFile(AtomicFile&& other) noexcept
       target_(std::move(other.target_)),
       tempPath_(std::move(other.tempPath_)),
       direct_(other.direct_),
+      buffer_(std::move(other.buffer_)),
       file_(std::exchange(other.file_, nullptr)),
       size_(other.size_),
       position_(other.position_),
@@ -347,7 +372,7 @@ SpoolFile::SpoolFile(const std::string& folder, std::string owner) : owner_(std:
     throw Error(std::string(owner_) + ": cannot create a spool file in '" + folder + "': " + std::strerror(errno));
   }
   ::unlink(tempPath.c_str());
-  std::setvbuf(file_, nullptr, _IOFBF, 1 << 20);
+  buffer_.attach(file_);
 }
 
 SpoolFile::~SpoolFile() {

@@ -14,6 +14,26 @@ namespace isoslab {
 
 class CommitGroup;
 
+/// A stdio buffer of its own for a file that AtomicFile or SpoolFile writes (glibc's own is one
+/// block, 4 KiB, whatever setvbuf asks without a buffer). Large while few are in use in the process,
+/// so that a run with a file per label does not spend its memory on them.
+class IoBuffer {
+ public:
+  IoBuffer() = default;
+  IoBuffer(IoBuffer&& other) noexcept;
+  IoBuffer& operator=(IoBuffer&&) = delete;
+  IoBuffer(const IoBuffer&) = delete;
+  IoBuffer& operator=(const IoBuffer&) = delete;
+  ~IoBuffer();
+  /// Gives `file` a buffer: a large one of this object's while the process's budget allows (it must
+  /// outlive the file), else the default.
+  void attach(std::FILE* file);
+
+ private:
+  std::unique_ptr<char[]> data_;
+  std::size_t size_ = 0;
+};
+
 /// The folder that holds `path` (its parent path), or "." when `path` names none: where an
 /// output's temporary and spool files go.
 std::string folderOf(const std::string& path);
@@ -78,6 +98,7 @@ class AtomicFile {
   std::string target_;  // path_ with symbolic links resolved: what is replaced
   std::string tempPath_;
   bool direct_ = false;
+  IoBuffer buffer_;  // declared before file_: destroyed after it is closed
   std::FILE* file_ = nullptr;
   std::int64_t size_ = 0;
   std::int64_t position_ = 0;
@@ -142,6 +163,7 @@ class SpoolFile {
 
  private:
   std::string owner_;
+  IoBuffer buffer_;
   std::FILE* file_ = nullptr;
   std::int64_t size_ = 0;  // bytes written
   std::int64_t read_ = 0;  // bytes read back since rewind()
