@@ -2,8 +2,10 @@
 // first (a benchmark may hold it; the library never does), then the pipeline extracts it R times
 // into a sink that only counts, and the median wall time is printed as JSON. The in-memory source
 // lends its slices (SliceSource::lendSlice), as VTK reads its in-memory array without a copy.
-// Usage: isoslab_extract_only INPUT --iso V [--method M] [--threads N] [--runs R] [--cell-volumes]
+// Usage: isoslab_extract_only INPUT (--iso V [--method M] | --labels) [--threads N] [--runs R] [--cell-volumes]
 //          [--run-voxels V] [--run-triangles T] [--sequential-voxels V] [--trim-threshold BYTES]
+// --labels extracts the label complex of every label (`isoslab extract INPUT --labels all`), from
+// the volume padded with background as the program pads it.
 // load_seconds is the time to read the file once (opening, decoding, converting to float).
 // --run-voxels, --run-triangles and --sequential-voxels set the pipeline's cost model (PipelineOptions), to
 // measure it. glibc's malloc is set as the isoslab program sets it (a fixed mmap threshold of
@@ -24,7 +26,9 @@
 #include "core/error.h"
 #include "extract/extractor.h"
 #include "extract/frame.h"
+#include "extract/label_extractor.h"
 #include "io/open_source.h"
+#include "io/pad_source.h"
 #include "stream/pipeline.h"
 
 namespace {
@@ -77,6 +81,7 @@ int main(int argc, char** argv) {
   int threads = 1;
   int runs = 5;
   bool cellVolumes = false;  // as `isoslab extract` without --report
+  bool labels = false;
   isoslab::PipelineOptions p;
   long trim = 0;
   for (int a = 1; a < argc; ++a) {
@@ -88,6 +93,8 @@ int main(int argc, char** argv) {
       method = value();
     } else if (arg == "--threads") {
       threads = std::stoi(value());
+    } else if (arg == "--labels") {
+      labels = true;
     } else if (arg == "--cell-volumes") {
       cellVolumes = true;
     } else if (arg == "--run-voxels") {
@@ -111,6 +118,8 @@ int main(int argc, char** argv) {
   try {
     const auto loadStart = std::chrono::steady_clock::now();
     auto file = isoslab::openSource(input, isoslab::SourceOptions{});
+    const isoslab::VolumeInfo unpadded = file->info();
+    if (labels) file = std::make_unique<isoslab::PadSource>(std::move(file), 0.0f);
     MemorySource source(*file);
     file.reset();
     const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
@@ -120,13 +129,14 @@ int main(int argc, char** argv) {
     if (!m) throw isoslab::Error(fmt::format("unknown method '{}'", method));
     options.method = *m;
     options.cellVolumes = cellVolumes;
-    const isoslab::LatticeFrame frame = isoslab::LatticeFrame::physical(source.info());
+    const isoslab::LatticeFrame frame = isoslab::LatticeFrame::physical(unpadded);
     std::vector<double> seconds;
     isoslab::PipelineResult last;
     CountingSink sink;
     for (int r = 0; r < runs; ++r) {
       source.rewind();
-      auto extractor = isoslab::makeExtractor(options, source.info(), frame);
+      auto extractor = labels ? isoslab::makeLabelExtractor(unpadded, frame)
+                              : isoslab::makeExtractor(options, source.info(), frame);
       p.threads = threads;
       const auto t = std::chrono::steady_clock::now();
       last = isoslab::runPipeline(source, *extractor, sink, isoslab::MeshHeader{}, p);
@@ -137,7 +147,7 @@ int main(int argc, char** argv) {
         "{{\"method\": \"{}\", \"threads\": {}, \"runs\": {}, \"median_seconds\": {:.4f}, "
         "\"best_seconds\": {:.4f}, \"triangles\": {}, \"load_seconds\": {:.4f}, \"workers\": {}, \"run_slabs\": {}, "
         "\"last_run\": {{\"read_wait\": {:.4f}, \"worker_busy\": {:.4f}, \"write_wait\": {:.4f}}}}}\n",
-        method, threads, runs, seconds[seconds.size() / 2], seconds.front(), sink.triangles, loadSeconds, last.workers,
+        labels ? std::string("labels") : method, threads, runs, seconds[seconds.size() / 2], seconds.front(), sink.triangles, loadSeconds, last.workers,
         last.runSlabs, last.readSeconds, last.extractSeconds, last.writeSeconds);
   } catch (const std::exception& e) {
     fmt::print(stderr, "isoslab_extract_only: {}\n", e.what());
