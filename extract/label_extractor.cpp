@@ -132,41 +132,49 @@ class LabelKernel {
     const VertexId* below = &row_[static_cast<std::size_t>((j + 1) & 1)][0];
     begin = std::max<std::int64_t>(begin, 0);
     if (begin >= end) return;
-    // Which cells are crossed, in one branch-free pass the compiler vectorises: a sample column is
-    // uniform when its four samples agree, a cell when both its columns are and they agree.
-    const auto n = static_cast<std::size_t>(end - begin + 1);
-    column_.resize(n + 8);
-    const float* r0 = rows[0] + begin;
-    const float* r1 = rows[1] + begin;
-    const float* r2 = rows[2] + begin;
-    const float* r3 = rows[3] + begin;
-    std::uint8_t* col = column_.data();
-    for (std::size_t k = 0; k < n; ++k) {
-      col[k] = static_cast<std::uint8_t>((r0[k] != r1[k]) | (r0[k] != r2[k]) | (r0[k] != r3[k]));
-    }
-    for (std::size_t k = 0; k + 1 < n; ++k) {
-      col[k] = static_cast<std::uint8_t>(col[k] | col[k + 1] | (r0[k] != r0[k + 1]));
-    }
-    col[n - 1] = 0;
-    for (std::size_t k = n; k < n + 8; ++k) col[k] = 0;
+    // Which cells are crossed: a cell is when any of its eight samples differs from its first, 64
+    // cells to a mask word (crossedCells), whose set bits are then walked.
+    const auto n = static_cast<std::size_t>(end - begin);  // cells begin .. end - 1
+    const std::array<const float*, 4> from{rows[0] + begin, rows[1] + begin, rows[2] + begin, rows[3] + begin};
     stage_.reserve(static_cast<std::size_t>(cx_));
-    for (std::size_t k = 0; k + 1 < n;) {
-      // Eight uniform cells at a time.
-      std::uint64_t word;
-      std::memcpy(&word, col + k, sizeof word);
-      if (word == 0) {
-        k += 8;
-        continue;
+    for (std::size_t base = 0; base < n; base += 64) {
+      for (std::uint64_t word = crossedCells(from, base, std::min<std::size_t>(64, n - base)); word != 0;
+           word &= word - 1) {
+        const std::int64_t i = begin + static_cast<std::int64_t>(base) + std::countr_zero(word);
+        cell(i, j, CellLabels::load(rows, i), here + i * static_cast<std::int64_t>(kRowIds), below);
       }
-      if (col[k] == 0) {
-        ++k;
-        continue;
-      }
-      const std::int64_t i = begin + static_cast<std::int64_t>(k);
-      ++k;
-      cell(i, j, CellLabels::load(rows, i), here + i * static_cast<std::int64_t>(kRowIds), below);
     }
     stage_.flush(*out_);
+  }
+
+  // Bit k set where cell base + k of the four rows (each from the row span's first cell) is crossed,
+  // for `count` cells (at most 64): when any of its eight samples (columns base + k and base + k + 1
+  // of the four rows) differs from the first. The column after the last cell is read, none beyond.
+  static std::uint64_t crossedCells(const std::array<const float*, 4>& r, std::size_t base,
+                                    std::size_t count) noexcept {
+    std::uint64_t word = 0;
+    std::size_t k = 0;
+#if defined(__SSE2__)
+    // Four cells at a time while their columns' last (k + 4) is one of the row's.
+    for (; k + 4 <= count; k += 4) {
+      const std::size_t at = base + k;
+      const __m128 a = _mm_loadu_ps(r[0] + at);
+      __m128 differ = _mm_cmpneq_ps(a, _mm_loadu_ps(r[0] + at + 1));
+      for (std::size_t row = 1; row < 4; ++row) {
+        differ = _mm_or_ps(differ, _mm_cmpneq_ps(a, _mm_loadu_ps(r[row] + at)));
+        differ = _mm_or_ps(differ, _mm_cmpneq_ps(a, _mm_loadu_ps(r[row] + at + 1)));
+      }
+      word |= static_cast<std::uint64_t>(_mm_movemask_ps(differ)) << k;
+    }
+#endif
+    for (; k < count; ++k) {
+      const std::size_t at = base + k;
+      const float a = r[0][at];
+      bool differ = a != r[0][at + 1];
+      for (std::size_t row = 1; row < 4; ++row) differ = differ || a != r[row][at] || a != r[row][at + 1];
+      word |= static_cast<std::uint64_t>(differ) << k;
+    }
+    return word;
   }
 
   void cell(std::int64_t i, std::int64_t j, const CellLabels& corners, VertexId* ids, const VertexId* below) {
@@ -338,7 +346,6 @@ class LabelKernel {
   std::array<const RowSpan*, 2> spans_{};
   std::array<std::vector<RowSpan>, 2> scratch_;
   std::int64_t classified_ = -1;        // the slab whose lower slice scratch_[1] classifies (-1: none)
-  std::vector<std::uint8_t> column_;    // per cell of a row: crossed
   std::array<Plane<VertexId>, 2> row_;  // per cell of rows j and j - 1 (alternating): the id of each edge's copy
   std::array<Plane<TopCell>, 2> top_;   // per crossed cell: [0] the layer below, [1] this layer
   std::vector<std::size_t> topSet_;     // the crossed cells of this layer (for takeTop)
