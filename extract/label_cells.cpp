@@ -62,6 +62,19 @@ constexpr std::array<std::uint32_t, 256> kSpread = [] {
   return t;
 }();
 
+// kBase3[m]: the sum of 3^c over the bits c of the corner mask m, so that a cell of three labels
+// whose ranks 1 and 2 hold the corners m1 and m2 is pattern kBase3[m1] + 2 * kBase3[m2] of 3^8.
+constexpr std::array<std::uint16_t, 256> kBase3 = [] {
+  std::array<std::uint16_t, 256> t{};
+  for (std::uint32_t m = 0; m < 256; ++m) {
+    std::uint32_t sum = 0, power = 1;
+    for (std::uint32_t c = 0; c < 8; ++c, power *= 3) sum += ((m >> c) & 1u) * power;
+    t[m] = static_cast<std::uint16_t>(sum);
+  }
+  return t;
+}();
+constexpr std::size_t kThreeLabelPatterns = 6561;  // 3^8
+
 // A pattern key's first slot in a table of `size` (a power of two) slots: Fibonacci hashing, with
 // the high bits folded in.
 std::size_t slotOfKey(std::uint32_t key, std::size_t size) noexcept {
@@ -252,7 +265,14 @@ const CellGroups& LabelCellCache::manyLabels(const CellLabels& cell, std::uint32
     if (before(t[2], t[1])) std::swap(t[1], t[2]);
     if (before(t[1], t[0])) std::swap(t[0], t[1]);
     for (std::size_t k = 0; k < 3; ++k) distinct[k] = t[k].first;
-    key = kSpread[t[1].second] + 2 * kSpread[t[2].second];
+    // Three labels' patterns are few enough (3^8) to be found by index, with no hashing.
+    if (threeLabels_.empty()) threeLabels_.assign(kThreeLabelPatterns, 0);
+    std::uint32_t& index = threeLabels_[kBase3[t[1].second] + 2u * kBase3[t[2].second]];
+    if (index == 0) {
+      index = static_cast<std::uint32_t>(patterns_.size()) + 1;
+      makePattern(kSpread[t[1].second] + 2 * kSpread[t[2].second], distinct.front() == 0);
+    }
+    return found(patterns_[index - 1], distinct, pinches);
   } else {
     // Four or more: an insertion into at most eight, then each corner's rank.
     std::size_t n = 0;
@@ -282,27 +302,34 @@ const CellGroups& LabelCellCache::manyLabels(const CellLabels& cell, std::uint32
   }
   std::size_t at = slotOfKey(key + 1, slots_.size());
   while (slots_[at].first != 0 && slots_[at].first != key + 1) at = (at + 1) & (slots_.size() - 1);
-  const bool fresh = slots_[at].first == 0;
-  if (fresh) slots_[at] = {key + 1, static_cast<std::uint32_t>(patterns_.size())};
-  Pattern& found = fresh ? patterns_.emplace_back() : patterns_[slots_[at].second];
-  if (fresh) {
-    // Ranks keep the connection order (0 stays the background's rank only when 0 is there, and the
-    // rule only compares labels), so the pattern's copies are the cell's.
-    std::array<std::int32_t, 8> pattern{};
-    const bool background = distinct.front() == 0;
-    for (std::size_t corner = 0; corner < 8; ++corner) {
-      const auto rank = static_cast<std::int32_t>((key >> (3 * corner)) & 7u);
-      pattern[corner] = background ? rank : rank + 1;
-    }
-    found.groups = groupCell(pattern);
-    pinchesOf(pattern, found.groups, [&](std::int32_t label, int extra) {
-      found.pinches.emplace_back(static_cast<std::uint8_t>(background ? label : label - 1), extra);
-    });
+  if (slots_[at].first == 0) {
+    slots_[at] = {key + 1, static_cast<std::uint32_t>(patterns_.size())};
+    makePattern(key, distinct.front() == 0);
   }
-  for (const auto& [rank, extra] : found.pinches) {
+  return found(patterns_[slots_[at].second], distinct, pinches);
+}
+
+void LabelCellCache::makePattern(std::uint32_t key, bool background) {
+  // Ranks keep the connection order (0 stays the background's rank only when 0 is there, and the
+  // rule only compares labels), so the pattern's copies are the cell's.
+  Pattern& made = patterns_.emplace_back();
+  std::array<std::int32_t, 8> pattern{};
+  for (std::size_t corner = 0; corner < 8; ++corner) {
+    const auto rank = static_cast<std::int32_t>((key >> (3 * corner)) & 7u);
+    pattern[corner] = background ? rank : rank + 1;
+  }
+  made.groups = groupCell(pattern);
+  pinchesOf(pattern, made.groups, [&](std::int32_t label, int extra) {
+    made.pinches.emplace_back(static_cast<std::uint8_t>(background ? label : label - 1), extra);
+  });
+}
+
+const CellGroups& LabelCellCache::found(const Pattern& p, const std::array<std::int32_t, 8>& distinct,
+                                        std::vector<std::int32_t>& pinches) {
+  for (const auto& [rank, extra] : p.pinches) {
     for (int k = 0; k < extra; ++k) pinches.push_back(distinct[rank]);
   }
-  return found.groups;
+  return p.groups;
 }
 
 void classifyLabelRows(const float* slice, std::int64_t nx, std::int64_t ny, std::vector<RowSpan>& rows) {

@@ -48,11 +48,17 @@ inline constexpr std::array<std::array<int, 4>, 6> kLabelFaceCorners{
     {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}}};
 
 /// The order in which labels connect across a split edge: the background (0) first, then by value.
-/// True if `a` connects before `b`.
+/// True if `a` connects before `b`. Without a branch (which of two labels comes first has no
+/// pattern that a processor could predict): 0 becomes the least int32, which no label is (labels
+/// lie within +-2^24, layered ones below 2^31, core/volume_info.h), and the order is then plain.
 constexpr bool connectsBefore(std::int32_t a, std::int32_t b) noexcept {
-  if (a == 0 || b == 0) return a == 0 && b != 0;
-  return a < b;
+  const auto rank = [](std::int32_t x) {
+    return static_cast<std::int32_t>(static_cast<std::uint32_t>(x) | (static_cast<std::uint32_t>(x == 0) << 31));
+  };
+  return rank(a) < rank(b);
 }
+static_assert(connectsBefore(0, 5) && connectsBefore(0, -5) && !connectsBefore(5, 0) && !connectsBefore(0, 0) &&
+              connectsBefore(-7, 3) && connectsBefore(3, 7) && !connectsBefore(7, 3) && !connectsBefore(4, 4));
 
 /// The vertex copies of one cell.
 struct CellGroups {
@@ -146,7 +152,9 @@ class LabelCellCache {
     const std::int32_t b = cell.value[static_cast<std::size_t>(std::countr_one(isA) & 7)];
     const std::uint32_t isB = cell.corners(b);
     if ((isA | isB) != 0xffu) return manyLabels(cell, isA, isB, pinches);
-    return twoLabelGroups(static_cast<std::uint8_t>(connectsBefore(a, b) ? isB : isA));
+    // The mask of b if a connects first, else a's; a select without a branch.
+    const std::uint32_t aFirst = 0u - static_cast<std::uint32_t>(connectsBefore(a, b));
+    return twoLabelGroups(static_cast<std::uint8_t>((isB & aFirst) | (isA & ~aFirst)));
   }
 
  private:
@@ -157,10 +165,17 @@ class LabelCellCache {
   // A cell of three labels or more; isA and isB: the corners of its first two labels.
   const CellGroups& manyLabels(const CellLabels& cell, std::uint32_t isA, std::uint32_t isB,
                                std::vector<std::int32_t>& pinches);
-  // The patterns seen, and an open-addressed table of their keys (key + 1, 0: empty) and indices,
-  // a power of two in size and at most half full.
+  // Appends the pattern of rank key `key` (3 bits a corner); `background`: rank 0 is label 0.
+  void makePattern(std::uint32_t key, bool background);
+  // A pattern's copies, its pinches appended for the cell's labels (`distinct`, by rank).
+  static const CellGroups& found(const Pattern& p, const std::array<std::int32_t, 8>& distinct,
+                                 std::vector<std::int32_t>& pinches);
+  // The patterns seen; for cells of four labels or more an open-addressed table of their keys
+  // (key + 1, 0: empty) and indices, a power of two in size and at most half full; for three
+  // labels, a table of every pattern (3^8) of their indices + 1 (0: not seen).
   std::vector<Pattern> patterns_;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> slots_;
+  std::vector<std::uint32_t> threeLabels_;
 };
 
 /// The row spans of a slice of labels (RowSpan::first and last: the first and last x >= 1 where a

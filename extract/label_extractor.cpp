@@ -314,7 +314,9 @@ class LabelKernel {
   void quad(const std::array<VertexId, 4>& v, const std::array<VertexId, 4>& m, const std::array<double, 3>& centre,
             std::int32_t a, std::int32_t b) {
     const bool backIsA = !connectsBefore(a, b);  // the back label's face points from it to the front
-    const LabelPair sides = backIsA ? LabelPair{b, a} : LabelPair{a, b};
+    // {b, a} if backIsA, else {a, b}: a swap without a branch.
+    const std::int32_t swap = (a ^ b) & -static_cast<std::int32_t>(backIsA);
+    const LabelPair sides{a ^ swap, b ^ swap};
     const bool reverse = backIsA == flip_;
     if (m[0] == kUnsetId && m[1] == kUnsetId && m[2] == kUnsetId && m[3] == kUnsetId) {
       const VertexId second = reverse ? v[3] : v[1];
