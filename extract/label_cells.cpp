@@ -27,7 +27,7 @@ constexpr std::array<std::array<int, 4>, 6> makeFaceEdges() noexcept {
 }
 constexpr std::array<std::array<int, 4>, 6> kFaceEdges = makeFaceEdges();
 
-int find(std::array<int, 12>& parent, int e) noexcept {
+constexpr int find(std::array<int, 12>& parent, int e) noexcept {
   while (parent[static_cast<std::size_t>(e)] != e) {
     auto& p = parent[static_cast<std::size_t>(e)];
     p = parent[static_cast<std::size_t>(p)];
@@ -36,21 +36,11 @@ int find(std::array<int, 12>& parent, int e) noexcept {
   return e;
 }
 
-void join(std::array<int, 12>& parent, int a, int b) noexcept {
+constexpr void join(std::array<int, 12>& parent, int a, int b) noexcept {
   a = find(parent, a);
   b = find(parent, b);
   if (a < b) parent[static_cast<std::size_t>(b)] = a;
   if (b < a) parent[static_cast<std::size_t>(a)] = b;
-}
-
-std::array<CellGroups, 256> makeTwoLabelTable() noexcept {
-  std::array<CellGroups, 256> table{};
-  for (int mask = 0; mask < 256; ++mask) {
-    std::array<std::int32_t, 8> labels{};
-    for (int c = 0; c < 8; ++c) labels[static_cast<std::size_t>(c)] = (mask >> c) & 1;
-    table[static_cast<std::size_t>(mask)] = groupCell(labels);
-  }
-  return table;
 }
 
 // kSpread[m]: bit 3c set for each bit c of the corner mask m (a rank of 1 at those corners).
@@ -83,9 +73,7 @@ std::size_t slotOfKey(std::uint32_t key, std::size_t size) noexcept {
   return h & (size - 1);
 }
 
-}  // namespace
-
-int faceSplit(const std::array<std::int32_t, 4>& f) noexcept {
+constexpr int faceSplitOf(const std::array<std::int32_t, 4>& f) noexcept {
   if (f[0] == f[1] || f[1] == f[2] || f[2] == f[3] || f[3] == f[0]) return 0;  // fewer than four crossed
   const bool even = f[0] == f[2];
   const bool odd = f[1] == f[3];
@@ -95,7 +83,7 @@ int faceSplit(const std::array<std::int32_t, 4>& f) noexcept {
   return 0;  // four labels: one edge with four quads, two per label
 }
 
-CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept {
+constexpr CellGroups groupsOf(const std::array<std::int32_t, 8>& labels) noexcept {
   CellGroups out;
   out.edge.fill(0xff);
   std::array<int, 12> parent{};
@@ -116,7 +104,7 @@ CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept {
     }
     const auto face = static_cast<std::size_t>(&corners - kLabelFaceCorners.data());
     const auto& edges = kFaceEdges[face];
-    const int split = faceSplit(f);
+    const int split = faceSplitOf(f);
     out.faceSplits = static_cast<std::uint16_t>(out.faceSplits | (split << (2 * face)));
     if (split == 1) {  // around corner 0 (edges 3, 0) and corner 2 (edges 1, 2)
       join(parent, edges[3], edges[0]);
@@ -154,6 +142,24 @@ CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept {
   return out;
 }
 
+}  // namespace
+
+// Every cell of two labels, by the mask of the later-connecting label's corners: made by
+// groupCell's own code when the program is compiled.
+constexpr std::array<CellGroups, 256> kTwoLabelGroups = [] {
+  std::array<CellGroups, 256> table{};
+  for (int mask = 0; mask < 256; ++mask) {
+    std::array<std::int32_t, 8> labels{};
+    for (int c = 0; c < 8; ++c) labels[static_cast<std::size_t>(c)] = (mask >> c) & 1;
+    table[static_cast<std::size_t>(mask)] = groupsOf(labels);
+  }
+  return table;
+}();
+
+int faceSplit(const std::array<std::int32_t, 4>& f) noexcept { return faceSplitOf(f); }
+
+CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept { return groupsOf(labels); }
+
 namespace {
 
 // kEdgeEnds[e]: the corner mask of edge e's two ends.
@@ -179,6 +185,10 @@ void pinchesOf(const std::array<std::int32_t, 8>& labels, const CellGroups& grou
     std::uint32_t corners = 0;
     for (std::size_t d = c; d < 8; ++d) corners |= static_cast<std::uint32_t>(labels[d] == l) << d;
     seen |= corners;
+    // A label at one corner only never pinches: its three quads meet at that corner, and every face
+    // at it joins the two that it holds (whole, or split around that very corner), so they are one
+    // fan.
+    if (std::has_single_bit(corners)) continue;
     // Per label: its quads (crossed edges touching it), joined where they share an edge copy; each
     // vertex copy should hold one group.
     std::uint32_t touch = 0;
@@ -346,9 +356,5 @@ void classifyLabelRows(const float* slice, std::int64_t nx, std::int64_t ny, std
   }
 }
 
-const CellGroups& twoLabelGroups(std::uint8_t mask) noexcept {
-  static const std::array<CellGroups, 256> table = makeTwoLabelTable();
-  return table[mask];
-}
 
 }  // namespace isoslab
