@@ -36,6 +36,33 @@ class LatticeFrame {
             origin_[2] + m[6] * i + m[7] * j + m[8] * k};
   }
 
+  /// map() along one row of the lattice (j and k fixed): the same sums in the same order, so the
+  /// same bits, with the row's own terms computed once.
+  class Row {
+   public:
+    Row(const LatticeFrame& frame, double j, double k) noexcept
+        : frame_(&frame), j_(j), k_(k), affine_(frame.sliceOrigins_.empty()) {
+      const auto& m = frame.linear_;
+      for (std::size_t a = 0; a < 3; ++a) {
+        origin_[a] = frame.origin_[a];
+        step_[a] = m[3 * a];
+        jTerm_[a] = m[3 * a + 1] * j;
+        kTerm_[a] = m[3 * a + 2] * k;
+      }
+    }
+    Vec3d at(double i) const noexcept {
+      if (!affine_) return frame_->map(i, j_, k_);
+      return {origin_[0] + step_[0] * i + jTerm_[0] + kTerm_[0], origin_[1] + step_[1] * i + jTerm_[1] + kTerm_[1],
+              origin_[2] + step_[2] * i + jTerm_[2] + kTerm_[2]};
+    }
+
+   private:
+    const LatticeFrame* frame_;
+    double j_, k_;
+    bool affine_;
+    std::array<double, 3> origin_{}, step_{}, jTerm_{}, kTerm_{};
+  };
+
   /// Converts a gradient taken with respect to lattice coordinates into one with respect to output
   /// coordinates (multiplies by the inverse transpose of the linear part). Inline: extraction
   /// converts every vertex's normal.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstddef>
 #include <cstring>
 #include <limits>
 #include <new>
@@ -137,6 +138,9 @@ class LabelKernel {
     const auto n = static_cast<std::size_t>(end - begin);  // cells begin .. end - 1
     const std::array<const float*, 4> from{rows[0] + begin, rows[1] + begin, rows[2] + begin, rows[3] + begin};
     stage_.reserve(static_cast<std::size_t>(cx_));
+    rowMap_ = LatticeFrame::Row(frame_, static_cast<double>(j) - 0.5, static_cast<double>(z_) - 0.5);
+    rowFaces_ = static_cast<std::uint8_t>((j == 0 ? kFaceYMin : 0) | (j == cy_ - 1 ? kFaceYMax : 0) |
+                                          (z_ == 0 ? kFaceZMin : 0) | (z_ == pz_ - 2 ? kFaceZMax : 0));
     for (std::size_t base = 0; base < n; base += 64) {
       for (std::uint64_t word = crossedCells(from, base, std::min<std::size_t>(64, n - base)); word != 0;
            word &= word - 1) {
@@ -182,23 +186,28 @@ class LabelKernel {
     const CellGroups& g = cells_.groups(corners, out_->labelPinches);
     // The copies' vertices, at the cell's centre: the corner of the voxels' boxes.
     const VertexId first = static_cast<VertexId>(next_);
-    const Vec3d p =
-        frame_.map(static_cast<double>(i) - 0.5, static_cast<double>(j) - 0.5, static_cast<double>(z_) - 0.5);
+    const Vec3d p = rowMap_.at(static_cast<double>(i) - 0.5);
     const Vec3f position{static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])};
-    std::uint8_t faces = 0;
-    if (i == 0) faces |= kFaceXMin;
-    if (i == cx_ - 1) faces |= kFaceXMax;
-    if (j == 0) faces |= kFaceYMin;
-    if (j == cy_ - 1) faces |= kFaceYMax;
-    if (z_ == 0) faces |= kFaceZMin;
-    if (z_ == pz_ - 2) faces |= kFaceZMax;
+    const auto faces =
+        static_cast<label_planes::FaceBits>(rowFaces_ | (i == 0 ? kFaceXMin : 0) | (i == cx_ - 1 ? kFaceXMax : 0));
     for (int c = 0; c < g.count; ++c) stage_.addVertex(position, faces);
     next_ += g.count;
     if (g.count > 1) appendSplits(labels, g, out_->labelSplits);
     const auto cellIndex = static_cast<std::size_t>(j * cx_ + i);
     // Every edge's id, without a branch: an edge that is not crossed gets a value that nothing reads
     // (its neighbours read only crossed edges, which are crossed in both cells).
+#if defined(__SSE2__)
+    static_assert(offsetof(CellGroups, edge) + 16 <= sizeof(CellGroups));
+    const __m128i edges = _mm_loadu_si128(reinterpret_cast<const __m128i*>(g.edge.data()));  // and 4 bytes more
+    const __m128i zero = _mm_setzero_si128();
+    const __m128i low = _mm_unpacklo_epi8(edges, zero), high = _mm_unpackhi_epi8(edges, zero);
+    const __m128i base = _mm_set1_epi32(static_cast<int>(first));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(ids), _mm_add_epi32(base, _mm_unpacklo_epi16(low, zero)));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(ids + 4), _mm_add_epi32(base, _mm_unpackhi_epi16(low, zero)));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(ids + 8), _mm_add_epi32(base, _mm_unpacklo_epi16(high, zero)));
+#else
     for (std::size_t e = 0; e < 12; ++e) ids[e] = first + g.edge[e];
+#endif
     TopCell top{first, g.topCopies, g.topCrossed, g.count, 0};
     // Split faces: two vertices at the face's centre, one per copy of its mesh edge, so that the
     // copies stay two edges even where both cells join them into one vertex copy.
@@ -293,7 +302,8 @@ class LabelKernel {
 
   VertexId addVertex(const std::array<double, 3>& lattice) {
     const Vec3d p = frame_.map(lattice[0], lattice[1], lattice[2]);
-    stage_.addVertex({static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])}, 0);
+    stage_.addVertex({static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])},
+                     label_planes::FaceBits{0});
     return static_cast<VertexId>(next_++);
   }
 
@@ -339,6 +349,8 @@ class LabelKernel {
   }
 
   LatticeFrame frame_;
+  LatticeFrame::Row rowMap_{frame_, 0, 0};  // the row being walked
+  std::uint8_t rowFaces_ = 0;               // its cells' volume faces (kFaceYMin ...), but for x
   bool flip_ = false;
   std::int64_t px_ = 0, py_ = 0, pz_ = 0, cx_ = 0, cy_ = 0;
   std::int64_t z_ = 0;

@@ -64,9 +64,13 @@ class Plane {
 // faces' two vertices each, three fanned quads' centres; three quads of at most eight triangles).
 constexpr std::size_t kCellVertices = 13;
 constexpr std::size_t kCellTriangles = 24;
+// A vertex's MeshChunk::boundary bits. A type of its own, not a char type, so that the compiler
+// need not assume that a store of them changes anything else (a char may alias any object).
+enum class FaceBits : std::uint8_t {};
+
 struct RowStage {
   Plane<Vec3f> positions;
-  Plane<std::uint8_t> boundary;
+  Plane<FaceBits> boundary;
   Plane<Triangle> triangles;
   Plane<LabelPair> faceLabels;
   std::size_t vertices = 0, faces = 0, capacity = 0;
@@ -79,7 +83,7 @@ struct RowStage {
     faceLabels.allocate(cells * kCellTriangles);
     capacity = cells;
   }
-  void addVertex(const Vec3f& p, std::uint8_t volumeFaces) {
+  void addVertex(const Vec3f& p, FaceBits volumeFaces) {
     positions[vertices] = p;
     boundary[vertices++] = volumeFaces;
   }
@@ -90,7 +94,8 @@ struct RowStage {
   // Appends the row to the chunk and empties it.
   void flush(MeshChunk& out) {
     out.positions.insert(out.positions.end(), &positions[0], &positions[0] + vertices);
-    out.boundary.insert(out.boundary.end(), &boundary[0], &boundary[0] + vertices);
+    const auto* bytes = reinterpret_cast<const std::uint8_t*>(&boundary[0]);
+    out.boundary.insert(out.boundary.end(), bytes, bytes + vertices);
     out.triangles.insert(out.triangles.end(), &triangles[0], &triangles[0] + faces);
     out.faceLabels.insert(out.faceLabels.end(), &faceLabels[0], &faceLabels[0] + faces);
     vertices = faces = 0;
