@@ -388,7 +388,11 @@ void SpoolFile::write(const void* data, std::size_t size) {
 }
 
 void SpoolFile::rewind() {
-  if (std::fflush(file_) != 0 || std::fseek(file_, 0, SEEK_SET) != 0) {
+  // The buffer's last bytes are written here: their failure (a full disk, the size limit) is a write's.
+  if (std::fflush(file_) != 0) {
+    throw Error(std::string(owner_) + ": cannot write the spool file: " + std::strerror(errno));
+  }
+  if (std::fseek(file_, 0, SEEK_SET) != 0) {
     throw Error(std::string(owner_) + ": cannot read the spool file back: " + std::strerror(errno));
   }
   std::clearerr(file_);
