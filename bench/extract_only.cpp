@@ -4,8 +4,10 @@
 // lends its slices (SliceSource::lendSlice), as VTK reads its in-memory array without a copy.
 // Usage: isoslab_extract_only INPUT (--iso V [--method M] | --labels) [--threads N] [--runs R] [--cell-volumes]
 //          [--run-voxels V] [--run-triangles T] [--sequential-voxels V] [--trim-threshold BYTES]
-// --labels extracts the label complex of every label (`isoslab extract INPUT --labels all`), from
-// the volume padded with background as the program pads it.
+// --labels extracts the label complex of every label from the volume padded with background as
+// the program pads it: the kernel of `isoslab extract INPUT --labels all` alone, without the
+// program's check and count of the labels (io/label_source.h), for a volume of one layer, in its
+// physical frame.
 // load_seconds is the time to read the file once (opening, decoding, converting to float).
 // --run-voxels, --run-triangles and --sequential-voxels set the pipeline's cost model (PipelineOptions), to
 // measure it. glibc's malloc is set as the isoslab program sets it (a fixed mmap threshold of
@@ -135,8 +137,8 @@ int main(int argc, char** argv) {
     CountingSink sink;
     for (int r = 0; r < runs; ++r) {
       source.rewind();
-      auto extractor = labels ? isoslab::makeLabelExtractor(unpadded, frame)
-                              : isoslab::makeExtractor(options, source.info(), frame);
+      auto extractor =
+          labels ? isoslab::makeLabelExtractor(unpadded, frame) : isoslab::makeExtractor(options, source.info(), frame);
       p.threads = threads;
       const auto t = std::chrono::steady_clock::now();
       last = isoslab::runPipeline(source, *extractor, sink, isoslab::MeshHeader{}, p);
@@ -147,8 +149,9 @@ int main(int argc, char** argv) {
         "{{\"method\": \"{}\", \"threads\": {}, \"runs\": {}, \"median_seconds\": {:.4f}, "
         "\"best_seconds\": {:.4f}, \"triangles\": {}, \"load_seconds\": {:.4f}, \"workers\": {}, \"run_slabs\": {}, "
         "\"last_run\": {{\"read_wait\": {:.4f}, \"worker_busy\": {:.4f}, \"write_wait\": {:.4f}}}}}\n",
-        labels ? std::string("labels") : method, threads, runs, seconds[seconds.size() / 2], seconds.front(), sink.triangles, loadSeconds, last.workers,
-        last.runSlabs, last.readSeconds, last.extractSeconds, last.writeSeconds);
+        labels ? std::string("labels") : method, threads, runs, seconds[seconds.size() / 2], seconds.front(),
+        sink.triangles, loadSeconds, last.workers, last.runSlabs, last.readSeconds, last.extractSeconds,
+        last.writeSeconds);
   } catch (const std::exception& e) {
     fmt::print(stderr, "isoslab_extract_only: {}\n", e.what());
     return 1;

@@ -12,10 +12,11 @@
 
 #include <cassert>
 #include <cerrno>
+#include <condition_variable>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <system_error>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -69,9 +70,13 @@ constexpr std::size_t kBufferBudget = std::size_t{8} << 20;
 }  // namespace
 
 // A background fdatasync's state: whether it has finished, and the errno it failed with (0: none).
+// Shared by the file and its thread, which is detached: it ends by itself, and its resources with
+// it, whether or not the file waits for it.
 struct AtomicFile::Flush {
-  std::atomic<bool> done{true};
-  std::atomic<int> error{0};
+  std::mutex mutex;
+  std::condition_variable finished;
+  bool done = true;
+  int error = 0;
 };
 
 IoBuffer::IoBuffer(IoBuffer&& other) noexcept : data_(std::move(other.data_)), size_(std::exchange(other.size_, 0)) {}
@@ -162,8 +167,7 @@ AtomicFile::AtomicFile(AtomicFile&& other) noexcept
       size_(other.size_),
       position_(other.position_),
       written_(other.written_),
-      flush_(std::move(other.flush_)),
-      flusher_(std::move(other.flusher_)) {}
+      flush_(std::move(other.flush_)) {}
 
 AtomicFile::~AtomicFile() {
   joinFlush();
@@ -210,33 +214,51 @@ void AtomicFile::write(const void* data, std::size_t size) {
 
 void AtomicFile::startFlush() {
   if (!flush_) flush_ = std::make_shared<Flush>();
-  if (!flush_->done.load(std::memory_order_acquire)) return;  // the last one still runs: it is enough
-  if (flusher_.joinable()) flusher_.join();
+  {
+    const std::lock_guard lock(flush_->mutex);
+    if (!flush_->done) return;  // the last one still runs: it is enough
+  }
+  // At most kMaxFlushes threads in the process; a file that finds none free is synced by commit().
   if (gFlushes.fetch_add(1) >= kMaxFlushes) {
     gFlushes.fetch_sub(1);
     return;
   }
-  flush_->done.store(false, std::memory_order_relaxed);
+  {
+    const std::lock_guard lock(flush_->mutex);
+    flush_->done = false;
+  }
   try {
-    flusher_ = std::thread([fd = ::fileno(file_), flush = flush_] {
-      if (::fdatasync(fd) != 0 && errno != EINVAL) flush->error.store(errno);
+    std::thread([fd = ::fileno(file_), flush = flush_] {
+      const int err = ::fdatasync(fd) != 0 && errno != EINVAL ? errno : 0;
       gFlushes.fetch_sub(1);
-      flush->done.store(true, std::memory_order_release);
-    });
-  } catch (const std::system_error&) {  // no thread to be had: commit() syncs it all
-    flush_->done.store(true, std::memory_order_relaxed);
+      {
+        const std::lock_guard lock(flush->mutex);
+        if (err != 0) flush->error = err;
+        flush->done = true;
+      }
+      flush->finished.notify_all();
+    }).detach();
+  } catch (...) {  // no thread to be had (std::system_error, std::bad_alloc): commit() syncs it all
     gFlushes.fetch_sub(1);
+    const std::lock_guard lock(flush_->mutex);
+    flush_->done = true;
   }
 }
 
 void AtomicFile::joinFlush() {
-  if (flusher_.joinable()) flusher_.join();
+  if (!flush_) return;
+  std::unique_lock lock(flush_->mutex);
+  flush_->finished.wait(lock, [this] { return flush_->done; });
 }
 
 void AtomicFile::checkFlush() {
-  if (flush_ && flush_->done.load(std::memory_order_acquire) && flush_->error.load() != 0) {
-    failWith(flush_->error.load(), "write");
+  if (!flush_) return;
+  int err = 0;
+  {
+    const std::lock_guard lock(flush_->mutex);
+    if (flush_->done) err = flush_->error;
   }
+  if (err != 0) failWith(err, "write");
 }
 
 void AtomicFile::seek(std::int64_t offset) {

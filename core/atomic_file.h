@@ -7,7 +7,6 @@
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
 namespace isoslab {
@@ -87,8 +86,9 @@ class AtomicFile {
  private:
   [[noreturn]] void fail(const char* what);
   [[noreturn]] void failWith(int err, const char* what);
-  // The background flush (see write()): started when none is running, joined before the file's
-  // data moves or it closes. Its error, if any, fails the next write or the commit.
+  // The background flush (see write()): a detached thread, started when none of this file's is
+  // running, waited for before the file's data moves or it closes. Its error, if any, fails the
+  // next write or the commit.
   struct Flush;
   void startFlush();
   void joinFlush();
@@ -105,7 +105,6 @@ class AtomicFile {
   std::int64_t written_ = 0;  // bytes before this were handed to the disk's write-behind
   static constexpr std::int64_t kWriteBehindBytes = std::int64_t{4} << 20;
   std::shared_ptr<Flush> flush_;  // shared with the flush's thread
-  std::thread flusher_;
 };
 
 /// Outputs that appear together or not at all. While a group is active (it is process-wide; one at
