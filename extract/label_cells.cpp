@@ -156,9 +156,13 @@ constexpr std::array<CellGroups, 256> kTwoLabelGroups = [] {
   return table;
 }();
 
-int faceSplit(const std::array<std::int32_t, 4>& f) noexcept { return faceSplitOf(f); }
+int faceSplit(const std::array<std::int32_t, 4>& f) noexcept {
+  return faceSplitOf(f);
+}
 
-CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept { return groupsOf(labels); }
+CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept {
+  return groupsOf(labels);
+}
 
 namespace {
 
@@ -355,6 +359,5 @@ void classifyLabelRows(const float* slice, std::int64_t nx, std::int64_t ny, std
     rows[static_cast<std::size_t>(j)] = span;
   }
 }
-
 
 }  // namespace isoslab

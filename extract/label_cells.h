@@ -83,7 +83,9 @@ CellGroups groupCell(const std::array<std::int32_t, 8>& labels) noexcept;
 /// groupCell for cells of exactly two labels, from a table: `mask` has bit c set where corner c
 /// holds the label that connects later (connectsBefore). The table is made by groupCell.
 extern const std::array<CellGroups, 256> kTwoLabelGroups;
-inline const CellGroups& twoLabelGroups(std::uint8_t mask) noexcept { return kTwoLabelGroups[mask]; }
+inline const CellGroups& twoLabelGroups(std::uint8_t mask) noexcept {
+  return kTwoLabelGroups[mask];
+}
 
 /// Where three or more labels meet at a cell, a label may keep two fans at one copy of the vertex:
 /// two labels on a face's diagonals with a third beyond (say 3 and 7 in a checkerboard under a
