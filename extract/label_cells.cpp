@@ -304,7 +304,7 @@ const CellGroups& LabelCellCache::manyLabels(const CellLabels& cell, std::uint32
       key |= rank << (3 * corner);
     }
   }
-  if (slots_.size() < 2 * (patterns_.size() + 1)) {  // grow, keeping every pattern's index
+  if (slots_.size() < 2 * (hashed_ + 1)) {  // grow, keeping every pattern's index
     std::vector<std::pair<std::uint32_t, std::uint32_t>> old(std::max<std::size_t>(1024, 2 * slots_.size()));
     old.swap(slots_);
     for (const auto& entry : old) {
@@ -318,6 +318,7 @@ const CellGroups& LabelCellCache::manyLabels(const CellLabels& cell, std::uint32
   while (slots_[at].first != 0 && slots_[at].first != key + 1) at = (at + 1) & (slots_.size() - 1);
   if (slots_[at].first == 0) {
     slots_[at] = {key + 1, static_cast<std::uint32_t>(patterns_.size())};
+    ++hashed_;
     makePattern(key, distinct.front() == 0);
   }
   return found(patterns_[slots_[at].second], distinct, pinches);

@@ -178,6 +178,7 @@ class LabelCellCache {
   // labels, a table of every pattern (3^8) of their indices + 1 (0: not seen).
   std::vector<Pattern> patterns_;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> slots_;
+  std::size_t hashed_ = 0;  // the patterns in slots_
   std::vector<std::uint32_t> threeLabels_;
 };
 
