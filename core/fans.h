@@ -7,31 +7,33 @@
 #include <algorithm>
 #include <cstdint>
 #include <numeric>
+#include <span>
 #include <utility>
 #include <vector>
 
 #include "core/mesh_sink.h"
+#include "core/scratch.h"
 
 namespace isoslab {
 
 /// Per vertex base .. base + vertexCount - 1, the number of fans of its triangles (0 when no triangle
 /// uses it); the triangles use only those vertices.
-inline std::vector<std::uint32_t> fanCounts(const std::vector<Triangle>& triangles, std::size_t vertexCount,
-                                            VertexId base = 0) {
+inline ScratchVector<std::uint32_t> fanCounts(std::span<const Triangle> triangles, std::size_t vertexCount,
+                                              VertexId base = 0) {
   // The corners at each vertex, in order (counting sort by vertex).
-  std::vector<std::uint32_t> first(vertexCount + 1, 0);
+  ScratchVector<std::uint32_t> first(vertexCount + 1, 0);
   for (const Triangle& t : triangles) {
     for (VertexId v : t) ++first[v - base + 1];
   }
   for (std::size_t v = 0; v < vertexCount; ++v) first[v + 1] += first[v];
-  std::vector<std::uint32_t> corners(first[vertexCount]);
-  std::vector<std::uint32_t> fill(first.begin(), first.end() - 1);
+  ScratchVector<std::uint32_t> corners(first[vertexCount]);
+  ScratchVector<std::uint32_t> fill(first.begin(), first.end() - 1);
   for (std::uint32_t t = 0; t < triangles.size(); ++t) {
     for (std::uint32_t k = 0; k < 3; ++k) corners[fill[triangles[t][k] - base]++] = 3 * t + k;
   }
-  std::vector<std::uint32_t> fans(vertexCount, 0);
-  std::vector<std::uint32_t> parent;
-  std::vector<std::pair<VertexId, std::uint32_t>> ends;  // (the other end of an edge at v, corner slot)
+  ScratchVector<std::uint32_t> fans(vertexCount, 0);
+  ScratchVector<std::uint32_t> parent;
+  ScratchVector<std::pair<VertexId, std::uint32_t>> ends;  // (the other end of an edge at v, corner slot)
   for (std::size_t v = 0; v < vertexCount; ++v) {
     const std::uint32_t n = first[v + 1] - first[v];
     if (n == 0) continue;

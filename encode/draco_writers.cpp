@@ -184,7 +184,7 @@ namespace {
 std::vector<bool> splitByDraco(const IndexedMesh& mesh) {
   std::vector<bool> split(mesh.positions.size(), false);
   {
-    const std::vector<std::uint32_t> fans = fanCounts(mesh.triangles, mesh.positions.size());
+    const auto fans = fanCounts(mesh.triangles, mesh.positions.size());
     for (std::size_t v = 0; v < split.size(); ++v) split[v] = fans[v] > 1;
   }
   // Edges of more than two triangles: one sorted array (no hash map: its many small nodes would

@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/fans.h"
+#include "core/scratch.h"
 #include "process/simplifier.h"
 
 namespace isoslab {
@@ -33,7 +34,7 @@ struct EdgeUse {
 
 // The smallest and largest vertex id of `triangles` (not empty): per-vertex arrays of a region span
 // these, not the sink's whole window of vertices.
-std::pair<VertexId, VertexId> idRange(const std::vector<Triangle>& triangles) {
+std::pair<VertexId, VertexId> idRange(std::span<const Triangle> triangles) {
   VertexId low = triangles.front()[0], high = low;
   for (const Triangle& t : triangles) {
     low = std::min({low, t[0], t[1], t[2]});
@@ -45,11 +46,11 @@ std::pair<VertexId, VertexId> idRange(const std::vector<Triangle>& triangles) {
 // Every edge of the triangles, sorted by key (smaller id << 32 | larger id): its uses and how many
 // run from the smaller id to the larger. Linear: the uses are bucketed by their smaller id (a
 // counting sort over the ids' range), then each vertex's few uses are sorted by the larger id.
-std::vector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(const std::vector<Triangle>& triangles) {
-  std::vector<std::pair<std::uint64_t, EdgeUse>> edges;
+ScratchVector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(std::span<const Triangle> triangles) {
+  ScratchVector<std::pair<std::uint64_t, EdgeUse>> edges;
   if (triangles.empty()) return edges;
   const auto [low, high] = idRange(triangles);
-  std::vector<std::uint32_t> offsets(static_cast<std::size_t>(high - low) + 2, 0);
+  ScratchVector<std::uint32_t> offsets(static_cast<std::size_t>(high - low) + 2, 0);
   // An edge from a vertex to itself (a triangle that repeats an id) is no edge.
   for (const Triangle& t : triangles) {
     for (std::size_t k = 0; k < 3; ++k) {
@@ -58,8 +59,8 @@ std::vector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(const std::vector<Tria
   }
   for (std::size_t k = 1; k < offsets.size(); ++k) offsets[k] += offsets[k - 1];
   // Per use: the larger id, and 1 when it runs from the smaller id to the larger.
-  std::vector<std::pair<VertexId, std::uint32_t>> uses(offsets.back());
-  std::vector<std::uint32_t> fill(offsets.begin(), offsets.end() - 1);
+  ScratchVector<std::pair<VertexId, std::uint32_t>> uses(offsets.back());
+  ScratchVector<std::uint32_t> fill(offsets.begin(), offsets.end() - 1);
   for (const Triangle& t : triangles) {
     for (std::size_t k = 0; k < 3; ++k) {
       const VertexId a = t[k], b = t[(k + 1) % 3];
@@ -98,24 +99,37 @@ std::vector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(const std::vector<Tria
 }
 
 struct Shape {
-  std::vector<std::uint64_t> edges;   // every edge, sorted
-  std::vector<std::uint64_t> border;  // edges used once, sorted
-  std::uint64_t nonManifold = 0;      // edges used more than twice
-  std::uint64_t inconsistent = 0;     // edges used twice in the same direction
+  ScratchVector<std::uint64_t> border;       // edges used once, sorted
+  ScratchVector<VertexId> borderVertices;    // their ends, sorted
+  ScratchVector<std::uint64_t> amongBorder;  // every edge between two border vertices, sorted
+  std::uint64_t nonManifold = 0;             // edges used more than twice
+  std::uint64_t inconsistent = 0;            // edges used twice in the same direction
   // Those two kinds, sorted by key: a label complex has them where three or more labels meet.
-  std::vector<std::pair<std::uint64_t, EdgeUse>> odd;
+  ScratchVector<std::pair<std::uint64_t, EdgeUse>> odd;
+  bool onBorder(VertexId v) const { return std::binary_search(borderVertices.begin(), borderVertices.end(), v); }
 };
 
-Shape shapeOf(const std::vector<Triangle>& triangles) {
+// Of all the edges, only those between two border vertices are kept: the check after a try needs
+// no more (a new edge there is a chord), and the whole list was the largest array of a region's check.
+Shape shapeOf(std::span<const Triangle> triangles) {
   Shape s;
   const auto edges = tallyEdges(triangles);
-  s.edges.reserve(edges.size());
   for (const auto& [key, e] : edges) {
-    s.edges.push_back(key);
     if (e.uses == 1) s.border.push_back(key);
     if (e.uses > 2) ++s.nonManifold;
     if (e.uses == 2 && e.forward != 1) ++s.inconsistent;
     if (e.uses > 2 || (e.uses == 2 && e.forward != 1)) s.odd.push_back({key, e});
+  }
+  for (std::uint64_t key : s.border) {
+    s.borderVertices.push_back(static_cast<VertexId>(key >> 32));
+    s.borderVertices.push_back(static_cast<VertexId>(key & 0xffffffffu));
+  }
+  std::sort(s.borderVertices.begin(), s.borderVertices.end());
+  s.borderVertices.erase(std::unique(s.borderVertices.begin(), s.borderVertices.end()), s.borderVertices.end());
+  for (const auto& [key, e] : edges) {
+    if (s.onBorder(static_cast<VertexId>(key >> 32)) && s.onBorder(static_cast<VertexId>(key & 0xffffffffu))) {
+      s.amongBorder.push_back(key);
+    }
   }
   return s;
 }
@@ -251,12 +265,12 @@ void DecimationSink::consume(const MeshChunk& chunk) {
   sent_.resize(positions_.size(), kNone);
   chunkFirst_.push_back(chunk.firstVertex);
   chunkSlab_.push_back(chunk.slab);
-  chunkTriangles_.push_back(chunk.triangles);
+  chunkTriangles_.emplace_back(chunk.triangles.begin(), chunk.triangles.end());
   if (complex_) {
     if (chunk.faceLabels.size() != chunk.triangles.size()) {
       throw Error("decimation: a label complex's chunk lacks its triangles' labels");
     }
-    chunkLabels_.push_back(chunk.faceLabels);
+    chunkLabels_.emplace_back(chunk.faceLabels.begin(), chunk.faceLabels.end());
   }
   ++chunks_;
   report_.trianglesIn += chunk.triangles.size();
@@ -284,6 +298,7 @@ void DecimationSink::finish() {
     Lock lock;
     if (complex_) lock.curve = std::move(pendingCurve_);
     const Faces last = simplify(pendingUpper_, originalIn(pendingMiddle_, chunks_), range, lock, scope);
+    releaseScratch();
     count(scope);
     emit(last, chunkSlab_.back(), range, scope);
     hasPending_ = false;
@@ -435,6 +450,8 @@ void DecimationSink::processQueued() {
   for (std::vector<Work>* group : {&blocks, &out}) {
     for (const Work& w : *group) count(w.scope);
   }
+  // The working buffers that the calls handed on to one another go before the output is written.
+  releaseScratch();
   for (Work& w : out) {
     emit(w.output, w.slab, w.range, w.scope);
     w = Work{};
@@ -475,20 +492,20 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // the others, and only the stopping point moves.
 DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTriangles,
                                                const OriginalSurface* original,
-                                               const std::vector<VertexId>& pinned) const {
+                                               const ScratchVector<VertexId>& pinned) const {
   if (faces.triangles.empty()) return {};
   // The arrays below span the triangles' ids, not the sink's whole window of vertices.
   const auto [low, high] = idRange(faces.triangles);
   const std::size_t span = static_cast<std::size_t>(high - low) + 1;
   // Local ids by vertex (relative to low), ~0u where unused: one array for every batch, each
   // batch resetting the entries it set.
-  std::vector<unsigned> local(span, ~0u);
+  ScratchVector<unsigned> local(span, ~0u);
   if (faces.size() <= options_.batchTriangles) {
     return collapseBatch(faces.triangles, faces.labels, targetTriangles, original, pinned, local, low, &faces);
   }
-  const std::vector<Triangle>& triangles = faces.triangles;
+  const ScratchVector<Triangle>& triangles = faces.triangles;
   // Components: union-find over the vertices (ids relative to low), the smaller root winning.
-  std::vector<std::uint32_t> parent(span);
+  ScratchVector<std::uint32_t> parent(span);
   for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
   const auto find = [&](std::uint32_t x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
@@ -505,16 +522,16 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
   // order), then cut into batches of whole components. The grouped copy replaces the input before
   // any batch runs, and the batches are ranges of it (the simplifier's working set sits beside as
   // little as may be).
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> order(triangles.size());  // (root, triangle)
+  ScratchVector<std::pair<std::uint32_t, std::uint32_t>> order(triangles.size());  // (root, triangle)
   for (std::uint32_t t = 0; t < triangles.size(); ++t) order[t] = {find(triangles[t][0] - low), t};
   parent = {};
   std::sort(order.begin(), order.end());
-  std::vector<Triangle> grouped(triangles.size());
+  ScratchVector<Triangle> grouped(triangles.size());
   for (std::size_t k = 0; k < order.size(); ++k) grouped[k] = triangles[order[k].second];
-  std::vector<LabelPair> groupedLabels(faces.labels.size());
+  ScratchVector<LabelPair> groupedLabels(faces.labels.size());
   for (std::size_t k = 0; k < groupedLabels.size(); ++k) groupedLabels[k] = faces.labels[order[k].second];
   faces = Faces{};
-  std::vector<std::size_t> starts{0};  // each batch's first triangle in `grouped`
+  ScratchVector<std::size_t> starts{0};  // each batch's first triangle in `grouped`
   for (std::size_t i = 0; i < order.size();) {
     std::size_t j = i;
     while (j < order.size() && order[j].first == order[i].first) ++j;
@@ -546,14 +563,15 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
 DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> triangles,
                                                     std::span<const LabelPair> labels, std::size_t targetTriangles,
                                                     const OriginalSurface* original,
-                                                    const std::vector<VertexId>& pinned, std::vector<unsigned>& local,
-                                                    VertexId low, Faces* release) const {
+                                                    const ScratchVector<VertexId>& pinned,
+                                                    ScratchVector<unsigned>& local, VertexId low,
+                                                    Faces* release) const {
   if (triangles.empty()) return {};
   // The sides, copied before `release` frees them.
-  std::vector<LabelPair> sides(labels.begin(), labels.end());
+  ScratchVector<LabelPair> sides(labels.begin(), labels.end());
   // Local ids in order of first use; ids[local] is the global id.
-  std::vector<VertexId> ids;
-  std::vector<unsigned> indices(triangles.size() * 3);
+  ScratchVector<VertexId> ids;
+  ScratchVector<unsigned> indices(triangles.size() * 3);
   for (std::size_t t = 0; t < triangles.size(); ++t) {
     for (std::size_t k = 0; k < 3; ++k) {
       unsigned& l = local[triangles[t][k] - low];
@@ -566,7 +584,7 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
   }
   for (VertexId v : ids) local[v - low] = ~0u;
   if (release != nullptr) *release = Faces{};  // `triangles` and `labels` are gone from here on
-  std::vector<float> xyz(ids.size() * 3);
+  ScratchVector<float> xyz(ids.size() * 3);
   for (std::size_t i = 0; i < ids.size(); ++i) {
     const Vec3f& p = position(ids[i]);
     xyz[3 * i] = p.x;
@@ -593,26 +611,26 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
     limits.checkAbove = kCheckAbove * distanceLimit;
     // The new triangles fan out from `to`: each one's centroid, and the midpoints of the edges
     // from `to` (each once). Their edges between two ring vertices were there before.
-    limits.check =
-        [&, ends = std::vector<std::uint32_t>()](const std::vector<std::array<std::uint32_t, 3>>& made) mutable {
-          ends.clear();
-          for (const auto& t : made) {
-            const std::array<Vec3d, 4> samples = samplePoints({ids[t[0]], ids[t[1]], ids[t[2]]});
-            if (!original->within(samples[0], distanceLimit)) return false;
-            for (std::size_t k = 1; k < 3; ++k) {
-              // samples[1] is the midpoint of (t[0], t[1]), samples[3] that of (t[2], t[0]).
-              const std::uint32_t end = t[k];
-              if (std::find(ends.begin(), ends.end(), end) != ends.end()) continue;
-              ends.push_back(end);
-              if (!original->within(samples[k == 1 ? 1 : 3], distanceLimit)) return false;
-            }
-          }
-          return true;
-        };
+    limits.check = [&, ends = ScratchVector<std::uint32_t>(),
+                    hint = ~0u](const std::vector<std::array<std::uint32_t, 3>>& made) mutable {
+      ends.clear();
+      for (const auto& t : made) {
+        const std::array<Vec3d, 4> samples = samplePoints({ids[t[0]], ids[t[1]], ids[t[2]]});
+        if (!original->within(samples[0], distanceLimit, hint)) return false;
+        for (std::size_t k = 1; k < 3; ++k) {
+          // samples[1] is the midpoint of (t[0], t[1]), samples[3] that of (t[2], t[0]).
+          const std::uint32_t end = t[k];
+          if (std::find(ends.begin(), ends.end(), end) != ends.end()) continue;
+          ends.push_back(end);
+          if (!original->within(samples[k == 1 ? 1 : 3], distanceLimit, hint)) return false;
+        }
+      }
+      return true;
+    };
   }
-  std::vector<std::uint32_t> keptFrom;
-  const std::size_t kept =
-      simplifyTriangles(indices, xyz.data(), ids.size(), limits, sides.empty() ? nullptr : &keptFrom);
+  ScratchVector<std::uint32_t> keptFrom(sides.empty() ? 0 : indices.size() / 3);
+  const std::size_t kept = simplifyTriangles(std::span<std::uint32_t>(indices), xyz.data(), ids.size(), limits,
+                                             std::span<std::uint32_t>(keptFrom));
   Faces out;
   out.triangles.resize(kept / 3);
   for (std::size_t t = 0; t < out.size(); ++t) {
@@ -639,10 +657,10 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
 DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t originalTriangles, ChunkRange originals,
                                                const Lock& lock, Scope& scope) const {
   if (faces.empty()) return faces;
-  const std::vector<Triangle>& triangles = faces.triangles;
+  const ScratchVector<Triangle>& triangles = faces.triangles;
   const Shape before = shapeOf(triangles);
   // A label complex's vertices on lines where three labels meet, and its other odd edges.
-  std::vector<VertexId> lineVertices;
+  ScratchVector<VertexId> lineVertices;
   std::size_t otherOdd = 0;
   for (const auto& [key, e] : before.odd) {
     if (e.uses != 3) {
@@ -666,14 +684,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   // across this border, simplifies them), and then no collapse can reach them. A rim of an open
   // surface on a volume face cannot be told from a seam that runs along a cap (both lie in a face),
   // so rims keep their first ring too.
-  std::vector<VertexId> borderVertices;
-  for (std::uint64_t key : before.border) {
-    borderVertices.push_back(static_cast<VertexId>(key >> 32));
-    borderVertices.push_back(static_cast<VertexId>(key & 0xffffffffu));
-  }
-  std::sort(borderVertices.begin(), borderVertices.end());
-  borderVertices.erase(std::unique(borderVertices.begin(), borderVertices.end()), borderVertices.end());
-  const auto onBorder = [&](VertexId v) { return std::binary_search(borderVertices.begin(), borderVertices.end(), v); };
+  const auto onBorder = [&](VertexId v) { return before.onBorder(v); };
   // Fans per vertex (core/fans.h), ids relative to `first`: a collapse must not pinch two sheets
   // together at a vertex.
   // Per-vertex arrays span the region's ids only (not the sink's whole window).
@@ -681,11 +692,11 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   const std::pair<VertexId, VertexId> range = idRange(triangles);
   const VertexId first = range.first, last = range.second;
   const std::size_t span = static_cast<std::size_t>(last - first) + 1;
-  const auto fansOf = [&](const std::vector<Triangle>& tris) { return fanCounts(tris, span, first); };
-  const std::vector<std::uint32_t> fansBefore = fansOf(triangles);
+  const auto fansOf = [&](std::span<const Triangle> tris) { return fanCounts(tris, span, first); };
+  const ScratchVector<std::uint32_t> fansBefore = fansOf(triangles);
   // The triangles around each vertex (ids relative to `first`), to grow frozen patches by rings.
-  std::vector<std::uint32_t> aroundFirst, around;
-  std::vector<bool> frozen(triangles.size(), false);
+  ScratchVector<std::uint32_t> aroundFirst, around;
+  ScratchVector<bool> frozen(triangles.size(), false);
   std::size_t frozenCount = 0;
   const auto stays = [&](VertexId v) { return onBorder(v) || (complex_ && lock.has(v)); };
   for (std::size_t t = 0; t < triangles.size(); ++t) {
@@ -711,7 +722,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     const OriginalSurface* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
     // In a label complex, a vertex with a frozen triangle stays: its triangles in the input can
     // look like a closed fan where three labels meet (a scalar surface shows it a border edge).
-    std::vector<VertexId> pinned;
+    ScratchVector<VertexId> pinned;
     if (complex_) {
       for (std::size_t t = 0; t < triangles.size(); ++t) {
         if (frozen[t]) pinned.insert(pinned.end(), triangles[t].begin(), triangles[t].end());
@@ -726,9 +737,9 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       if (frozen[t]) result.add(faces, t);
     }
     result.append(simplified);
-    const std::vector<Triangle>& out = result.triangles;
+    const ScratchVector<Triangle>& out = result.triangles;
     // The edges the result should not have; a label complex's odd edges as they were.
-    std::vector<VertexId> bad;
+    ScratchVector<VertexId> bad;
     std::size_t border = 0, oddKept = 0;
     for (const auto& [key, e] : tallyEdges(out)) {
       border += e.uses == 1 ? 1 : 0;
@@ -749,30 +760,31 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
           odd = false;
         }
       }
-      const bool wrong =
-          odd || (e.uses == 1 && !std::binary_search(before.border.begin(), before.border.end(), key)) ||
-          (onBorder(a) && onBorder(b) && !std::binary_search(before.edges.begin(), before.edges.end(), key));
+      const bool wrong = odd || (e.uses == 1 && !std::binary_search(before.border.begin(), before.border.end(), key)) ||
+                         (onBorder(a) && onBorder(b) &&
+                          !std::binary_search(before.amongBorder.begin(), before.amongBorder.end(), key));
       if (wrong) {
         bad.push_back(static_cast<VertexId>(key >> 32));
         bad.push_back(static_cast<VertexId>(key & 0xffffffffu));
       }
     }
     // Pinched vertices.
-    const std::vector<std::uint32_t> fansAfter = fansOf(out);
+    const ScratchVector<std::uint32_t> fansAfter = fansOf(out);
     for (std::size_t v = 0; v < fansAfter.size(); ++v) {
       if (fansAfter[v] > std::max(1u, fansBefore[v])) bad.push_back(first + static_cast<VertexId>(v));
     }
     // Triangles that moved the surface too far, against the grid of the original triangles, which
     // the distance measure of the try that succeeds reuses.
     if (original != nullptr) {
+      std::uint32_t hint = ~0u;
       for (const Triangle& t : simplified.triangles) {
-        if (!triangleWithin(t, *original, limit)) bad.insert(bad.end(), t.begin(), t.end());
+        if (!triangleWithin(t, *original, limit, hint)) bad.insert(bad.end(), t.begin(), t.end());
       }
     }
     // A label complex's sheets lie close together (a label one voxel thick): a collapse within the
     // bound can push one through another.
     if (complex_) {
-      const std::vector<VertexId> crossing = crossingVertices(out);
+      const ScratchVector<VertexId> crossing = crossingVertices(out);
       bad.insert(bad.end(), crossing.begin(), crossing.end());
     }
     const bool shaped = complex_ ? oddKept == otherOdd : before.odd.empty();
@@ -790,7 +802,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       }
       for (std::size_t v = 0; v < span; ++v) aroundFirst[v + 1] += aroundFirst[v];
       around.resize(aroundFirst.back());
-      std::vector<std::uint32_t> fill(aroundFirst.begin(), aroundFirst.end() - 1);
+      ScratchVector<std::uint32_t> fill(aroundFirst.begin(), aroundFirst.end() - 1);
       for (std::size_t t = 0; t < triangles.size(); ++t) {
         for (VertexId v : triangles[t]) around[fill[v - first]++] = static_cast<std::uint32_t>(t);
       }
@@ -798,9 +810,9 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // A border edge that went missing leaves no bad vertex to freeze around: keep the region whole.
     if (bad.empty()) break;
     // Freeze the original triangles within 1 + attempt / 2 rings of the bad vertices.
-    std::vector<VertexId> ring = bad;
+    ScratchVector<VertexId> ring = bad;
     for (int step = 0; step < 1 + attempt / 2; ++step) {
-      std::vector<VertexId> next;
+      ScratchVector<VertexId> next;
       for (VertexId v : ring) {
         for (std::uint32_t i = aroundFirst[v - first]; i < aroundFirst[v - first + 1]; ++i) {
           const std::uint32_t t = around[i];
@@ -823,7 +835,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
 // The chunks whose original triangles a region is measured against: those that use the vertices of
 // its triangles, and one more on either side. The same for the checks and for the report, whatever
 // the collapses left.
-DecimationSink::ChunkRange DecimationSink::rangeAround(const std::vector<Triangle>& triangles, std::size_t firstChunk,
+DecimationSink::ChunkRange DecimationSink::rangeAround(std::span<const Triangle> triangles, std::size_t firstChunk,
                                                        std::size_t end) const {
   if (triangles.empty()) return {firstChunk, firstChunk};
   VertexId lowest = triangles.front()[0], highest = lowest;
@@ -982,11 +994,17 @@ std::array<DecimationSink::Vec3d, 4> DecimationSink::samplePoints(const Triangle
            {(c[0] + a[0]) / 2, (c[1] + a[1]) / 2, (c[2] + a[2]) / 2}}};
 }
 
-// Whether some original triangle lies within `limit` of p: the cells that the ball around p
-// touches, p's own first, stopping at the first triangle near enough.
-bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const {
+// Whether some original triangle lies within `limit` of p: the hinted triangle, then the cells that
+// the ball around p touches, p's own first, stopping at the first triangle near enough.
+bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::uint32_t& hint) const {
   if (triangles.empty()) return true;
   const double limit2 = limit * limit;
+  const auto near = [&](std::uint32_t k) {
+    const Triangle& t = triangles[k];
+    return distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
+                           toDouble(sink->position(t[2]))) <= limit2;
+  };
+  if (hint < triangles.size() && near(hint)) return true;
   std::int64_t lo[3], hi[3];
   for (std::size_t a = 0; a < 3; ++a) {
     lo[a] = std::max<std::int64_t>(0, cellOf(p[a] - limit, a));
@@ -997,9 +1015,8 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const
     if (i < 0) return false;
     for (std::uint32_t e = cellStart[static_cast<std::size_t>(i)]; e < cellStart[static_cast<std::size_t>(i) + 1];
          ++e) {
-      const Triangle& t = triangles[cellTriangles[e]];
-      if (distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
-                          toDouble(sink->position(t[2]))) <= limit2) {
+      if (near(cellTriangles[e])) {
+        hint = cellTriangles[e];
         return true;
       }
     }
@@ -1017,10 +1034,11 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit) const
 
 // Whether every sample point of the triangle (centroid and edge midpoints) lies within `limit` of
 // the original surface.
-bool DecimationSink::triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const {
+bool DecimationSink::triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit,
+                                    std::uint32_t& hint) const {
   const std::array<Vec3d, 4> samples = samplePoints(t);
   for (const Vec3d& sample : samples) {
-    if (!surface.within(sample, limit)) return false;
+    if (!surface.within(sample, limit, hint)) return false;
   }
   return true;
 }
@@ -1041,7 +1059,7 @@ double DecimationSink::triangleDistance(const Triangle& t, const OriginalSurface
 }
 
 // The one-sided distance from the final triangles to the original surface, for the report.
-void DecimationSink::measure(const std::vector<Triangle>& triangles, ChunkRange originals, Scope& scope) {
+void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope) {
   if (triangles.empty()) return;
   const OriginalSurface& surface = surfaceFor(originals, scope);
   for (const Triangle& t : triangles) {
@@ -1053,7 +1071,7 @@ void DecimationSink::measure(const std::vector<Triangle>& triangles, ChunkRange 
 // Sends a final region on as one chunk: its vertices that no earlier chunk sent, in the order the
 // triangles first use them.
 void DecimationSink::emit(const Faces& faces, std::int64_t slab, ChunkRange originals, Scope& scope) {
-  const std::vector<Triangle>& triangles = faces.triangles;
+  const ScratchVector<Triangle>& triangles = faces.triangles;
   if (options_.measure) {
     measure(triangles, originals, scope);
   } else {
@@ -1077,7 +1095,7 @@ void DecimationSink::emit(const Faces& faces, std::int64_t slab, ChunkRange orig
     }
     out_.triangles.push_back(mapped);
   }
-  out_.faceLabels = faces.labels;
+  out_.faceLabels.assign(faces.labels.begin(), faces.labels.end());
   report_.trianglesOut += out_.triangles.size();
   next_.consume(out_);
 }
@@ -1090,13 +1108,13 @@ namespace isoslab {
 // there would be more than about two cells a triangle), each pair tested in the one cell that holds
 // the low corner of their boxes' overlap: an edge of either through the other (for two triangles
 // with a corner in common, a fold: the edge opposite it), or both on the same three points.
-std::vector<VertexId> DecimationSink::crossingVertices(const std::vector<Triangle>& triangles) const {
-  std::vector<VertexId> out;
+ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangle> triangles) const {
+  ScratchVector<VertexId> out;
   if (triangles.size() < 2) return out;
   struct Box {
     Vec3d low, high;
   };
-  std::vector<Box> boxes(triangles.size());
+  ScratchVector<Box> boxes(triangles.size());
   Vec3d low{INFINITY, INFINITY, INFINITY}, high{-INFINITY, -INFINITY, -INFINITY};
   for (std::size_t t = 0; t < triangles.size(); ++t) {
     Box& b = boxes[t];
@@ -1129,10 +1147,10 @@ std::vector<VertexId> DecimationSink::crossingVertices(const std::vector<Triangl
       for (std::int64_t y = cellOf(b.low[1], 1); y <= cellOf(b.high[1], 1); ++y)
         for (std::int64_t x = cellOf(b.low[0], 0); x <= cellOf(b.high[0], 0); ++x) visit(indexOf(x, y, z));
   };
-  std::vector<std::uint32_t> start(static_cast<std::size_t>(dims[0] * dims[1] * dims[2]) + 1, 0);
+  ScratchVector<std::uint32_t> start(static_cast<std::size_t>(dims[0] * dims[1] * dims[2]) + 1, 0);
   for (const Box& b : boxes) forCells(b, [&](std::size_t i) { ++start[i + 1]; });
   for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
-  std::vector<std::uint32_t> list(start.back()), fill(start.begin(), start.end() - 1);
+  ScratchVector<std::uint32_t> list(start.back()), fill(start.begin(), start.end() - 1);
   for (std::uint32_t t = 0; t < boxes.size(); ++t) forCells(boxes[t], [&](std::size_t i) { list[fill[i]++] = t; });
   for (std::size_t i = 0; i + 1 < start.size(); ++i) {
     for (std::uint32_t m = start[i]; m < start[i + 1]; ++m) {

@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "core/mesh_sink.h"
+#include "core/scratch.h"
 
 namespace isoslab {
 
@@ -130,8 +131,8 @@ class DecimationSink final : public MeshSink {
     std::array<std::int64_t, 3> dims{};
     // The original triangles (12 bytes each), read through the sink's positions.
     const DecimationSink* sink = nullptr;
-    std::vector<Triangle> triangles;
-    std::vector<std::uint32_t> cellStart, cellTriangles;
+    ScratchVector<Triangle> triangles;
+    ScratchVector<std::uint32_t> cellStart, cellTriangles;
 
     std::int64_t cellOf(double x, std::size_t axis) const {
       return static_cast<std::int64_t>(std::floor((x - origin[axis]) / cell));
@@ -144,7 +145,10 @@ class DecimationSink final : public MeshSink {
     // The squared distance from p to the nearest triangle in the cell, or infinity.
     double nearestInCell(std::int64_t x, std::int64_t y, std::int64_t z, const Vec3d& p) const;
     double distance(const Vec3d& p) const;
-    bool within(const Vec3d& p, double limit) const;
+    // Whether some original triangle lies within `limit` of p. `hint` names a triangle to try first
+    // (the last one found, as the points asked about in turn lie close together) and is set to the
+    // one found; the answer does not depend on it.
+    bool within(const Vec3d& p, double limit, std::uint32_t& hint) const;
   };
 
   // What one simplify call keeps for itself, so that calls can run side by side: its grid of the
@@ -158,8 +162,8 @@ class DecimationSink final : public MeshSink {
   // Triangles and, in a label complex, each one's sides (MeshChunk::faceLabels; empty otherwise),
   // in step.
   struct Faces {
-    std::vector<Triangle> triangles;
-    std::vector<LabelPair> labels;
+    ScratchVector<Triangle> triangles;
+    ScratchVector<LabelPair> labels;
     std::size_t size() const noexcept { return triangles.size(); }
     bool empty() const noexcept { return triangles.empty(); }
     void add(const Faces& from, std::size_t t) {
@@ -203,22 +207,23 @@ class DecimationSink final : public MeshSink {
   Faces simplify(const Faces& faces, std::int64_t originalTriangles, ChunkRange originals, const Lock& lock,
                  Scope& scope) const;
   Faces collapse(Faces faces, std::size_t targetTriangles, const OriginalSurface* original,
-                 const std::vector<VertexId>& pinned) const;
+                 const ScratchVector<VertexId>& pinned) const;
   Faces collapseBatch(std::span<const Triangle> triangles, std::span<const LabelPair> labels,
-                      std::size_t targetTriangles, const OriginalSurface* original, const std::vector<VertexId>& pinned,
-                      std::vector<unsigned>& local, VertexId low, Faces* release) const;
+                      std::size_t targetTriangles, const OriginalSurface* original,
+                      const ScratchVector<VertexId>& pinned, ScratchVector<unsigned>& local, VertexId low,
+                      Faces* release) const;
   void emit(const Faces& faces, std::int64_t slab, ChunkRange originals, Scope& scope);
-  void measure(const std::vector<Triangle>& triangles, ChunkRange originals, Scope& scope);
+  void measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope);
   // The chunks whose original triangles measure `triangles`, within chunks [firstChunk, end).
-  ChunkRange rangeAround(const std::vector<Triangle>& triangles, std::size_t firstChunk, std::size_t end) const;
+  ChunkRange rangeAround(std::span<const Triangle> triangles, std::size_t firstChunk, std::size_t end) const;
   OriginalSurface originalSurface(ChunkRange range) const;
   // The original surface of `range`, kept in the scope for the next caller with the same range: the
   // tries, the simplifier's checks and the distance measure of the output share it.
   const OriginalSurface& surfaceFor(ChunkRange range, Scope& scope) const;
   // The vertices of triangles that pass through one another (or fold over a corner they share).
-  std::vector<VertexId> crossingVertices(const std::vector<Triangle>& triangles) const;
+  ScratchVector<VertexId> crossingVertices(std::span<const Triangle> triangles) const;
   double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
-  bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit) const;
+  bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit, std::uint32_t& hint) const;
   using Vec3d = std::array<double, 3>;
   std::array<Vec3d, 4> samplePoints(const Triangle& t) const;
   std::size_t chunkOfVertex(VertexId v) const;
@@ -244,9 +249,9 @@ class DecimationSink final : public MeshSink {
   std::size_t chunkBase_ = 0;
   std::vector<VertexId> chunkFirst_;
   std::vector<std::int64_t> chunkSlab_;
-  std::vector<std::vector<Triangle>> chunkTriangles_;
-  std::vector<std::vector<LabelPair>> chunkLabels_;  // a label complex's only
-  std::size_t chunks_ = 0;                           // chunks seen
+  std::vector<ScratchVector<Triangle>> chunkTriangles_;
+  std::vector<ScratchVector<LabelPair>> chunkLabels_;  // a label complex's only
+  std::size_t chunks_ = 0;                             // chunks seen
 
   // The open block: chunks [blockStart_, chunks_); the blocks closed and not yet simplified; the
   // chunk where the one-block-at-a-time schedule's data would start now; the pending upper half of

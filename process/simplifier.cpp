@@ -5,7 +5,11 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <span>
+#include <stdexcept>
 #include <utility>
+
+#include "core/scratch.h"
 
 namespace isoslab {
 namespace {
@@ -147,13 +151,12 @@ bool isLine(const std::vector<std::array<std::uint32_t, 2>>& pairs, std::array<s
 
 class Simplifier {
  public:
-  Simplifier(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
-             const SimplifyLimits& limits, std::vector<std::uint32_t>* keptFrom)
-      : idx_(indices), xyz_(xyz), vertices_(vertexCount), origin_(keptFrom) {
-    live_ = idx_.size() / 3;
-    if (origin_ != nullptr) {
-      origin_->resize(live_);
-      for (std::size_t t = 0; t < live_; ++t) (*origin_)[t] = static_cast<std::uint32_t>(t);
+  Simplifier(std::span<std::uint32_t> indices, const float* xyz, std::size_t vertexCount, const SimplifyLimits& limits,
+             std::span<std::uint32_t> keptFrom)
+      : idx_(indices), count_(indices.size() / 3 * 3), xyz_(xyz), vertices_(vertexCount), origin_(keptFrom) {
+    live_ = count_ / 3;
+    if (!origin_.empty()) {
+      for (std::size_t t = 0; t < live_; ++t) origin_[t] = static_cast<std::uint32_t>(t);
     }
     quadrics_.assign(vertexCount, Quadric{});
     for (std::size_t t = 0; t < live_; ++t) {
@@ -203,14 +206,14 @@ class Simplifier {
       buildAdjacency();
     }
     compact();
-    return idx_.size();
+    return count_;
   }
 
  private:
   // The triangles around each vertex: around_[first_[v] .. first_[v + 1]).
   void buildAdjacency() {
     first_.assign(vertices_ + 1, 0);
-    const std::size_t triangles = idx_.size() / 3;
+    const std::size_t triangles = count_ / 3;
     for (std::size_t i = 0; i < 3 * triangles; ++i) ++first_[idx_[i] + 1];
     for (std::size_t v = 0; v < vertices_; ++v) first_[v + 1] += first_[v];
     around_.resize(3 * triangles);
@@ -222,23 +225,22 @@ class Simplifier {
 
   void compact() {
     std::size_t kept = 0;
-    for (std::size_t t = 0; t < idx_.size() / 3; ++t) {
+    for (std::size_t t = 0; t < count_ / 3; ++t) {
       if (idx_[3 * t] == kDead) continue;
       if (kept != t) {
         std::memmove(&idx_[3 * kept], &idx_[3 * t], 3 * sizeof(std::uint32_t));
-        if (origin_ != nullptr) (*origin_)[kept] = (*origin_)[t];
+        if (!origin_.empty()) origin_[kept] = origin_[t];
       }
       ++kept;
     }
-    idx_.resize(3 * kept);
-    if (origin_ != nullptr) origin_->resize(kept);
+    count_ = 3 * kept;
   }
 
   // One pass: the candidates by error, each made where nothing around it has changed. Returns
   // whether any collapse was made.
   bool collapsePass(std::uint32_t pass, std::size_t target, double limit) {
     keys_.clear();
-    const std::size_t triangles = idx_.size() / 3;
+    const std::size_t triangles = count_ / 3;
     for (std::size_t t = 0; t < triangles; ++t) {
       for (std::size_t k = 0; k < 3; ++k) {
         const std::uint32_t a = idx_[3 * t + k], b = idx_[3 * t + (k + 1) % 3];
@@ -427,24 +429,24 @@ class Simplifier {
 
   Vec3 at(std::uint32_t v) const { return {xyz_[3 * v], xyz_[3 * v + 1], xyz_[3 * v + 2]}; }
 
-  std::vector<std::uint32_t>& idx_;
+  std::span<std::uint32_t> idx_;
+  std::size_t count_;  // the indices in use, from the front of idx_
   const float* xyz_;
   std::size_t vertices_;
-  std::vector<std::uint32_t>* origin_;  // each triangle's index in the input, when asked for
+  std::span<std::uint32_t> origin_;  // each triangle's index in the input, when asked for
   std::size_t live_ = 0;
-  // The working arrays, made for each call and freed after it. (Kept by each thread from call to
-  // call, they saved no time measurably on the Philips head and added their largest size to the
-  // peak: 78.5 against 76.2 MiB at one thread, 156.8 against 143.8 at two.)
-  std::vector<Quadric> quadrics_;
+  // The working arrays, made for each call and given back after it to the thread's scratch cache
+  // (core/scratch.h), which the next call's arrays take from without adding to the peak.
+  ScratchVector<Quadric> quadrics_;
   // Per vertex: kStays, kDisk (one closed fan) or kLine (inside a line where three sheets meet);
   // the line vertices with their two neighbours on the line, kept as collapses change them.
   static constexpr std::uint8_t kStays = 0, kDisk = 1, kLine = 2;
-  std::vector<std::uint8_t> free_;
+  ScratchVector<std::uint8_t> free_;
   std::vector<std::array<std::uint32_t, 3>> lineEnds_;
-  std::vector<std::uint32_t> lineAt_;  // each vertex's entry in lineEnds_ (kDead: none)
-  std::vector<std::uint32_t> mark_, seen_;
-  std::vector<std::uint32_t> first_, fill_, around_;
-  std::vector<std::uint64_t> keys_, spare_;
+  ScratchVector<std::uint32_t> lineAt_;  // each vertex's entry in lineEnds_ (kDead: none)
+  ScratchVector<std::uint32_t> mark_, seen_;
+  ScratchVector<std::uint32_t> first_, fill_, around_;
+  ScratchVector<std::uint64_t> keys_, spare_;
   const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;
   double checkAbove_ = INFINITY;
   double sampleLimit_ = INFINITY;
@@ -454,17 +456,29 @@ class Simplifier {
 
 }  // namespace
 
-std::size_t simplifyTriangles(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
-                              const SimplifyLimits& limits, std::vector<std::uint32_t>* keptFrom) {
-  if (indices.size() / 3 <= limits.targetTriangles) {
-    if (keptFrom != nullptr) {
-      keptFrom->resize(indices.size() / 3);
-      for (std::size_t t = 0; t < keptFrom->size(); ++t) (*keptFrom)[t] = static_cast<std::uint32_t>(t);
-    }
-    return indices.size();
+std::size_t simplifyTriangles(std::span<std::uint32_t> indices, const float* xyz, std::size_t vertexCount,
+                              const SimplifyLimits& limits, std::span<std::uint32_t> keptFrom) {
+  const std::size_t triangles = indices.size() / 3;
+  if (!keptFrom.empty() && keptFrom.size() < triangles) {
+    throw std::invalid_argument("simplifyTriangles: keptFrom is shorter than the triangles");
+  }
+  if (triangles <= limits.targetTriangles) {
+    for (std::size_t t = 0; t < std::min(triangles, keptFrom.size()); ++t) keptFrom[t] = static_cast<std::uint32_t>(t);
+    return 3 * triangles;
   }
   Simplifier simplifier(indices, xyz, vertexCount, limits, keptFrom);
   return simplifier.run(limits);
+}
+
+std::size_t simplifyTriangles(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
+                              const SimplifyLimits& limits, std::vector<std::uint32_t>* keptFrom) {
+  if (keptFrom != nullptr) keptFrom->resize(indices.size() / 3);
+  const std::size_t kept =
+      simplifyTriangles(std::span<std::uint32_t>(indices), xyz, vertexCount, limits,
+                        keptFrom != nullptr ? std::span<std::uint32_t>(*keptFrom) : std::span<std::uint32_t>());
+  indices.resize(kept);
+  if (keptFrom != nullptr) keptFrom->resize(kept / 3);
+  return kept;
 }
 
 }  // namespace isoslab

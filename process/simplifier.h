@@ -26,6 +26,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <vector>
 
 namespace isoslab {
@@ -52,10 +53,13 @@ struct SimplifyLimits {
 };
 
 /// Simplifies the triangles `indices` (three ids a triangle, into `xyz`: three floats a vertex) in
-/// place, as far as the limits allow; returns how many indices are kept (three a triangle, in the
-/// order of the triangles they came from). With `keptFrom`, it is set to each kept triangle's index in the
-/// input (a collapse only renames a vertex, so a kept triangle keeps what it carried: a label complex's
-/// sides, say).
+/// place, as far as the limits allow; returns how many indices are kept, at the front (three a
+/// triangle, in the order of the triangles they came from). With `keptFrom` (at least one entry a
+/// triangle), its first entries are set to each kept triangle's index in the input (a collapse only
+/// renames a vertex, so a kept triangle keeps what it carried: a label complex's sides, say).
+std::size_t simplifyTriangles(std::span<std::uint32_t> indices, const float* xyz, std::size_t vertexCount,
+                              const SimplifyLimits& limits, std::span<std::uint32_t> keptFrom = {});
+/// The same on a vector, resized to the indices kept (and `keptFrom` to the triangles kept).
 std::size_t simplifyTriangles(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
                               const SimplifyLimits& limits, std::vector<std::uint32_t>* keptFrom = nullptr);
 
