@@ -491,8 +491,9 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // beyond theirs): components share no vertex, so a batch's collapses are those it would make among
 // the others, and only the stopping point moves.
 DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTriangles,
-                                               const OriginalSurface* original,
-                                               const ScratchVector<VertexId>& pinned) const {
+                                               const OriginalSurface* original, const ScratchVector<VertexId>& pinned,
+                                               ScratchVector<std::uint8_t>& unchecked) const {
+  unchecked.clear();
   if (faces.triangles.empty()) return {};
   // The arrays below span the triangles' ids, not the sink's whole window of vertices.
   const auto [low, high] = idRange(faces.triangles);
@@ -501,7 +502,8 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
   // batch resetting the entries it set.
   ScratchVector<unsigned> local(span, ~0u);
   if (faces.size() <= options_.batchTriangles) {
-    return collapseBatch(faces.triangles, faces.labels, targetTriangles, original, pinned, local, low, &faces);
+    return collapseBatch(faces.triangles, faces.labels, targetTriangles, original, pinned, local, low, &faces,
+                         unchecked);
   }
   const ScratchVector<Triangle>& triangles = faces.triangles;
   // Components: union-find over the vertices (ids relative to low), the smaller root winning.
@@ -523,9 +525,18 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
   // any batch runs, and the batches are ranges of it (the simplifier's working set sits beside as
   // little as may be).
   ScratchVector<std::pair<std::uint32_t, std::uint32_t>> order(triangles.size());  // (root, triangle)
-  for (std::uint32_t t = 0; t < triangles.size(); ++t) order[t] = {find(triangles[t][0] - low), t};
+  {
+    // A counting sort by root: each root's triangles in input order, as sorting the pairs would
+    // leave them.
+    ScratchVector<std::uint32_t> start(span + 1, 0);
+    for (const Triangle& t : triangles) ++start[find(t[0] - low) + 1];
+    for (std::size_t r = 0; r < span; ++r) start[r + 1] += start[r];
+    for (std::uint32_t t = 0; t < triangles.size(); ++t) {
+      const std::uint32_t root = find(triangles[t][0] - low);
+      order[start[root]++] = {root, t};
+    }
+  }
   parent = {};
-  std::sort(order.begin(), order.end());
   ScratchVector<Triangle> grouped(triangles.size());
   for (std::size_t k = 0; k < order.size(); ++k) grouped[k] = triangles[order[k].second];
   ScratchVector<LabelPair> groupedLabels(faces.labels.size());
@@ -552,20 +563,22 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
         groupedLabels.empty() ? std::span<const LabelPair>()
                               : std::span<const LabelPair>(groupedLabels.data() + starts[b], starts[b + 1] - starts[b]);
     out.append(collapseBatch(batch, batchLabels, upTo > out.size() ? upTo - out.size() : 0, original, pinned, local,
-                             low, nullptr));
+                             low, nullptr, unchecked));
   }
   return out;
 }
 
 // The simplifier on `triangles` with their border locked, as far as the target and the bound.
 // `release`, when given, holds the triangles and is emptied once they are copied; `labels` (empty
-// outside a label complex) are the triangles' sides, which each kept triangle keeps.
+// outside a label complex) are the triangles' sides, which each kept triangle keeps. Appends to
+// `unchecked` a flag per kept triangle: 1 where the collapses that made it were not all measured
+// against the original surface (simplifyTriangles).
 DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> triangles,
                                                     std::span<const LabelPair> labels, std::size_t targetTriangles,
                                                     const OriginalSurface* original,
                                                     const ScratchVector<VertexId>& pinned,
-                                                    ScratchVector<unsigned>& local, VertexId low,
-                                                    Faces* release) const {
+                                                    ScratchVector<unsigned>& local, VertexId low, Faces* release,
+                                                    ScratchVector<std::uint8_t>& unchecked) const {
   if (triangles.empty()) return {};
   // The sides, copied before `release` frees them.
   ScratchVector<LabelPair> sides(labels.begin(), labels.end());
@@ -629,8 +642,12 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
     };
   }
   ScratchVector<std::uint32_t> keptFrom(sides.empty() ? 0 : indices.size() / 3);
-  const std::size_t kept = simplifyTriangles(std::span<std::uint32_t>(indices), xyz.data(), ids.size(), limits,
-                                             std::span<std::uint32_t>(keptFrom));
+  const std::size_t before = unchecked.size();
+  unchecked.resize(before + indices.size() / 3);
+  const std::size_t kept =
+      simplifyTriangles(std::span<std::uint32_t>(indices), xyz.data(), ids.size(), limits,
+                        std::span<std::uint32_t>(keptFrom), std::span<std::uint8_t>(unchecked).subspan(before));
+  unchecked.resize(before + kept / 3);
   Faces out;
   out.triangles.resize(kept / 3);
   for (std::size_t t = 0; t < out.size(); ++t) {
@@ -730,7 +747,8 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       std::sort(pinned.begin(), pinned.end());
       pinned.erase(std::unique(pinned.begin(), pinned.end()), pinned.end());
     }
-    const Faces simplified = collapse(std::move(input), share, original, pinned);
+    ScratchVector<std::uint8_t> unchecked;
+    const Faces simplified = collapse(std::move(input), share, original, pinned, unchecked);
     result.triangles.reserve(frozenCount + simplified.size());
     result.labels.reserve(faces.labels.empty() ? 0 : frozenCount + simplified.size());
     for (std::size_t t = 0; t < triangles.size(); ++t) {
@@ -774,11 +792,15 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       if (fansAfter[v] > std::max(1u, fansBefore[v])) bad.push_back(first + static_cast<VertexId>(v));
     }
     // Triangles that moved the surface too far, against the grid of the original triangles, which
-    // the distance measure of the try that succeeds reuses.
+    // the distance measure of the try that succeeds reuses. Only those that a collapse changed
+    // unchecked: the others are unchanged (an original triangle in a block; in a region, a block's
+    // triangle that its own check passed) or were measured as the collapses made them.
     if (original != nullptr) {
       std::uint32_t hint = ~0u;
-      for (const Triangle& t : simplified.triangles) {
-        if (!triangleWithin(t, *original, limit, hint)) bad.insert(bad.end(), t.begin(), t.end());
+      for (std::size_t t = 0; t < simplified.size(); ++t) {
+        const Triangle& tri = simplified.triangles[t];
+        if (unchecked[t] != 0 && !triangleWithin(tri, *original, limit, hint))
+          bad.insert(bad.end(), tri.begin(), tri.end());
       }
     }
     // A label complex's sheets lie close together (a label one voxel thick): a collapse within the
@@ -850,31 +872,30 @@ DecimationSink::ChunkRange DecimationSink::rangeAround(std::span<const Triangle>
 // The original triangles of chunks [range.first, range.end) in a dense grid over their bounding
 // box, for distances to the original surface: cells two voxels wide, or wider where the box would
 // hold more than about two cells a triangle (the answers do not depend on the cell size, only the
-// time). Built in three passes over the triangles (the box; each cell's count; the lists), a
-// counting sort with no search.
+// time). A counting sort with no search: the box (over the span of vertex ids that the triangles
+// use, read in order), then each triangle's cells counted and noted, then the lists filled from
+// the notes.
 DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range) const {
   OriginalSurface surface;
   surface.sink = this;
   const std::size_t lo = std::max(chunkBase_, range.first);
   const std::size_t hi = std::min(chunks_, range.end);
-  const auto forEach = [&](auto&& visit) {
-    for (std::size_t c = lo; c < hi; ++c) {
-      for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
-        if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
-        visit(t, std::array<Vec3d, 3>{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))});
-      }
-    }
-  };
-  Vec3d low{INFINITY, INFINITY, INFINITY}, high{-INFINITY, -INFINITY, -INFINITY};
   std::size_t count = 0;
-  forEach([&](const Triangle&, const std::array<Vec3d, 3>& p) {
-    ++count;
-    for (std::size_t d = 0; d < 3; ++d) {
-      low[d] = std::min({low[d], p[0][d], p[1][d], p[2][d]});
-      high[d] = std::max({high[d], p[0][d], p[1][d], p[2][d]});
+  VertexId lowest = kNone, highest = 0;
+  for (std::size_t c = lo; c < hi; ++c) {
+    for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
+      if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
+      ++count;
+      lowest = std::min({lowest, t[0], t[1], t[2]});
+      highest = std::max({highest, t[0], t[1], t[2]});
     }
-  });
+  }
   if (count == 0) return surface;
+  Vec3d low{INFINITY, INFINITY, INFINITY}, high{-INFINITY, -INFINITY, -INFINITY};
+  for (VertexId v = lowest; v <= highest; ++v) {
+    const Vec3d p = toDouble(position(v));
+    for (std::size_t d = 0; d < 3; ++d) low[d] = std::min(low[d], p[d]), high[d] = std::max(high[d], p[d]);
+  }
   surface.origin = low;
   surface.cell = 2.0 * options_.voxelSize;
   const double most = 2.0 * static_cast<double>(count) + 4096.0;
@@ -887,43 +908,74 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range
     if (cells <= most) break;
     surface.cell *= 2;
   }
-  const auto cellRange = [&](const std::array<Vec3d, 3>& p, std::array<std::int64_t, 3>& a,
-                             std::array<std::int64_t, 3>& b) {
+  const auto cells = static_cast<std::size_t>(surface.dims[0] * surface.dims[1] * surface.dims[2]);
+  // Each triangle's cells, from the bounding box of its corners.
+  const auto cellsOf = [&](const Triangle& t, std::array<std::int64_t, 3>& first, std::array<std::int64_t, 3>& last) {
+    const Vec3f &a = position(t[0]), &b = position(t[1]), &c = position(t[2]);
+    const std::array<std::array<double, 3>, 3> p{{{a.x, b.x, c.x}, {a.y, b.y, c.y}, {a.z, b.z, c.z}}};
     for (std::size_t d = 0; d < 3; ++d) {
-      a[d] = surface.cellOf(std::min({p[0][d], p[1][d], p[2][d]}), d);
-      b[d] = std::min(surface.cellOf(std::max({p[0][d], p[1][d], p[2][d]}), d), surface.dims[d] - 1);
+      first[d] =
+          std::clamp(surface.cellOf(std::min({p[d][0], p[d][1], p[d][2]}), d), std::int64_t{0}, surface.dims[d] - 1);
+      last[d] = std::clamp(surface.cellOf(std::max({p[d][0], p[d][1], p[d][2]}), d), first[d], surface.dims[d] - 1);
     }
   };
-  const auto cells = static_cast<std::size_t>(surface.dims[0] * surface.dims[1] * surface.dims[2]);
-  // Counts at [cell + 1], summed into starts; the lists filled by advancing each cell's start,
-  // which leaves start[cell] at the next cell's start: shifted back by one place at the end.
+  // Per triangle, its first cell and how many more it spans along each axis (kWide: 256 or more
+  // along some axis, found again from its corners).
+  constexpr std::uint8_t kWide = 255;
+  struct Note {
+    std::uint32_t cell = 0;
+    std::array<std::uint8_t, 3> more{};
+  };
+  ScratchVector<Note> notes(count);
+  surface.triangles.resize(count);
+  // Counts at [cell + 1], summed into starts.
   surface.cellStart.assign(cells + 1, 0);
-  std::size_t entries = 0;
-  forEach([&](const Triangle&, const std::array<Vec3d, 3>& p) {
-    std::array<std::int64_t, 3> a{}, b{};
-    cellRange(p, a, b);
-    for (std::int64_t z = a[2]; z <= b[2]; ++z)
-      for (std::int64_t y = a[1]; y <= b[1]; ++y)
-        for (std::int64_t x = a[0]; x <= b[0]; ++x) {
-          ++surface.cellStart[static_cast<std::size_t>(surface.index(x, y, z)) + 1];
-          ++entries;
-        }
-  });
-  for (std::size_t k = 0; k < cells; ++k) surface.cellStart[k + 1] += surface.cellStart[k];
-  surface.triangles.reserve(count);
+  std::size_t entries = 0, k = 0;
+  for (std::size_t c = lo; c < hi; ++c) {
+    for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
+      if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
+      std::array<std::int64_t, 3> first{}, last{};
+      cellsOf(t, first, last);
+      Note& note = notes[k];
+      note.cell = static_cast<std::uint32_t>(surface.index(first[0], first[1], first[2]));
+      for (std::size_t d = 0; d < 3; ++d) {
+        note.more[d] = static_cast<std::uint8_t>(std::min<std::int64_t>(last[d] - first[d], kWide));
+      }
+      surface.triangles[k++] = t;
+      for (std::int64_t z = first[2]; z <= last[2]; ++z)
+        for (std::int64_t y = first[1]; y <= last[1]; ++y)
+          for (std::int64_t x = first[0]; x <= last[0]; ++x) {
+            ++surface.cellStart[static_cast<std::size_t>(surface.index(x, y, z)) + 1];
+            ++entries;
+          }
+    }
+  }
+  for (std::size_t i = 0; i < cells; ++i) surface.cellStart[i + 1] += surface.cellStart[i];
+  // The lists, filled by advancing each cell's start, which leaves start[cell] at the next cell's
+  // start: shifted back by one place at the end.
   surface.cellTriangles.resize(entries);
-  forEach([&](const Triangle& t, const std::array<Vec3d, 3>& p) {
-    const auto index = static_cast<std::uint32_t>(surface.triangles.size());
-    surface.triangles.push_back(t);
-    std::array<std::int64_t, 3> a{}, b{};
-    cellRange(p, a, b);
-    for (std::int64_t z = a[2]; z <= b[2]; ++z)
-      for (std::int64_t y = a[1]; y <= b[1]; ++y)
-        for (std::int64_t x = a[0]; x <= b[0]; ++x) {
-          surface.cellTriangles[surface.cellStart[static_cast<std::size_t>(surface.index(x, y, z))]++] = index;
+  const auto strideY = static_cast<std::size_t>(surface.dims[0]);
+  const auto strideZ = static_cast<std::size_t>(surface.dims[0] * surface.dims[1]);
+  for (std::size_t n = 0; n < count; ++n) {
+    const Note& note = notes[n];
+    const auto index = static_cast<std::uint32_t>(n);
+    if (note.more[0] == kWide || note.more[1] == kWide || note.more[2] == kWide) {
+      std::array<std::int64_t, 3> first{}, last{};
+      cellsOf(surface.triangles[n], first, last);
+      for (std::int64_t z = first[2]; z <= last[2]; ++z)
+        for (std::int64_t y = first[1]; y <= last[1]; ++y)
+          for (std::int64_t x = first[0]; x <= last[0]; ++x) {
+            surface.cellTriangles[surface.cellStart[static_cast<std::size_t>(surface.index(x, y, z))]++] = index;
+          }
+      continue;
+    }
+    for (std::size_t z = 0; z <= note.more[2]; ++z)
+      for (std::size_t y = 0; y <= note.more[1]; ++y)
+        for (std::size_t x = 0; x <= note.more[0]; ++x) {
+          surface.cellTriangles[surface.cellStart[note.cell + x + y * strideY + z * strideZ]++] = index;
         }
-  });
-  for (std::size_t k = cells; k > 0; --k) surface.cellStart[k] = surface.cellStart[k - 1];
+  }
+  for (std::size_t i = cells; i > 0; --i) surface.cellStart[i] = surface.cellStart[i - 1];
   surface.cellStart[0] = 0;
   return surface;
 }
@@ -1001,8 +1053,15 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::
   const double limit2 = limit * limit;
   const auto near = [&](std::uint32_t k) {
     const Triangle& t = triangles[k];
-    return distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
-                           toDouble(sink->position(t[2]))) <= limit2;
+    const Vec3d a = toDouble(sink->position(t[0])), b = toDouble(sink->position(t[1])),
+                c = toDouble(sink->position(t[2]));
+    // The triangle's bounding box first: most triangles of a cell are farther than the limit.
+    double outside = 0;
+    for (std::size_t d = 0; d < 3; ++d) {
+      const double gap = std::max({std::min({a[d], b[d], c[d]}) - p[d], p[d] - std::max({a[d], b[d], c[d]}), 0.0});
+      outside += gap * gap;
+    }
+    return outside <= limit2 && distanceSquared(p, a, b, c) <= limit2;
   };
   if (hint < triangles.size() && near(hint)) return true;
   std::int64_t lo[3], hi[3];

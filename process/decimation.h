@@ -206,12 +206,14 @@ class DecimationSink final : public MeshSink {
   void runAll(std::vector<Work>& works);
   Faces simplify(const Faces& faces, std::int64_t originalTriangles, ChunkRange originals, const Lock& lock,
                  Scope& scope) const;
+  // The simplifier on a try's triangles (in batches of whole components when there are many);
+  // `unchecked` gets a flag per kept triangle (collapseBatch).
   Faces collapse(Faces faces, std::size_t targetTriangles, const OriginalSurface* original,
-                 const ScratchVector<VertexId>& pinned) const;
+                 const ScratchVector<VertexId>& pinned, ScratchVector<std::uint8_t>& unchecked) const;
   Faces collapseBatch(std::span<const Triangle> triangles, std::span<const LabelPair> labels,
                       std::size_t targetTriangles, const OriginalSurface* original,
                       const ScratchVector<VertexId>& pinned, ScratchVector<unsigned>& local, VertexId low,
-                      Faces* release) const;
+                      Faces* release, ScratchVector<std::uint8_t>& unchecked) const;
   void emit(const Faces& faces, std::int64_t slab, ChunkRange originals, Scope& scope);
   void measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope);
   // The chunks whose original triangles measure `triangles`, within chunks [firstChunk, end).

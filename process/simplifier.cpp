@@ -152,12 +152,18 @@ bool isLine(const std::vector<std::array<std::uint32_t, 2>>& pairs, std::array<s
 class Simplifier {
  public:
   Simplifier(std::span<std::uint32_t> indices, const float* xyz, std::size_t vertexCount, const SimplifyLimits& limits,
-             std::span<std::uint32_t> keptFrom)
-      : idx_(indices), count_(indices.size() / 3 * 3), xyz_(xyz), vertices_(vertexCount), origin_(keptFrom) {
+             std::span<std::uint32_t> keptFrom, std::span<std::uint8_t> unchecked)
+      : idx_(indices),
+        count_(indices.size() / 3 * 3),
+        xyz_(xyz),
+        vertices_(vertexCount),
+        origin_(keptFrom),
+        unchecked_(unchecked) {
     live_ = count_ / 3;
     if (!origin_.empty()) {
       for (std::size_t t = 0; t < live_; ++t) origin_[t] = static_cast<std::uint32_t>(t);
     }
+    if (!unchecked_.empty()) std::fill(unchecked_.begin(), unchecked_.begin() + static_cast<std::ptrdiff_t>(live_), 0);
     quadrics_.assign(vertexCount, Quadric{});
     for (std::size_t t = 0; t < live_; ++t) {
       const Vec3 a = at(idx_[3 * t]);
@@ -230,6 +236,7 @@ class Simplifier {
       if (kept != t) {
         std::memmove(&idx_[3 * kept], &idx_[3 * t], 3 * sizeof(std::uint32_t));
         if (!origin_.empty()) origin_[kept] = origin_[t];
+        if (!unchecked_.empty()) unchecked_[kept] = unchecked_[t];
       }
       ++kept;
     }
@@ -405,6 +412,9 @@ class Simplifier {
         --live_;
       } else {
         for (std::size_t k = 0; k < 3; ++k) t[k] = t[k] == from ? to : t[k];
+        // Checked, the new triangle's centroid and its edges from `to` were measured; its third
+        // edge is the old triangle's, known as that one was.
+        if (!asked && !unchecked_.empty()) unchecked_[around_[i]] = 1;
       }
     }
     quadrics_[to].addFrom(quadrics_[from], sub(q, p));
@@ -433,7 +443,8 @@ class Simplifier {
   std::size_t count_;  // the indices in use, from the front of idx_
   const float* xyz_;
   std::size_t vertices_;
-  std::span<std::uint32_t> origin_;  // each triangle's index in the input, when asked for
+  std::span<std::uint32_t> origin_;    // each triangle's index in the input, when asked for
+  std::span<std::uint8_t> unchecked_;  // 1 for a triangle that a collapse changed unchecked
   std::size_t live_ = 0;
   // The working arrays, made for each call and given back after it to the thread's scratch cache
   // (core/scratch.h), which the next call's arrays take from without adding to the peak.
@@ -457,16 +468,18 @@ class Simplifier {
 }  // namespace
 
 std::size_t simplifyTriangles(std::span<std::uint32_t> indices, const float* xyz, std::size_t vertexCount,
-                              const SimplifyLimits& limits, std::span<std::uint32_t> keptFrom) {
+                              const SimplifyLimits& limits, std::span<std::uint32_t> keptFrom,
+                              std::span<std::uint8_t> unchecked) {
   const std::size_t triangles = indices.size() / 3;
-  if (!keptFrom.empty() && keptFrom.size() < triangles) {
-    throw std::invalid_argument("simplifyTriangles: keptFrom is shorter than the triangles");
+  if ((!keptFrom.empty() && keptFrom.size() < triangles) || (!unchecked.empty() && unchecked.size() < triangles)) {
+    throw std::invalid_argument("simplifyTriangles: an output array is shorter than the triangles");
   }
   if (triangles <= limits.targetTriangles) {
     for (std::size_t t = 0; t < std::min(triangles, keptFrom.size()); ++t) keptFrom[t] = static_cast<std::uint32_t>(t);
+    std::fill(unchecked.begin(), unchecked.end(), 0);
     return 3 * triangles;
   }
-  Simplifier simplifier(indices, xyz, vertexCount, limits, keptFrom);
+  Simplifier simplifier(indices, xyz, vertexCount, limits, keptFrom, unchecked);
   return simplifier.run(limits);
 }
 

@@ -56,9 +56,14 @@ struct SimplifyLimits {
 /// place, as far as the limits allow; returns how many indices are kept, at the front (three a
 /// triangle, in the order of the triangles they came from). With `keptFrom` (at least one entry a
 /// triangle), its first entries are set to each kept triangle's index in the input (a collapse only
-/// renames a vertex, so a kept triangle keeps what it carried: a label complex's sides, say).
+/// renames a vertex, so a kept triangle keeps what it carried: a label complex's sides, say). With
+/// `unchecked` (as long), its first entries are set to 1 for each kept triangle that a collapse
+/// changed without `limits.check` seeing it, or that came from such a triangle, and 0 for the
+/// rest: those are unchanged, or a check saw their centroid and the edges that the collapse made
+/// (and their other edge was one of an unchanged or checked triangle's).
 std::size_t simplifyTriangles(std::span<std::uint32_t> indices, const float* xyz, std::size_t vertexCount,
-                              const SimplifyLimits& limits, std::span<std::uint32_t> keptFrom = {});
+                              const SimplifyLimits& limits, std::span<std::uint32_t> keptFrom = {},
+                              std::span<std::uint8_t> unchecked = {});
 /// The same on a vector, resized to the indices kept (and `keptFrom` to the triangles kept).
 std::size_t simplifyTriangles(std::vector<std::uint32_t>& indices, const float* xyz, std::size_t vertexCount,
                               const SimplifyLimits& limits, std::vector<std::uint32_t>* keptFrom = nullptr);
