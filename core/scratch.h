@@ -1,20 +1,17 @@
-// Working arrays that cost fewer page faults.
+// Working arrays in huge pages.
 //
 // The program fixes glibc's mmap threshold (cli/main.cpp), so every buffer above it is mapped when
-// made and unmapped when freed, and each of its pages faults in again on first use: a decimation
-// makes and frees its per-call arrays (edge tallies, fans, the simplifier's per-vertex arrays, the
-// grid of original triangles) hundreds of times a block, and those faults were a quarter of its
-// time on this project's VM (docs/performance.md, issue 36). A ScratchVector's buffers:
-//   - below 64 KiB come from the heap, as any;
-//   - from 64 KiB to 1 MiB go back to a small cache of the calling thread (at most 8 MiB), and the
-//     next such request of that thread takes one that fits (at most twice its size);
-//   - from 1 MiB on are mapped on their own from a huge-page boundary, with transparent huge pages
-//     asked for (madvise), so that each 2 MiB that they span faults in once, not 512 times.
-// The cache does not add to the peak: a request that no cached buffer fits first frees cached
-// buffers (the largest first) until as many bytes are freed as it asks for, and so does a mapped
-// one, so memory grows only where it would have grown without the cache. releaseScratch() empties
-// the calling thread's cache; a thread's cache is emptied when the thread ends. Under
-// AddressSanitizer every buffer comes from malloc, and cached ones are poisoned.
+// made and unmapped when freed, and each of its 4 KiB pages faults in again on first use: a
+// decimation makes and frees its per-call arrays (edge tallies, fans, the simplifier's per-vertex
+// arrays, the grid of original triangles) hundreds of times a block, and those faults were a
+// quarter of its time on this project's VM (docs/performance.md, issue 36). A ScratchVector's
+// buffer of kScratchMapped or more is a mapping of its own that starts at a 2 MiB boundary, with
+// transparent huge pages asked for (madvise), so that each whole 2 MiB that it spans faults in
+// once, not 512 times; a smaller one comes from malloc. Under AddressSanitizer every buffer comes
+// from malloc, which it checks.
+//
+// A huge page is resident whole once any byte of it is written, so an array with an untouched tail
+// (grown by doubling, say) can hold up to 2 MiB more than it uses: reserve such arrays at their size.
 #pragma once
 
 #include <cstddef>
@@ -23,15 +20,13 @@
 
 namespace isoslab {
 
-/// A buffer of at least `bytes`, from the calling thread's cache when one fits. Throws
-/// std::bad_alloc.
+/// Buffers of at least this many bytes are mapped in huge pages.
+inline constexpr std::size_t kScratchMapped = std::size_t{1} << 20;
+
+/// A buffer of at least `bytes`. Throws std::bad_alloc.
 void* takeScratch(std::size_t bytes);
-/// Gives back a buffer from takeScratch (any thread's) that was asked for with `bytes`.
+/// Gives back a buffer from takeScratch that was asked for with `bytes`.
 void giveScratch(void* p, std::size_t bytes) noexcept;
-/// Frees the calling thread's cached buffers.
-void releaseScratch() noexcept;
-/// The bytes in the calling thread's cache (for tests).
-std::size_t cachedScratchBytes() noexcept;
 
 template <class T>
 struct ScratchAllocator {

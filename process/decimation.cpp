@@ -298,7 +298,6 @@ void DecimationSink::finish() {
     Lock lock;
     if (complex_) lock.curve = std::move(pendingCurve_);
     const Faces last = simplify(pendingUpper_, originalIn(pendingMiddle_, chunks_), range, lock, scope);
-    releaseScratch();
     count(scope);
     emit(last, chunkSlab_.back(), range, scope);
     hasPending_ = false;
@@ -415,10 +414,19 @@ void DecimationSink::processQueued() {
     Work& block = blocks[k];
     const VertexId middleFirst =
         b.middle < chunks_ ? chunkFirst_[b.middle - chunkBase_] : base_ + static_cast<VertexId>(positions_.size());
+    // Each half at its size: the upper one waits for the next block (a grown array's untouched
+    // tail would be resident where it lies in a huge page: core/scratch.h).
+    const auto isLower = [&](const Triangle& tri) { return std::min({tri[0], tri[1], tri[2]}) < middleFirst; };
+    const auto lowerCount =
+        static_cast<std::size_t>(std::count_if(block.output.triangles.begin(), block.output.triangles.end(), isLower));
     Faces lower, upper;
+    const bool sided = !block.output.labels.empty();
+    lower.triangles.reserve(lowerCount);
+    upper.triangles.reserve(block.output.size() - lowerCount);
+    lower.labels.reserve(sided ? lowerCount : 0);
+    upper.labels.reserve(sided ? block.output.size() - lowerCount : 0);
     for (std::size_t t = 0; t < block.output.size(); ++t) {
-      const Triangle& tri = block.output.triangles[t];
-      (std::min({tri[0], tri[1], tri[2]}) < middleFirst ? lower : upper).add(block.output, t);
+      (isLower(block.output.triangles[t]) ? lower : upper).add(block.output, t);
     }
     Work& w = out.emplace_back();
     w.slab = chunkSlab_[b.middle - 1 - chunkBase_];
@@ -450,8 +458,6 @@ void DecimationSink::processQueued() {
   for (std::vector<Work>* group : {&blocks, &out}) {
     for (const Work& w : *group) count(w.scope);
   }
-  // The working buffers that the calls handed on to one another go before the output is written.
-  releaseScratch();
   for (Work& w : out) {
     emit(w.output, w.slab, w.range, w.scope);
     w = Work{};
@@ -565,6 +571,9 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
     out.append(collapseBatch(batch, batchLabels, upTo > out.size() ? upTo - out.size() : 0, original, pinned, local,
                              low, nullptr, unchecked));
   }
+  // At its size (the batches grew it): it outlives the call.
+  out.triangles.shrink_to_fit();
+  out.labels.shrink_to_fit();
   return out;
 }
 

@@ -251,9 +251,9 @@ class DecimationSink final : public MeshSink {
   std::size_t chunkBase_ = 0;
   std::vector<VertexId> chunkFirst_;
   std::vector<std::int64_t> chunkSlab_;
-  std::vector<ScratchVector<Triangle>> chunkTriangles_;
-  std::vector<ScratchVector<LabelPair>> chunkLabels_;  // a label complex's only
-  std::size_t chunks_ = 0;                             // chunks seen
+  std::vector<std::vector<Triangle>> chunkTriangles_;
+  std::vector<std::vector<LabelPair>> chunkLabels_;  // a label complex's only
+  std::size_t chunks_ = 0;                           // chunks seen
 
   // The open block: chunks [blockStart_, chunks_); the blocks closed and not yet simplified; the
   // chunk where the one-block-at-a-time schedule's data would start now; the pending upper half of

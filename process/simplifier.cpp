@@ -248,6 +248,9 @@ class Simplifier {
   bool collapsePass(std::uint32_t pass, std::size_t target, double limit) {
     keys_.clear();
     const std::size_t triangles = count_ / 3;
+    // Each edge once, and two a line vertex: about 3/2 a triangle. Reserved, not grown, so that the
+    // array has no untouched tail (a huge page of it would be resident: core/scratch.h).
+    keys_.reserve(3 * triangles / 2 + 2 * lineEnds_.size() + 64);
     for (std::size_t t = 0; t < triangles; ++t) {
       for (std::size_t k = 0; k < 3; ++k) {
         const std::uint32_t a = idx_[3 * t + k], b = idx_[3 * t + (k + 1) % 3];
