@@ -58,6 +58,7 @@ void* takeScratch(std::size_t bytes) {
 void giveScratch(void* p, std::size_t bytes) noexcept {
   if (p == nullptr) return;
 #if defined(ISOSLAB_ASAN)
+  (void)bytes;
   std::free(p);
 #else
   if (bytes < kScratchMapped) {
