@@ -78,9 +78,10 @@ TEST(Scratch, TheSystemGivesHugePagesWhereItAllowsThem) {
   auto* p = static_cast<std::uint8_t*>(takeScratch(bytes));
   std::memset(p, 1, bytes);
   const std::uint64_t huge = hugeKiBAt(p);
-  // Granted (16 MiB is eight whole huge pages), unless the system had none free to give.
+  // Granted (16 MiB is eight whole huge pages), unless the system had none free to give. (At
+  // least: the kernel may have merged the mapping with a neighbour of the same kind.)
   if (vmstat("thp_fault_fallback") == fallbacks) {
-    EXPECT_EQ(huge, bytes / 1024);
+    EXPECT_GE(huge, bytes / 1024);
   }
   giveScratch(p, bytes);
 }
