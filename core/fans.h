@@ -50,12 +50,16 @@ inline ScratchVector<std::uint32_t> fanCounts(std::span<const Triangle> triangle
       ends.emplace_back(t[(c % 3 + 1) % 3], i);
       ends.emplace_back(t[(c % 3 + 2) % 3], i);
     }
-    // A vertex has a few triangles: an insertion sort.
-    for (std::size_t e = 1; e < ends.size(); ++e) {
-      const auto x = ends[e];
-      std::size_t m = e;
-      for (; m > 0 && x < ends[m - 1]; --m) ends[m] = ends[m - 1];
-      ends[m] = x;
+    // A vertex has a few triangles: an insertion sort (a sort where it has many).
+    if (ends.size() > 32) {
+      std::sort(ends.begin(), ends.end());
+    } else {
+      for (std::size_t e = 1; e < ends.size(); ++e) {
+        const auto x = ends[e];
+        std::size_t m = e;
+        for (; m > 0 && x < ends[m - 1]; --m) ends[m] = ends[m - 1];
+        ends[m] = x;
+      }
     }
     for (std::size_t e = 1; e < ends.size(); ++e) {
       if (ends[e].first == ends[e - 1].first) parent[find(ends[e].second)] = find(ends[e - 1].second);

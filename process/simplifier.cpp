@@ -449,8 +449,8 @@ class Simplifier {
   std::span<std::uint32_t> origin_;    // each triangle's index in the input, when asked for
   std::span<std::uint8_t> unchecked_;  // 1 for a triangle that a collapse changed unchecked
   std::size_t live_ = 0;
-  // The working arrays, made for each call and given back after it to the thread's scratch cache
-  // (core/scratch.h), which the next call's arrays take from without adding to the peak.
+  // The working arrays, made for each call and freed after it; the large ones in huge pages
+  // (core/scratch.h), which fault in 2 MiB at a time.
   ScratchVector<Quadric> quadrics_;
   // Per vertex: kStays, kDisk (one closed fan) or kLine (inside a line where three sheets meet);
   // the line vertices with their two neighbours on the line, kept as collapses change them.

@@ -64,14 +64,48 @@ TEST(Scratch, LargeBuffersStartAtAHugePageAndAreWhollyUsable) {
   }
 }
 
-TEST(Scratch, TheSystemGivesHugePagesWhereItAllowsThem) {
+// Whether this build has AddressSanitizer (gcc says so by a macro, clang 14 by __has_feature).
+constexpr bool underAddressSanitizer() {
 #if defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "under AddressSanitizer every buffer comes from malloc";
+  return true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+  return true;
+#else
+  return false;
 #endif
+#else
+  return false;
+#endif
+}
+
+// Whether a mapping holds the address (from /proc/self/maps).
+bool mapped(const void* p) {
+  std::ifstream in("/proc/self/maps");
+  const auto at = reinterpret_cast<std::uintptr_t>(p);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::uintptr_t from = 0, to = 0;
+    char dash = 0;
+    std::istringstream head(line);
+    if (head >> std::hex >> from >> dash >> to && dash == '-' && from <= at && at < to) return true;
+  }
+  return false;
+}
+
+TEST(Scratch, TheSystemGivesHugePagesWhereItAllowsThem) {
+  if (underAddressSanitizer()) GTEST_SKIP() << "under AddressSanitizer every buffer comes from malloc";
   std::ifstream mode("/sys/kernel/mm/transparent_hugepage/enabled");
   std::string text((std::istreambuf_iterator<char>(mode)), std::istreambuf_iterator<char>());
   if (text.empty() || text.find("[never]") != std::string::npos) {
     GTEST_SKIP() << "transparent huge pages are off here";
+  }
+  // A process may have them turned off for itself (prctl PR_SET_THP_DISABLE, some containers).
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("THP_enabled:", 0) == 0 && line.find('0') != std::string::npos) {
+      GTEST_SKIP() << "transparent huge pages are off for this process";
+    }
   }
   const std::size_t bytes = std::size_t{16} << 20;
   const std::uint64_t fallbacks = vmstat("thp_fault_fallback");
@@ -84,6 +118,9 @@ TEST(Scratch, TheSystemGivesHugePagesWhereItAllowsThem) {
     EXPECT_GE(huge, bytes / 1024);
   }
   giveScratch(p, bytes);
+  // Given back whole: the mapping is gone (its first and last page).
+  EXPECT_FALSE(mapped(p));
+  EXPECT_FALSE(mapped(p + bytes - 1));
 }
 
 TEST(Scratch, VectorsKeepTheirValuesAcrossGrowthAndThreads) {
