@@ -571,9 +571,6 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
     out.append(collapseBatch(batch, batchLabels, upTo > out.size() ? upTo - out.size() : 0, original, pinned, local,
                              low, nullptr, unchecked));
   }
-  // At its size (the batches grew it): it outlives the call.
-  out.triangles.shrink_to_fit();
-  out.labels.shrink_to_fit();
   return out;
 }
 
@@ -928,6 +925,12 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range
       last[d] = std::clamp(surface.cellOf(std::max({p[d][0], p[d][1], p[d][2]}), d), first[d], surface.dims[d] - 1);
     }
   };
+  const auto forCells = [&](const std::array<std::int64_t, 3>& first, const std::array<std::int64_t, 3>& last,
+                            auto&& visit) {
+    for (std::int64_t z = first[2]; z <= last[2]; ++z)
+      for (std::int64_t y = first[1]; y <= last[1]; ++y)
+        for (std::int64_t x = first[0]; x <= last[0]; ++x) visit(static_cast<std::size_t>(surface.index(x, y, z)));
+  };
   // Per triangle, its first cell and how many more it spans along each axis (kWide: 256 or more
   // along some axis, found again from its corners).
   constexpr std::uint8_t kWide = 255;
@@ -951,12 +954,10 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range
         note.more[d] = static_cast<std::uint8_t>(std::min<std::int64_t>(last[d] - first[d], kWide));
       }
       surface.triangles[k++] = t;
-      for (std::int64_t z = first[2]; z <= last[2]; ++z)
-        for (std::int64_t y = first[1]; y <= last[1]; ++y)
-          for (std::int64_t x = first[0]; x <= last[0]; ++x) {
-            ++surface.cellStart[static_cast<std::size_t>(surface.index(x, y, z)) + 1];
-            ++entries;
-          }
+      forCells(first, last, [&](std::size_t cell) {
+        ++surface.cellStart[cell + 1];
+        ++entries;
+      });
     }
   }
   for (std::size_t i = 0; i < cells; ++i) surface.cellStart[i + 1] += surface.cellStart[i];
@@ -971,11 +972,7 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range
     if (note.more[0] == kWide || note.more[1] == kWide || note.more[2] == kWide) {
       std::array<std::int64_t, 3> first{}, last{};
       cellsOf(surface.triangles[n], first, last);
-      for (std::int64_t z = first[2]; z <= last[2]; ++z)
-        for (std::int64_t y = first[1]; y <= last[1]; ++y)
-          for (std::int64_t x = first[0]; x <= last[0]; ++x) {
-            surface.cellTriangles[surface.cellStart[static_cast<std::size_t>(surface.index(x, y, z))]++] = index;
-          }
+      forCells(first, last, [&](std::size_t cell) { surface.cellTriangles[surface.cellStart[cell]++] = index; });
       continue;
     }
     for (std::size_t z = 0; z <= note.more[2]; ++z)
