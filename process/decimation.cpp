@@ -386,6 +386,11 @@ void DecimationSink::processQueued() {
   for (std::size_t k = 0; k < queued_.size(); ++k) {
     const Block& b = queued_[k];
     Work& w = blocks[k];
+    // Reserved at its size (a mapped buffer is resident whole: core/scratch.h).
+    std::size_t size = 0;
+    for (std::size_t c = b.start; c < b.end; ++c) size += chunkTriangles_[c - chunkBase_].size();
+    w.input.triangles.reserve(size);
+    w.input.labels.reserve(complex_ ? size : 0);
     for (std::size_t c = b.start; c < b.end; ++c) {
       const auto& t = chunkTriangles_[c - chunkBase_];
       w.input.triangles.insert(w.input.triangles.end(), t.begin(), t.end());
@@ -430,8 +435,11 @@ void DecimationSink::processQueued() {
     }
     Work& w = out.emplace_back();
     w.slab = chunkSlab_[b.middle - 1 - chunkBase_];
-    w.input = std::move(pendingUpper_);
+    w.input.triangles.reserve(pendingUpper_.size() + lower.size());
+    w.input.labels.reserve(sided ? pendingUpper_.size() + lower.size() : 0);
+    w.input.append(pendingUpper_);
     w.input.append(lower);
+    pendingUpper_ = Faces{};
     w.original = originalIn(hasPending_ ? pendingMiddle_ : b.start, b.middle);
     ++report_.regions;
     w.range = rangeAround(w.input.triangles, b.base, b.end);
@@ -588,18 +596,20 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
   if (triangles.empty()) return {};
   // The sides, copied before `release` frees them.
   ScratchVector<LabelPair> sides(labels.begin(), labels.end());
-  // Local ids in order of first use; ids[local] is the global id.
-  ScratchVector<VertexId> ids;
+  // Local ids in order of first use; ids[local] is the global id (counted first, and then made at
+  // its size: a mapped buffer is resident whole, core/scratch.h).
   ScratchVector<unsigned> indices(triangles.size() * 3);
+  unsigned used = 0;
   for (std::size_t t = 0; t < triangles.size(); ++t) {
     for (std::size_t k = 0; k < 3; ++k) {
       unsigned& l = local[triangles[t][k] - low];
-      if (l == ~0u) {
-        l = static_cast<unsigned>(ids.size());
-        ids.push_back(triangles[t][k]);
-      }
+      if (l == ~0u) l = used++;
       indices[3 * t + k] = l;
     }
+  }
+  ScratchVector<VertexId> ids(used);
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    for (std::size_t k = 0; k < 3; ++k) ids[indices[3 * t + k]] = triangles[t][k];
   }
   for (VertexId v : ids) local[v - low] = ~0u;
   if (release != nullptr) *release = Faces{};  // `triangles` and `labels` are gone from here on
@@ -841,6 +851,9 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     ScratchVector<VertexId> ring = bad;
     for (int step = 0; step < 1 + attempt / 2; ++step) {
       ScratchVector<VertexId> next;
+      std::size_t corners = 0;
+      for (VertexId v : ring) corners += 3 * (aroundFirst[v - first + 1] - aroundFirst[v - first]);
+      next.reserve(corners);
       for (VertexId v : ring) {
         for (std::uint32_t i = aroundFirst[v - first]; i < aroundFirst[v - first + 1]; ++i) {
           const std::uint32_t t = around[i];

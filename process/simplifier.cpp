@@ -460,7 +460,7 @@ class Simplifier {
   ScratchVector<std::uint32_t> lineAt_;  // each vertex's entry in lineEnds_ (kDead: none)
   ScratchVector<std::uint32_t> mark_, seen_;
   ScratchVector<std::uint32_t> first_, fill_, around_;
-  ScratchVector<std::uint64_t> keys_, spare_;
+  LazyScratchVector<std::uint64_t> keys_, spare_;  // reserved for every edge, used for fewer
   const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;
   double checkAbove_ = INFINITY;
   double sampleLimit_ = INFINITY;

@@ -2,7 +2,9 @@
 #include "core/scratch.h"
 
 #include <gtest/gtest.h>
+#include <sys/mman.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -11,6 +13,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace isoslab {
 namespace {
@@ -48,11 +51,21 @@ std::uint64_t hugeKiBAt(const void* p) {
 }
 
 TEST(Scratch, LargeBuffersStartAtAHugePageAndAreWhollyUsable) {
-  for (const std::size_t bytes : {kScratchMapped, (std::size_t{5} << 20) + 17, std::size_t{40} << 20}) {
+  for (const std::size_t bytes : {kScratchHuge, (std::size_t{5} << 20) + 17, std::size_t{40} << 20}) {
+    for (const bool populate : {true, false}) {
+      auto* p = static_cast<std::uint8_t*>(takeScratch(bytes, populate));
+      EXPECT_EQ(reinterpret_cast<std::uintptr_t>(p) % kHugePage, 0u) << bytes;
+      EXPECT_EQ(p[bytes / 2], 0) << bytes;  // fresh pages are zero, filled in or not
+      std::memset(p, 0xab, bytes);
+      EXPECT_EQ(p[bytes - 1], 0xab);
+      giveScratch(p, bytes);
+    }
+  }
+  // Mapped but smaller than a huge page: any alignment of a page.
+  for (const std::size_t bytes : {kScratchMapped, kScratchMapped + 5, kScratchHuge - 1}) {
     auto* p = static_cast<std::uint8_t*>(takeScratch(bytes));
-    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(p) % kHugePage, 0u) << bytes;
-    std::memset(p, 0xab, bytes);
-    EXPECT_EQ(p[bytes - 1], 0xab);
+    std::memset(p, 0xcd, bytes);
+    EXPECT_EQ(p[bytes - 1], 0xcd);
     giveScratch(p, bytes);
   }
   // Small ones come from malloc: any size, zero too.
@@ -123,10 +136,50 @@ TEST(Scratch, TheSystemGivesHugePagesWhereItAllowsThem) {
   EXPECT_FALSE(mapped(p + bytes - 1));
 }
 
+// How many of the pages of [p, p + bytes) are resident (mincore).
+std::size_t residentPages(const void* p, std::size_t bytes) {
+  const std::size_t page = 4096;
+  std::vector<unsigned char> in((bytes + page - 1) / page);
+  if (::mincore(const_cast<void*>(p), bytes, in.data()) != 0) return 0;
+  return static_cast<std::size_t>(std::count_if(in.begin(), in.end(), [](unsigned char c) { return (c & 1) != 0; }));
+}
+
+// A mapped buffer is resident when it is made (one call, not a fault a page), unless it is asked
+// for lazily; where the kernel predates MADV_POPULATE_WRITE (5.14), it faults in as it is used.
+TEST(Scratch, MappedBuffersAreFilledInWhenMade) {
+  if (underAddressSanitizer()) GTEST_SKIP() << "under AddressSanitizer every buffer comes from malloc";
+  {
+    void* probe = ::mmap(nullptr, 4096, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    ASSERT_NE(probe, MAP_FAILED);
+    const bool known = ::madvise(probe, 4096, MADV_POPULATE_WRITE) == 0;
+    ::munmap(probe, 4096);
+    if (!known) GTEST_SKIP() << "this kernel has no MADV_POPULATE_WRITE";
+  }
+  for (const std::size_t bytes : {kScratchMapped, (std::size_t{3} << 20) + 100}) {
+    const std::size_t pages = (bytes + 4095) / 4096;
+    void* p = takeScratch(bytes);
+    EXPECT_EQ(residentPages(p, bytes), pages) << bytes;
+    giveScratch(p, bytes);
+    void* lazy = takeScratch(bytes, false);
+    EXPECT_EQ(residentPages(lazy, bytes), 0u) << bytes;
+    giveScratch(lazy, bytes);
+  }
+  // Through the vectors.
+  ScratchVector<std::uint64_t> filled;
+  filled.reserve(100'000);
+  EXPECT_EQ(residentPages(filled.data(), 800'000), (800'000 + 4095) / 4096);
+  LazyScratchVector<std::uint64_t> lazy;
+  lazy.reserve(100'000);
+  EXPECT_EQ(residentPages(lazy.data(), 800'000), 0u);
+}
+
 TEST(Scratch, VectorsKeepTheirValuesAcrossGrowthAndThreads) {
   ScratchVector<std::uint32_t> v;
   for (std::uint32_t k = 0; k < 1'000'000; ++k) v.push_back(k);  // from the heap to mappings
   for (std::uint32_t k = 0; k < v.size(); ++k) ASSERT_EQ(v[k], k);
+  LazyScratchVector<std::uint32_t> lazy(v.begin(), v.end());
+  lazy.insert(lazy.end(), v.begin(), v.end());
+  for (std::uint32_t k = 0; k < lazy.size(); ++k) ASSERT_EQ(lazy[k], k % v.size());
   // Made on one thread, freed on another.
   auto made = std::make_unique<ScratchVector<std::uint64_t>>(400'000);
   std::iota(made->begin(), made->end(), std::uint64_t{7});
