@@ -16,6 +16,50 @@
 
 namespace isoslab {
 
+namespace detail {
+
+/// The fans of one vertex's triangles, given as its corners (3 t + k, the vertex at corner k of
+/// triangle t). `parent` and `ends` are working arrays that the calls share.
+inline std::uint32_t fansAmong(std::span<const Triangle> triangles, std::span<const std::uint32_t> corners,
+                               ScratchVector<std::uint32_t>& parent,
+                               ScratchVector<std::pair<VertexId, std::uint32_t>>& ends) {
+  const auto n = static_cast<std::uint32_t>(corners.size());
+  if (n == 0) return 0;
+  parent.resize(n);
+  std::iota(parent.begin(), parent.end(), 0u);
+  const auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  // (the other end of an edge at the vertex, corner slot)
+  ends.clear();
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const std::uint32_t c = corners[i];
+    const Triangle& t = triangles[c / 3];
+    ends.emplace_back(t[(c % 3 + 1) % 3], i);
+    ends.emplace_back(t[(c % 3 + 2) % 3], i);
+  }
+  // A vertex has a few triangles: an insertion sort (a sort where it has many).
+  if (ends.size() > 32) {
+    std::sort(ends.begin(), ends.end());
+  } else {
+    for (std::size_t e = 1; e < ends.size(); ++e) {
+      const auto x = ends[e];
+      std::size_t m = e;
+      for (; m > 0 && x < ends[m - 1]; --m) ends[m] = ends[m - 1];
+      ends[m] = x;
+    }
+  }
+  for (std::size_t e = 1; e < ends.size(); ++e) {
+    if (ends[e].first == ends[e - 1].first) parent[find(ends[e].second)] = find(ends[e - 1].second);
+  }
+  std::uint32_t count = 0;
+  for (std::uint32_t i = 0; i < n; ++i) count += find(i) == i ? 1 : 0;
+  return count;
+}
+
+}  // namespace detail
+
 /// Per vertex base .. base + vertexCount - 1, the number of fans of its triangles (0 when no triangle
 /// uses it); the triangles use only those vertices.
 inline ScratchVector<std::uint32_t> fanCounts(std::span<const Triangle> triangles, std::size_t vertexCount,
@@ -31,42 +75,44 @@ inline ScratchVector<std::uint32_t> fanCounts(std::span<const Triangle> triangle
   for (std::uint32_t t = 0; t < triangles.size(); ++t) {
     for (std::uint32_t k = 0; k < 3; ++k) corners[fill[triangles[t][k] - base]++] = 3 * t + k;
   }
+  fill = {};
   ScratchVector<std::uint32_t> fans(vertexCount, 0);
   ScratchVector<std::uint32_t> parent;
-  ScratchVector<std::pair<VertexId, std::uint32_t>> ends;  // (the other end of an edge at v, corner slot)
+  ScratchVector<std::pair<VertexId, std::uint32_t>> ends;
   for (std::size_t v = 0; v < vertexCount; ++v) {
-    const std::uint32_t n = first[v + 1] - first[v];
-    if (n == 0) continue;
-    parent.resize(n);
-    std::iota(parent.begin(), parent.end(), 0u);
-    const auto find = [&](std::uint32_t x) {
-      while (parent[x] != x) x = parent[x] = parent[parent[x]];
-      return x;
-    };
-    ends.clear();
-    for (std::uint32_t i = 0; i < n; ++i) {
-      const std::uint32_t c = corners[first[v] + i];
-      const Triangle& t = triangles[c / 3];
-      ends.emplace_back(t[(c % 3 + 1) % 3], i);
-      ends.emplace_back(t[(c % 3 + 2) % 3], i);
+    fans[v] = detail::fansAmong(
+        triangles, std::span<const std::uint32_t>(corners).subspan(first[v], first[v + 1] - first[v]), parent, ends);
+  }
+  return fans;
+}
+
+/// The number of fans of each of `vertices` (sorted and distinct), in their order: one pass over
+/// the triangles, for a few vertices of a large mesh.
+inline std::vector<std::uint32_t> fanCountsAt(std::span<const Triangle> triangles, std::span<const VertexId> vertices) {
+  std::vector<std::uint32_t> fans(vertices.size(), 0);
+  if (vertices.empty()) return fans;
+  // Each listed vertex's corners, in triangle order.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> found;  // (slot in `vertices`, corner)
+  const VertexId low = vertices.front(), high = vertices.back();
+  for (std::uint32_t t = 0; t < triangles.size(); ++t) {
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      const VertexId v = triangles[t][k];
+      if (v < low || v > high) continue;
+      const auto it = std::lower_bound(vertices.begin(), vertices.end(), v);
+      if (it != vertices.end() && *it == v)
+        found.emplace_back(static_cast<std::uint32_t>(it - vertices.begin()), 3 * t + k);
     }
-    // A vertex has a few triangles: an insertion sort (a sort where it has many).
-    if (ends.size() > 32) {
-      std::sort(ends.begin(), ends.end());
-    } else {
-      for (std::size_t e = 1; e < ends.size(); ++e) {
-        const auto x = ends[e];
-        std::size_t m = e;
-        for (; m > 0 && x < ends[m - 1]; --m) ends[m] = ends[m - 1];
-        ends[m] = x;
-      }
-    }
-    for (std::size_t e = 1; e < ends.size(); ++e) {
-      if (ends[e].first == ends[e - 1].first) parent[find(ends[e].second)] = find(ends[e - 1].second);
-    }
-    std::uint32_t count = 0;
-    for (std::uint32_t i = 0; i < n; ++i) count += find(i) == i ? 1 : 0;
-    fans[v] = count;
+  }
+  std::stable_sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<std::uint32_t> corners;
+  ScratchVector<std::uint32_t> parent;
+  ScratchVector<std::pair<VertexId, std::uint32_t>> ends;
+  for (std::size_t i = 0; i < found.size();) {
+    std::size_t j = i;
+    corners.clear();
+    for (; j < found.size() && found[j].first == found[i].first; ++j) corners.push_back(found[j].second);
+    fans[found[i].first] = detail::fansAmong(triangles, corners, parent, ends);
+    i = j;
   }
   return fans;
 }

@@ -725,8 +725,9 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   const std::pair<VertexId, VertexId> range = idRange(triangles);
   const VertexId first = range.first, last = range.second;
   const std::size_t span = static_cast<std::size_t>(last - first) + 1;
-  const auto fansOf = [&](std::span<const Triangle> tris) { return fanCounts(tris, span, first); };
-  const ScratchVector<std::uint32_t> fansBefore = fansOf(triangles);
+  // The fans that the region had, of the vertices that the result gives several (found as needed,
+  // and kept for the next try): most vertices have one, and the region is many times the result.
+  std::vector<std::pair<VertexId, std::uint32_t>> fansBefore;  // (vertex, fans), sorted
   // The triangles around each vertex (ids relative to `first`), to grow frozen patches by rings.
   ScratchVector<std::uint32_t> aroundFirst, around;
   ScratchVector<bool> frozen(triangles.size(), false);
@@ -802,10 +803,28 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
         bad.push_back(static_cast<VertexId>(key & 0xffffffffu));
       }
     }
-    // Pinched vertices.
-    const ScratchVector<std::uint32_t> fansAfter = fansOf(out);
-    for (std::size_t v = 0; v < fansAfter.size(); ++v) {
-      if (fansAfter[v] > std::max(1u, fansBefore[v])) bad.push_back(first + static_cast<VertexId>(v));
+    // Pinched vertices: more fans than before, and more than one.
+    {
+      const ScratchVector<std::uint32_t> fansAfter = fanCounts(out, span, first);
+      ScratchVector<VertexId> several, unknown;
+      for (std::size_t v = 0; v < fansAfter.size(); ++v) {
+        if (fansAfter[v] < 2) continue;
+        const VertexId id = first + static_cast<VertexId>(v);
+        several.push_back(id);
+        const auto it =
+            std::lower_bound(fansBefore.begin(), fansBefore.end(), std::pair<VertexId, std::uint32_t>{id, 0});
+        if (it == fansBefore.end() || it->first != id) unknown.push_back(id);
+      }
+      if (!unknown.empty()) {
+        const std::vector<std::uint32_t> counts = fanCountsAt(triangles, unknown);
+        for (std::size_t i = 0; i < unknown.size(); ++i) fansBefore.emplace_back(unknown[i], counts[i]);
+        std::sort(fansBefore.begin(), fansBefore.end());
+      }
+      for (const VertexId id : several) {
+        const auto it =
+            std::lower_bound(fansBefore.begin(), fansBefore.end(), std::pair<VertexId, std::uint32_t>{id, 0});
+        if (fansAfter[id - first] > std::max(1u, it->second)) bad.push_back(id);
+      }
     }
     // Triangles that moved the surface too far, against the grid of the original triangles, which
     // the distance measure of the try that succeeds reuses. Only those that a collapse changed

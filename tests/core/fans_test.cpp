@@ -1,0 +1,90 @@
+// Fans of a mesh's vertices (core/fans.h), against a brute force written here.
+#include "core/fans.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <random>
+#include <vector>
+
+namespace isoslab {
+namespace {
+
+// The fans at v: v's triangles, two joined where they share an edge at v (a vertex besides v), by a
+// flood over the pairs.
+std::uint32_t bruteFans(const std::vector<Triangle>& triangles, VertexId v) {
+  std::vector<std::size_t> at;
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    for (VertexId u : triangles[t]) {
+      if (u == v) {
+        at.push_back(t);
+        break;
+      }
+    }
+  }
+  std::vector<bool> reached(at.size(), false);
+  std::uint32_t fans = 0;
+  for (std::size_t s = 0; s < at.size(); ++s) {
+    if (reached[s]) continue;
+    ++fans;
+    std::vector<std::size_t> todo{s};
+    reached[s] = true;
+    while (!todo.empty()) {
+      const std::size_t i = todo.back();
+      todo.pop_back();
+      for (std::size_t j = 0; j < at.size(); ++j) {
+        if (reached[j]) continue;
+        bool joined = false;
+        for (VertexId a : triangles[at[i]]) {
+          for (VertexId b : triangles[at[j]]) joined = joined || (a == b && a != v);
+        }
+        if (joined) {
+          reached[j] = true;
+          todo.push_back(j);
+        }
+      }
+    }
+  }
+  return fans;
+}
+
+TEST(Fans, CountsMatchABruteForceOnRandomMeshes) {
+  std::mt19937 random(7);
+  for (int round = 0; round < 300; ++round) {
+    const VertexId base = round % 3 == 0 ? 0 : 1000 + static_cast<VertexId>(round);
+    const auto vertices = static_cast<VertexId>(4 + round % 20);
+    std::uniform_int_distribution<VertexId> pick(base, base + vertices - 1);
+    std::vector<Triangle> triangles;
+    // A closed octahedron's worth of structure sometimes, random triangles always (pinches, fins,
+    // isolated vertices: anything).
+    for (int t = 0; t < 5 + round % 40; ++t) {
+      Triangle tri{pick(random), pick(random), pick(random)};
+      if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) continue;
+      triangles.push_back(tri);
+    }
+    const ScratchVector<std::uint32_t> fans = fanCounts(triangles, vertices, base);
+    std::vector<VertexId> some;
+    for (VertexId v = base; v < base + vertices; ++v) {
+      ASSERT_EQ(fans[v - base], bruteFans(triangles, v)) << round << " " << v;
+      if ((v + round) % 3 != 0) some.push_back(v);
+    }
+    const std::vector<std::uint32_t> listed = fanCountsAt(triangles, some);
+    ASSERT_EQ(listed.size(), some.size());
+    for (std::size_t i = 0; i < some.size(); ++i) EXPECT_EQ(listed[i], fans[some[i] - base]) << round;
+  }
+  EXPECT_TRUE(fanCountsAt(std::vector<Triangle>{{0, 1, 2}}, std::vector<VertexId>{}).empty());
+}
+
+// A bowtie: two triangles that share only vertex 0 give it two fans; a third triangle that joins
+// them along edges at 0 makes one.
+TEST(Fans, ABowtieHasTwoFansAtItsKnot) {
+  std::vector<Triangle> triangles{{0, 1, 2}, {0, 3, 4}};
+  EXPECT_EQ(fanCounts(triangles, 5)[0], 2u);
+  EXPECT_EQ(fanCountsAt(triangles, std::vector<VertexId>{0, 4}), (std::vector<std::uint32_t>{2, 1}));
+  triangles.push_back({0, 2, 3});
+  EXPECT_EQ(fanCounts(triangles, 5)[0], 1u);
+  EXPECT_EQ(fanCountsAt(triangles, std::vector<VertexId>{0}), (std::vector<std::uint32_t>{1}));
+}
+
+}  // namespace
+}  // namespace isoslab
