@@ -27,6 +27,16 @@ constexpr double kCheckAbove = 0.2;
 // What a block keeps, as a multiple of the ratio (the regions bring it down).
 constexpr double kBlockSlack = 1.2;
 
+// The least and the greatest of three (std::min of a list is a loop that the compiler keeps).
+template <class T>
+T min3(T a, T b, T c) {
+  return std::min(std::min(a, b), c);
+}
+template <class T>
+T max3(T a, T b, T c) {
+  return std::max(std::max(a, b), c);
+}
+
 struct EdgeUse {
   std::uint32_t uses = 0;
   std::uint32_t forward = 0;  // uses from the smaller id to the larger
@@ -37,8 +47,8 @@ struct EdgeUse {
 std::pair<VertexId, VertexId> idRange(std::span<const Triangle> triangles) {
   VertexId low = triangles.front()[0], high = low;
   for (const Triangle& t : triangles) {
-    low = std::min({low, t[0], t[1], t[2]});
-    high = std::max({high, t[0], t[1], t[2]});
+    low = std::min(low, min3(t[0], t[1], t[2]));
+    high = std::max(high, max3(t[0], t[1], t[2]));
   }
   return {low, high};
 }
@@ -99,14 +109,18 @@ ScratchVector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(std::span<const Tria
 }
 
 struct Shape {
-  ScratchVector<std::uint64_t> border;       // edges used once, sorted
-  ScratchVector<VertexId> borderVertices;    // their ends, sorted
+  ScratchVector<std::uint64_t> border;  // edges used once, sorted
+  // Their ends: a flag per id from the least of them.
+  VertexId borderLow = 0;
+  ScratchVector<std::uint8_t> borderFlags;
   ScratchVector<std::uint64_t> amongBorder;  // every edge between two border vertices, sorted
   std::uint64_t nonManifold = 0;             // edges used more than twice
   std::uint64_t inconsistent = 0;            // edges used twice in the same direction
   // Those two kinds, sorted by key: a label complex has them where three or more labels meet.
   ScratchVector<std::pair<std::uint64_t, EdgeUse>> odd;
-  bool onBorder(VertexId v) const { return std::binary_search(borderVertices.begin(), borderVertices.end(), v); }
+  bool onBorder(VertexId v) const {
+    return v >= borderLow && v - borderLow < borderFlags.size() && borderFlags[v - borderLow] != 0;
+  }
 };
 
 // Of all the edges, only those between two border vertices are kept: the check after a try needs
@@ -120,12 +134,17 @@ Shape shapeOf(std::span<const Triangle> triangles) {
     if (e.uses == 2 && e.forward != 1) ++s.inconsistent;
     if (e.uses > 2 || (e.uses == 2 && e.forward != 1)) s.odd.push_back({key, e});
   }
-  for (std::uint64_t key : s.border) {
-    s.borderVertices.push_back(static_cast<VertexId>(key >> 32));
-    s.borderVertices.push_back(static_cast<VertexId>(key & 0xffffffffu));
+  if (!s.border.empty()) {
+    // A border key's first end is the smaller, and the keys are sorted by it.
+    s.borderLow = static_cast<VertexId>(s.border.front() >> 32);
+    VertexId high = s.borderLow;
+    for (std::uint64_t key : s.border) high = std::max(high, static_cast<VertexId>(key & 0xffffffffu));
+    s.borderFlags.assign(static_cast<std::size_t>(high - s.borderLow) + 1, 0);
+    for (std::uint64_t key : s.border) {
+      s.borderFlags[static_cast<VertexId>(key >> 32) - s.borderLow] = 1;
+      s.borderFlags[static_cast<VertexId>(key & 0xffffffffu) - s.borderLow] = 1;
+    }
   }
-  std::sort(s.borderVertices.begin(), s.borderVertices.end());
-  s.borderVertices.erase(std::unique(s.borderVertices.begin(), s.borderVertices.end()), s.borderVertices.end());
   for (const auto& [key, e] : edges) {
     if (s.onBorder(static_cast<VertexId>(key >> 32)) && s.onBorder(static_cast<VertexId>(key & 0xffffffffu))) {
       s.amongBorder.push_back(key);
@@ -421,7 +440,7 @@ void DecimationSink::processQueued() {
         b.middle < chunks_ ? chunkFirst_[b.middle - chunkBase_] : base_ + static_cast<VertexId>(positions_.size());
     // Each half at its size: the upper one waits for the next block (a grown array's untouched
     // tail would be resident where it lies in a huge page: core/scratch.h).
-    const auto isLower = [&](const Triangle& tri) { return std::min({tri[0], tri[1], tri[2]}) < middleFirst; };
+    const auto isLower = [&](const Triangle& tri) { return min3(tri[0], tri[1], tri[2]) < middleFirst; };
     const auto lowerCount =
         static_cast<std::size_t>(std::count_if(block.output.triangles.begin(), block.output.triangles.end(), isLower));
     Faces lower, upper;
@@ -900,8 +919,8 @@ DecimationSink::ChunkRange DecimationSink::rangeAround(std::span<const Triangle>
   if (triangles.empty()) return {firstChunk, firstChunk};
   VertexId lowest = triangles.front()[0], highest = lowest;
   for (const Triangle& t : triangles) {
-    lowest = std::min({lowest, t[0], t[1], t[2]});
-    highest = std::max({highest, t[0], t[1], t[2]});
+    lowest = std::min(lowest, min3(t[0], t[1], t[2]));
+    highest = std::max(highest, max3(t[0], t[1], t[2]));
   }
   const std::size_t first = chunkOfVertex(lowest);
   return {std::max(firstChunk, first > 0 ? first - 1 : 0), std::min(end, chunkOfVertex(highest) + 2)};
@@ -924,8 +943,8 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range
     for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
       if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
       ++count;
-      lowest = std::min({lowest, t[0], t[1], t[2]});
-      highest = std::max({highest, t[0], t[1], t[2]});
+      lowest = std::min(lowest, min3(t[0], t[1], t[2]));
+      highest = std::max(highest, max3(t[0], t[1], t[2]));
     }
   }
   if (count == 0) return surface;
@@ -952,9 +971,8 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range
     const Vec3f &a = position(t[0]), &b = position(t[1]), &c = position(t[2]);
     const std::array<std::array<double, 3>, 3> p{{{a.x, b.x, c.x}, {a.y, b.y, c.y}, {a.z, b.z, c.z}}};
     for (std::size_t d = 0; d < 3; ++d) {
-      first[d] =
-          std::clamp(surface.cellOf(std::min({p[d][0], p[d][1], p[d][2]}), d), std::int64_t{0}, surface.dims[d] - 1);
-      last[d] = std::clamp(surface.cellOf(std::max({p[d][0], p[d][1], p[d][2]}), d), first[d], surface.dims[d] - 1);
+      first[d] = std::clamp(surface.cellOf(min3(p[d][0], p[d][1], p[d][2]), d), std::int64_t{0}, surface.dims[d] - 1);
+      last[d] = std::clamp(surface.cellOf(max3(p[d][0], p[d][1], p[d][2]), d), first[d], surface.dims[d] - 1);
     }
   };
   const auto forCells = [&](const std::array<std::int64_t, 3>& first, const std::array<std::int64_t, 3>& last,
@@ -1096,10 +1114,11 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::
     // The triangle's bounding box first: most triangles of a cell are farther than the limit.
     double outside = 0;
     for (std::size_t d = 0; d < 3; ++d) {
-      const double gap = std::max({std::min({a[d], b[d], c[d]}) - p[d], p[d] - std::max({a[d], b[d], c[d]}), 0.0});
+      const double gap = std::max(std::max(min3(a[d], b[d], c[d]) - p[d], p[d] - max3(a[d], b[d], c[d])), 0.0);
       outside += gap * gap;
+      if (outside > limit2) return false;
     }
-    return outside <= limit2 && distanceSquared(p, a, b, c) <= limit2;
+    return distanceSquared(p, a, b, c) <= limit2;
   };
   if (hint < triangles.size() && near(hint)) return true;
   std::int64_t lo[3], hi[3];
