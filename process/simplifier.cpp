@@ -16,6 +16,8 @@ namespace {
 
 constexpr std::uint32_t kDead = 0xffffffffu;
 constexpr std::size_t kMaxFan = 64;
+// A pass that makes fewer than 1 / kLastPass of the collapses still wanted is the last.
+constexpr std::size_t kLastPass = 64;
 
 using Vec3 = std::array<double, 3>;
 
@@ -207,7 +209,12 @@ class Simplifier {
     }
 
     for (std::uint32_t pass = 1; live_ > limits.targetTriangles; ++pass) {
-      if (!collapsePass(pass, limits.targetTriangles, limit)) break;
+      // A pass that makes only a sliver of the collapses still wanted is the last: what is left are
+      // candidates that the tests refuse, tried again every pass for a handful more (a noisy
+      // surface that its bound stops short of the target spent half its passes so).
+      const std::size_t wanted = (live_ - limits.targetTriangles + 1) / 2;
+      const std::size_t made = collapsePass(pass, limits.targetTriangles, limit);
+      if (made == 0 || made * kLastPass < wanted) break;
       compact();
       buildAdjacency();
     }
@@ -244,8 +251,8 @@ class Simplifier {
   }
 
   // One pass: the candidates by error, each made where nothing around it has changed. Returns
-  // whether any collapse was made.
-  bool collapsePass(std::uint32_t pass, std::size_t target, double limit) {
+  // the collapses made.
+  std::size_t collapsePass(std::uint32_t pass, std::size_t target, double limit) {
     keys_.clear();
     const std::size_t triangles = count_ / 3;
     // Each edge once, and two a line vertex: about 3/2 a triangle. Reserved, not grown, so that the
@@ -292,7 +299,7 @@ class Simplifier {
         }
       }
     }
-    if (keys_.empty()) return false;
+    if (keys_.empty()) return 0;
     sortKeys();
     // Most collapses remove two triangles: the pass goes as far as the error of the collapse that
     // would meet the target, and half as far again (the skipped ones come back in the next pass),
@@ -323,8 +330,7 @@ class Simplifier {
       if (mark_[from] == pass || mark_[to] == pass) continue;
       if (collapse(from, to, pass, error)) ++made;
     }
-    const bool any = made > 0;
-    return any;
+    return made;
   }
 
   // The keys in order of error (their upper 32 bits, the bits of a float that is not negative),
