@@ -198,6 +198,16 @@ double distanceSquared(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec
   return at({a[0] + ab[0] * v + ac[0] * w, a[1] + ab[1] * v + ac[1] * w, a[2] + ab[2] * v + ac[2] * w});
 }
 
+// The squared distance from p to the box [low, high] (0 inside).
+double boxGapSquared(const Vec3d& p, const Vec3d& low, const Vec3d& high) {
+  double sum = 0;
+  for (std::size_t d = 0; d < 3; ++d) {
+    const double gap = std::max(std::max(low[d] - p[d], p[d] - high[d]), 0.0);
+    sum += gap * gap;
+  }
+  return sum;
+}
+
 Vec3d toDouble(const Vec3f& p) {
   return {p.x, p.y, p.z};
 }
@@ -255,6 +265,7 @@ void DecimationSink::begin(const MeshHeader& header) {
   chunkFirst_.clear();
   chunkSlab_.clear();
   chunkTriangles_.clear();
+  chunkGrids_.clear();
   chunks_ = 0;
   blockStart_ = 0;
   queued_.clear();
@@ -285,6 +296,7 @@ void DecimationSink::consume(const MeshChunk& chunk) {
   chunkFirst_.push_back(chunk.firstVertex);
   chunkSlab_.push_back(chunk.slab);
   chunkTriangles_.emplace_back(chunk.triangles.begin(), chunk.triangles.end());
+  chunkGrids_.emplace_back();
   if (complex_) {
     if (chunk.faceLabels.size() != chunk.triangles.size()) {
       throw Error("decimation: a label complex's chunk lacks its triangles' labels");
@@ -316,9 +328,13 @@ void DecimationSink::finish() {
     ++report_.regions;
     Lock lock;
     if (complex_) lock.curve = std::move(pendingCurve_);
+    buildGrids({range});
     const Faces last = simplify(pendingUpper_, originalIn(pendingMiddle_, chunks_), range, lock, scope);
     count(scope);
-    emit(last, chunkSlab_.back(), range, scope);
+    if (options_.measure) measure(last.triangles, range, scope);
+    scope.surface.reset();
+    for (std::unique_ptr<OriginalSurface>& grid : chunkGrids_) grid.reset();
+    emit(last, chunkSlab_.back());
     hasPending_ = false;
   }
   if (report_.samples > 0) report_.distanceMean = distanceSum_ / static_cast<double>(report_.samples);
@@ -429,6 +445,11 @@ void DecimationSink::processQueued() {
     }
   }
   report_.blocks += blocks.size();
+  {
+    std::vector<ChunkRange> ranges;
+    for (const Work& w : blocks) ranges.push_back(w.range);
+    buildGrids(ranges);
+  }
   runAll(blocks);
   // Split each block at its middle chunk (a triangle with a vertex below it is the lower half); the
   // lower half and the pending upper half (none before the first block) are a region.
@@ -481,25 +502,96 @@ void DecimationSink::processQueued() {
     pendingMiddle_ = b.middle;
     hasPending_ = true;
   }
+  {
+    std::vector<ChunkRange> ranges;
+    for (const Work& w : out) ranges.push_back(w.range);
+    buildGrids(ranges);
+  }
   runAll(out);
   for (std::vector<Work>* group : {&blocks, &out}) {
     for (const Work& w : *group) count(w.scope);
   }
+  // The regions measured, then the grids freed: none is held while the regions go on downstream
+  // (the next region's are made again, half a block's).
+  if (options_.measure) {
+    for (Work& w : out) measure(w.output.triangles, w.range, w.scope);
+  }
+  for (Work& w : out) w.scope.surface.reset();
+  for (std::unique_ptr<OriginalSurface>& grid : chunkGrids_) grid.reset();
   for (Work& w : out) {
-    emit(w.output, w.slab, w.range, w.scope);
+    emit(w.output, w.slab);
     w = Work{};
   }
   trim(scheduleBase_);
   queued_.clear();
 }
 
-const DecimationSink::OriginalSurface& DecimationSink::surfaceFor(ChunkRange range, Scope& scope) const {
+const DecimationSink::Originals& DecimationSink::surfaceFor(ChunkRange range, Scope& scope) const {
   if (!scope.surface || !(scope.surfaceRange == range)) {
-    scope.surface.reset();  // the old grid goes before the new one is built
-    scope.surface.emplace(originalSurface(range));
+    Originals& surface = scope.surface.emplace();
+    for (std::size_t c = std::max(chunkBase_, range.first); c < std::min(chunks_, range.end); ++c) {
+      const std::unique_ptr<OriginalSurface>& grid = chunkGrids_[c - chunkBase_];
+      if (grid == nullptr) throw std::logic_error("decimation: a chunk's grid was not built before its use");
+      if (grid->count > 0) surface.parts.push_back(grid.get());
+    }
+    surface.index();
     scope.surfaceRange = range;
   }
   return *scope.surface;
+}
+
+void DecimationSink::buildGrids(const std::vector<ChunkRange>& ranges) {
+  if (!(options_.maxDistance > 0) && !options_.measure) return;  // no check and no measure: no grid
+  std::vector<std::size_t> missing;
+  for (const ChunkRange& range : ranges) {
+    for (std::size_t c = std::max(chunkBase_, range.first); c < std::min(chunks_, range.end); ++c) {
+      if (chunkGrids_[c - chunkBase_] == nullptr) missing.push_back(c);
+    }
+  }
+  std::sort(missing.begin(), missing.end());
+  missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
+  // Each grid reads only the chunk's triangles and the positions, and writes only its own slot.
+  const auto build = [&](std::size_t from, std::size_t step) {
+    for (std::size_t i = from; i < missing.size(); i += step) {
+      const std::size_t c = missing[i];
+      chunkGrids_[c - chunkBase_] = std::make_unique<OriginalSurface>(originalSurface(c));
+    }
+  };
+  const std::size_t helpers =
+      std::min<std::size_t>(options_.threads > 1 ? static_cast<std::size_t>(options_.threads) - 1 : 0,
+                            missing.size() > 1 ? missing.size() - 1 : 0);
+  std::vector<std::thread> threads;
+  std::vector<std::exception_ptr> errors(helpers + 1);
+  for (std::size_t h = 0; h < helpers; ++h) {
+    try {
+      threads.emplace_back([&, h] {
+        try {
+          build(h + 1, helpers + 1);
+        } catch (...) {
+          errors[h + 1] = std::current_exception();
+        }
+      });
+    } catch (const std::system_error&) {
+      break;
+    }
+  }
+  try {
+    // The share of a helper that could not start is built here afterwards.
+    build(0, helpers + 1);
+  } catch (...) {
+    errors[0] = std::current_exception();
+  }
+  for (std::thread& t : threads) t.join();
+  for (std::size_t h = threads.size() + 1; h <= helpers; ++h) {
+    try {
+      build(h, helpers + 1);
+    } catch (...) {
+      errors[h] = std::current_exception();
+    }
+  }
+  for (const std::exception_ptr& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
 }
 
 void DecimationSink::trim(std::size_t firstChunk) {
@@ -515,6 +607,12 @@ void DecimationSink::trim(std::size_t firstChunk) {
   chunkFirst_.erase(chunkFirst_.begin(), chunkFirst_.begin() + static_cast<std::ptrdiff_t>(drop));
   chunkSlab_.erase(chunkSlab_.begin(), chunkSlab_.begin() + static_cast<std::ptrdiff_t>(drop));
   chunkTriangles_.erase(chunkTriangles_.begin(), chunkTriangles_.begin() + static_cast<std::ptrdiff_t>(drop));
+  chunkGrids_.erase(chunkGrids_.begin(), chunkGrids_.begin() + static_cast<std::ptrdiff_t>(drop));
+  // A grid that holds a triangle on a vertex now dropped is made again when next needed, without it
+  // (as every grid leaves out the triangles on vertices below base_).
+  for (std::unique_ptr<OriginalSurface>& grid : chunkGrids_) {
+    if (grid != nullptr && grid->count > 0 && grid->minVertex < newBase) grid.reset();
+  }
   if (complex_) chunkLabels_.erase(chunkLabels_.begin(), chunkLabels_.begin() + static_cast<std::ptrdiff_t>(drop));
   chunkBase_ = firstChunk;
 }
@@ -523,8 +621,8 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // than options_.batchTriangles, each with its share of the target (less what earlier batches kept
 // beyond theirs): components share no vertex, so a batch's collapses are those it would make among
 // the others, and only the stopping point moves.
-DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTriangles,
-                                               const OriginalSurface* original, const ScratchVector<VertexId>& pinned,
+DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTriangles, const Originals* original,
+                                               const ScratchVector<VertexId>& pinned,
                                                ScratchVector<std::uint8_t>& unchecked) const {
   unchecked.clear();
   if (faces.triangles.empty()) return {};
@@ -608,8 +706,7 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
 // against the original surface (simplifyTriangles).
 DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> triangles,
                                                     std::span<const LabelPair> labels, std::size_t targetTriangles,
-                                                    const OriginalSurface* original,
-                                                    const ScratchVector<VertexId>& pinned,
+                                                    const Originals* original, const ScratchVector<VertexId>& pinned,
                                                     ScratchVector<unsigned>& local, VertexId low, Faces* release,
                                                     ScratchVector<std::uint8_t>& unchecked) const {
   if (triangles.empty()) return {};
@@ -660,7 +757,7 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
     // The new triangles fan out from `to`: each one's centroid, and the midpoints of the edges
     // from `to` (each once). Their edges between two ring vertices were there before.
     limits.check = [&, ends = ScratchVector<std::uint32_t>(),
-                    hint = ~0u](const std::vector<std::array<std::uint32_t, 3>>& made) mutable {
+                    hint = kNoHint](const std::vector<std::array<std::uint32_t, 3>>& made) mutable {
       ends.clear();
       for (const auto& t : made) {
         const std::array<Vec3d, 4> samples = samplePoints({ids[t[0]], ids[t[1]], ids[t[2]]});
@@ -772,7 +869,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     }
     // Frozen triangles count towards the target: the rest is simplified a little further.
     const std::size_t share = target > frozenCount ? target - frozenCount : 0;
-    const OriginalSurface* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
+    const Originals* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
     // In a label complex, a vertex with a frozen triangle stays: its triangles in the input can
     // look like a closed fan where three labels meet (a scalar surface shows it a border edge).
     ScratchVector<VertexId> pinned;
@@ -850,7 +947,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // unchecked: the others are unchanged (an original triangle in a block; in a region, a block's
     // triangle that its own check passed) or were measured as the collapses made them.
     if (original != nullptr) {
-      std::uint32_t hint = ~0u;
+      Hint hint = kNoHint;
       for (std::size_t t = 0; t < simplified.size(); ++t) {
         const Triangle& tri = simplified.triangles[t];
         if (unchecked[t] != 0 && !triangleWithin(tri, *original, limit, hint))
@@ -926,27 +1023,26 @@ DecimationSink::ChunkRange DecimationSink::rangeAround(std::span<const Triangle>
   return {std::max(firstChunk, first > 0 ? first - 1 : 0), std::min(end, chunkOfVertex(highest) + 2)};
 }
 
-// The original triangles of chunks [range.first, range.end) in a dense grid over their bounding
-// box, for distances to the original surface: cells two voxels wide, or wider where the box would
-// hold more than about two cells a triangle (the answers do not depend on the cell size, only the
-// time). A counting sort with no search: the box (over the span of vertex ids that the triangles
-// use, read in order), then each triangle's cells counted and noted, then the lists filled from
-// the notes.
-DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range) const {
+// A chunk's original triangles (those on vertices from base_ on) in a dense grid over their
+// bounding box, for distances to the original surface: cells two voxels wide, or wider where the
+// box would hold more than about two cells a triangle (the answers do not depend on the cell size,
+// only the time). A counting sort with no search: the box (over the span of vertex ids that the
+// triangles use, read in order), then each triangle's cells counted and noted, then the lists
+// filled from the notes.
+DecimationSink::OriginalSurface DecimationSink::originalSurface(std::size_t chunk) const {
   OriginalSurface surface;
   surface.sink = this;
-  const std::size_t lo = std::max(chunkBase_, range.first);
-  const std::size_t hi = std::min(chunks_, range.end);
+  const std::vector<Triangle>& all = chunkTriangles_[chunk - chunkBase_];
+  surface.triangles = all;
   std::size_t count = 0;
   VertexId lowest = kNone, highest = 0;
-  for (std::size_t c = lo; c < hi; ++c) {
-    for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
-      if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
-      ++count;
-      lowest = std::min(lowest, min3(t[0], t[1], t[2]));
-      highest = std::max(highest, max3(t[0], t[1], t[2]));
-    }
+  for (const Triangle& t : all) {
+    if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
+    ++count;
+    lowest = std::min(lowest, min3(t[0], t[1], t[2]));
+    highest = std::max(highest, max3(t[0], t[1], t[2]));
   }
+  surface.count = count;
   if (count == 0) return surface;
   Vec3d low{INFINITY, INFINITY, INFINITY}, high{-INFINITY, -INFINITY, -INFINITY};
   for (VertexId v = lowest; v <= highest; ++v) {
@@ -954,8 +1050,11 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range
     for (std::size_t d = 0; d < 3; ++d) low[d] = std::min(low[d], p[d]), high[d] = std::max(high[d], p[d]);
   }
   surface.origin = low;
+  surface.low = low;
+  surface.high = high;
+  surface.minVertex = lowest;
   surface.cell = 2.0 * options_.voxelSize;
-  const double most = 2.0 * static_cast<double>(count) + 4096.0;
+  const double most = 2.0 * static_cast<double>(count) + 64.0;
   for (;;) {
     double cells = 1;
     for (std::size_t d = 0; d < 3; ++d) {
@@ -985,30 +1084,29 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range
   // along some axis, found again from its corners).
   constexpr std::uint8_t kWide = 255;
   struct Note {
+    std::uint32_t triangle = 0;  // its place in the chunk
     std::uint32_t cell = 0;
     std::array<std::uint8_t, 3> more{};
   };
   ScratchVector<Note> notes(count);
-  surface.triangles.resize(count);
   // Counts at [cell + 1], summed into starts.
   surface.cellStart.assign(cells + 1, 0);
   std::size_t entries = 0, k = 0;
-  for (std::size_t c = lo; c < hi; ++c) {
-    for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
-      if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
-      std::array<std::int64_t, 3> first{}, last{};
-      cellsOf(t, first, last);
-      Note& note = notes[k];
-      note.cell = static_cast<std::uint32_t>(surface.index(first[0], first[1], first[2]));
-      for (std::size_t d = 0; d < 3; ++d) {
-        note.more[d] = static_cast<std::uint8_t>(std::min<std::int64_t>(last[d] - first[d], kWide));
-      }
-      surface.triangles[k++] = t;
-      forCells(first, last, [&](std::size_t cell) {
-        ++surface.cellStart[cell + 1];
-        ++entries;
-      });
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const Triangle& t = all[i];
+    if (t[0] < base_ || t[1] < base_ || t[2] < base_) continue;
+    std::array<std::int64_t, 3> first{}, last{};
+    cellsOf(t, first, last);
+    Note& note = notes[k++];
+    note.triangle = static_cast<std::uint32_t>(i);
+    note.cell = static_cast<std::uint32_t>(surface.index(first[0], first[1], first[2]));
+    for (std::size_t d = 0; d < 3; ++d) {
+      note.more[d] = static_cast<std::uint8_t>(std::min<std::int64_t>(last[d] - first[d], kWide));
     }
+    forCells(first, last, [&](std::size_t cell) {
+      ++surface.cellStart[cell + 1];
+      ++entries;
+    });
   }
   for (std::size_t i = 0; i < cells; ++i) surface.cellStart[i + 1] += surface.cellStart[i];
   // The lists, filled by advancing each cell's start, which leaves start[cell] at the next cell's
@@ -1018,10 +1116,10 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(ChunkRange range
   const auto strideZ = static_cast<std::size_t>(surface.dims[0] * surface.dims[1]);
   for (std::size_t n = 0; n < count; ++n) {
     const Note& note = notes[n];
-    const auto index = static_cast<std::uint32_t>(n);
+    const std::uint32_t index = note.triangle;
     if (note.more[0] == kWide || note.more[1] == kWide || note.more[2] == kWide) {
       std::array<std::int64_t, 3> first{}, last{};
-      cellsOf(surface.triangles[n], first, last);
+      cellsOf(all[index], first, last);
       forCells(first, last, [&](std::size_t cell) { surface.cellTriangles[surface.cellStart[cell]++] = index; });
       continue;
     }
@@ -1054,7 +1152,7 @@ double DecimationSink::OriginalSurface::nearestInCell(std::int64_t x, std::int64
 // meets; when p's cell is empty, the cells in growing rings around it, until no cell further out
 // can hold a nearer one.
 double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
-  if (triangles.empty()) return 0;
+  if (count == 0) return 0;
   const std::int64_t cx = cellOf(p[0], 0), cy = cellOf(p[1], 1), cz = cellOf(p[2], 2);
   double best = nearestInCell(cx, cy, cz, p);
   if (best < INFINITY) {
@@ -1085,9 +1183,9 @@ double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
     double reach = INFINITY;
     const std::int64_t centre[3] = {cx, cy, cz};
     for (std::size_t a = 0; a < 3; ++a) {
-      const double low = p[a] - (origin[a] + static_cast<double>(centre[a] - ring) * cell);
-      const double high = origin[a] + static_cast<double>(centre[a] + ring + 1) * cell - p[a];
-      reach = std::min({reach, low, high});
+      const double below = p[a] - (origin[a] + static_cast<double>(centre[a] - ring) * cell);
+      const double above = origin[a] + static_cast<double>(centre[a] + ring + 1) * cell - p[a];
+      reach = std::min({reach, below, above});
     }
     if (best <= reach * reach || ring > 64) return std::sqrt(best);
   }
@@ -1105,7 +1203,7 @@ std::array<DecimationSink::Vec3d, 4> DecimationSink::samplePoints(const Triangle
 // Whether some original triangle lies within `limit` of p: the hinted triangle, then the cells that
 // the ball around p touches, p's own first, stopping at the first triangle near enough.
 bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::uint32_t& hint) const {
-  if (triangles.empty()) return true;
+  if (count == 0) return true;
   const double limit2 = limit * limit;
   const auto near = [&](std::uint32_t k) {
     const Triangle& t = triangles[k];
@@ -1148,10 +1246,93 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::
   return false;
 }
 
+// Whether some original triangle lies within `limit` of p: the hinted grid's hinted triangle, then
+// each grid whose box is within `limit` of p.
+bool DecimationSink::Originals::within(const Vec3d& p, double limit, Hint& hint) const {
+  if (parts.empty()) return true;
+  std::size_t searched = parts.size();  // the hinted part, searched whole
+  if (hint != kNoHint) {
+    const std::size_t part = hint >> 32;
+    auto k = static_cast<std::uint32_t>(hint & 0xffffffffu);
+    if (part < parts.size() && k < parts[part]->triangles.size()) {
+      // The grid's own search tries its hint first.
+      if (parts[part]->within(p, limit, k)) {
+        hint = static_cast<Hint>(part) << 32 | k;
+        return true;
+      }
+      searched = part;
+    }
+  }
+  const double limit2 = limit * limit;
+  // The parts whose boxes begin below p + limit along the axis, from the last down, until none
+  // before reaches p - limit; those whose boxes come within the limit, nearest first.
+  const double from = p[axis] - limit, to = p[axis] + limit;
+  const auto end = std::upper_bound(parts.begin(), parts.end(), to,
+                                    [&](double x, const OriginalSurface* g) { return x < g->low[axis]; });
+  std::array<std::pair<double, std::size_t>, 8> near{};
+  std::size_t found = 0;
+  const auto search = [&](std::size_t i) {
+    std::uint32_t k = ~0u;
+    if (!parts[i]->within(p, limit, k)) return false;
+    hint = static_cast<Hint>(i) << 32 | k;
+    return true;
+  };
+  for (auto i = static_cast<std::size_t>(end - parts.begin()); i-- > 0;) {
+    if (reach[i] < from) break;
+    const double gap = boxGapSquared(p, parts[i]->low, parts[i]->high);
+    if (gap > limit2 || i == searched) continue;
+    if (found == near.size()) {
+      // Many boxes about p (chunks that are not slabs across the axis): each in turn.
+      if (search(i)) return true;
+      continue;
+    }
+    near[found++] = {gap, i};
+  }
+  for (std::size_t n = 1; n < found; ++n) {  // a few: an insertion sort
+    const auto x = near[n];
+    std::size_t m = n;
+    for (; m > 0 && x < near[m - 1]; --m) near[m] = near[m - 1];
+    near[m] = x;
+  }
+  for (std::size_t n = 0; n < found; ++n) {
+    if (search(near[n].second)) return true;
+  }
+  return false;
+}
+
+void DecimationSink::Originals::index() {
+  std::array<double, 3> extent{};
+  for (const OriginalSurface* g : parts) {
+    for (std::size_t a = 0; a < 3; ++a) extent[a] += g->high[a] - g->low[a];
+  }
+  axis = static_cast<std::size_t>(std::min_element(extent.begin(), extent.end()) - extent.begin());
+  std::stable_sort(parts.begin(), parts.end(),
+                   [&](const OriginalSurface* a, const OriginalSurface* b) { return a->low[axis] < b->low[axis]; });
+  reach.resize(parts.size());
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    reach[i] = i > 0 ? std::max(reach[i - 1], parts[i]->high[axis]) : parts[i]->high[axis];
+  }
+}
+
+// The distance from p to the nearest original triangle: the grids nearest by their boxes first,
+// each searched while its box is nearer than the nearest triangle found.
+double DecimationSink::Originals::distance(const Vec3d& p) const {
+  if (parts.empty()) return 0;
+  std::vector<std::pair<double, std::size_t>> order;  // (squared distance to the box, part)
+  order.reserve(parts.size());
+  for (std::size_t i = 0; i < parts.size(); ++i) order.emplace_back(boxGapSquared(p, parts[i]->low, parts[i]->high), i);
+  std::sort(order.begin(), order.end());
+  double best = INFINITY;
+  for (const auto& [gap2, i] : order) {
+    if (gap2 >= best * best) break;
+    best = std::min(best, parts[i]->distance(p));
+  }
+  return best;
+}
+
 // Whether every sample point of the triangle (centroid and edge midpoints) lies within `limit` of
 // the original surface.
-bool DecimationSink::triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit,
-                                    std::uint32_t& hint) const {
+bool DecimationSink::triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint) const {
   const std::array<Vec3d, 4> samples = samplePoints(t);
   for (const Vec3d& sample : samples) {
     if (!surface.within(sample, limit, hint)) return false;
@@ -1161,7 +1342,7 @@ bool DecimationSink::triangleWithin(const Triangle& t, const OriginalSurface& su
 
 // The largest distance from the triangle's sample points (centroid and edge midpoints) to the
 // original surface; with `sum` and `count`, their sum and number too.
-double DecimationSink::triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum,
+double DecimationSink::triangleDistance(const Triangle& t, const Originals& surface, double* sum,
                                         std::uint64_t* count) const {
   const std::array<Vec3d, 4> samples = samplePoints(t);
   double worst = 0;
@@ -1177,7 +1358,7 @@ double DecimationSink::triangleDistance(const Triangle& t, const OriginalSurface
 // The one-sided distance from the final triangles to the original surface, for the report.
 void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope) {
   if (triangles.empty()) return;
-  const OriginalSurface& surface = surfaceFor(originals, scope);
+  const Originals& surface = surfaceFor(originals, scope);
   for (const Triangle& t : triangles) {
     report_.distanceMax = std::max(report_.distanceMax, triangleDistance(t, surface, &distanceSum_, &report_.samples));
   }
@@ -1186,13 +1367,8 @@ void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange ori
 
 // Sends a final region on as one chunk: its vertices that no earlier chunk sent, in the order the
 // triangles first use them.
-void DecimationSink::emit(const Faces& faces, std::int64_t slab, ChunkRange originals, Scope& scope) {
+void DecimationSink::emit(const Faces& faces, std::int64_t slab) {
   const ScratchVector<Triangle>& triangles = faces.triangles;
-  if (options_.measure) {
-    measure(triangles, originals, scope);
-  } else {
-    scope.surface.reset();  // the grid a try kept for the measure: not held while the region goes on
-  }
   out_.clear();
   out_.slab = slab;
   out_.firstVertex = nextId_;

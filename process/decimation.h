@@ -31,6 +31,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -129,9 +130,14 @@ class DecimationSink final : public MeshSink {
     double cell = 1;
     Vec3d origin{};
     std::array<std::int64_t, 3> dims{};
-    // The original triangles (12 bytes each), read through the sink's positions.
+    // A box around every triangle; the least vertex id that a triangle uses.
+    Vec3d low{}, high{};
+    VertexId minVertex = 0;
+    // The chunk's original triangles (the sink's, which outlive the grid), read through the sink's
+    // positions; the cells list those on vertices from the sink's base_ on, `count` of them.
     const DecimationSink* sink = nullptr;
-    ScratchVector<Triangle> triangles;
+    std::span<const Triangle> triangles;
+    std::size_t count = 0;
     ScratchVector<std::uint32_t> cellStart, cellTriangles;
 
     std::int64_t cellOf(double x, std::size_t axis) const {
@@ -151,10 +157,36 @@ class DecimationSink final : public MeshSink {
     bool within(const Vec3d& p, double limit, std::uint32_t& hint) const;
   };
 
-  // What one simplify call keeps for itself, so that calls can run side by side: its grid of the
-  // original triangles (the range it was built for) and its counters.
+  // Where the last point was found near the original surface: a grid (its place in the parts) and
+  // a triangle of it, tried first for the next point (kNoHint: none).
+  using Hint = std::uint64_t;
+  static constexpr Hint kNoHint = ~Hint{0};
+  // The original surface of a range of chunks: each chunk's grid, built once (the first time that a
+  // block or region needs it) and kept while the sink holds the chunk, so that a block and the two
+  // regions across its seams share them.
+  struct Originals {
+    using Vec3d = OriginalSurface::Vec3d;
+    // The chunks' grids that hold triangles, in order of their boxes' low end along `axis` (the
+    // one along which the boxes are thinnest: the chunks are slabs across it); reach[i], the
+    // furthest that the boxes of parts[0 .. i] reach along it.
+    std::vector<const OriginalSurface*> parts;
+    std::size_t axis = 2;
+    std::vector<double> reach;
+
+    // Orders the parts, once they are all in.
+    void index();
+
+    // The distance from p to the nearest original triangle (0 where there is none).
+    double distance(const Vec3d& p) const;
+    // Whether some original triangle lies within `limit` of p (true where there is none); the
+    // answer does not depend on `hint`.
+    bool within(const Vec3d& p, double limit, Hint& hint) const;
+  };
+
+  // What one simplify call keeps for itself, so that calls can run side by side: its view of the
+  // original triangles (the range it was made for) and its counters.
   struct Scope {
-    std::optional<OriginalSurface> surface;
+    std::optional<Originals> surface;
     ChunkRange surfaceRange;
     std::uint64_t repairedRegions = 0, frozenTriangles = 0, keptRegions = 0, attempts = 0;
     bool block = false;  // a block's simplification (which keeps kBlockSlack times the ratio)
@@ -208,24 +240,29 @@ class DecimationSink final : public MeshSink {
                  Scope& scope) const;
   // The simplifier on a try's triangles (in batches of whole components when there are many);
   // `unchecked` gets a flag per kept triangle (collapseBatch).
-  Faces collapse(Faces faces, std::size_t targetTriangles, const OriginalSurface* original,
+  Faces collapse(Faces faces, std::size_t targetTriangles, const Originals* original,
                  const ScratchVector<VertexId>& pinned, ScratchVector<std::uint8_t>& unchecked) const;
   Faces collapseBatch(std::span<const Triangle> triangles, std::span<const LabelPair> labels,
-                      std::size_t targetTriangles, const OriginalSurface* original,
-                      const ScratchVector<VertexId>& pinned, ScratchVector<unsigned>& local, VertexId low,
-                      Faces* release, ScratchVector<std::uint8_t>& unchecked) const;
-  void emit(const Faces& faces, std::int64_t slab, ChunkRange originals, Scope& scope);
+                      std::size_t targetTriangles, const Originals* original, const ScratchVector<VertexId>& pinned,
+                      ScratchVector<unsigned>& local, VertexId low, Faces* release,
+                      ScratchVector<std::uint8_t>& unchecked) const;
+  // Sends a final region on (measured before, when asked: measure()).
+  void emit(const Faces& faces, std::int64_t slab);
   void measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope);
   // The chunks whose original triangles measure `triangles`, within chunks [firstChunk, end).
   ChunkRange rangeAround(std::span<const Triangle> triangles, std::size_t firstChunk, std::size_t end) const;
-  OriginalSurface originalSurface(ChunkRange range) const;
-  // The original surface of `range`, kept in the scope for the next caller with the same range: the
-  // tries, the simplifier's checks and the distance measure of the output share it.
-  const OriginalSurface& surfaceFor(ChunkRange range, Scope& scope) const;
+  OriginalSurface originalSurface(std::size_t chunk) const;
+  // Builds the grids of the chunks in the ranges that have none (on the threads that the options
+  // give: each chunk's grid is its own).
+  void buildGrids(const std::vector<ChunkRange>& ranges);
+  // The original surface of `range` (its grids built), kept in the scope for the next caller with
+  // the same range: the tries, the simplifier's checks and the distance measure of the output share
+  // it.
+  const Originals& surfaceFor(ChunkRange range, Scope& scope) const;
   // The vertices of triangles that pass through one another (or fold over a corner they share).
   ScratchVector<VertexId> crossingVertices(std::span<const Triangle> triangles) const;
-  double triangleDistance(const Triangle& t, const OriginalSurface& surface, double* sum, std::uint64_t* count) const;
-  bool triangleWithin(const Triangle& t, const OriginalSurface& surface, double limit, std::uint32_t& hint) const;
+  double triangleDistance(const Triangle& t, const Originals& surface, double* sum, std::uint64_t* count) const;
+  bool triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint) const;
   using Vec3d = std::array<double, 3>;
   std::array<Vec3d, 4> samplePoints(const Triangle& t) const;
   std::size_t chunkOfVertex(VertexId v) const;
@@ -253,7 +290,9 @@ class DecimationSink final : public MeshSink {
   std::vector<std::int64_t> chunkSlab_;
   std::vector<std::vector<Triangle>> chunkTriangles_;
   std::vector<std::vector<LabelPair>> chunkLabels_;  // a label complex's only
-  std::size_t chunks_ = 0;                           // chunks seen
+  // Each chunk's grid of its original triangles (none until a range needs it).
+  std::vector<std::unique_ptr<OriginalSurface>> chunkGrids_;
+  std::size_t chunks_ = 0;  // chunks seen
 
   // The open block: chunks [blockStart_, chunks_); the blocks closed and not yet simplified; the
   // chunk where the one-block-at-a-time schedule's data would start now; the pending upper half of
