@@ -1314,17 +1314,28 @@ void DecimationSink::Originals::index() {
   }
 }
 
-// The distance from p to the nearest original triangle: the grids nearest by their boxes first,
-// each searched while its box is nearer than the nearest triangle found.
+// The distance from p to the nearest original triangle: the grid nearest by its box first, then
+// every grid whose box is nearer than the nearest triangle found.
 double DecimationSink::Originals::distance(const Vec3d& p) const {
   if (parts.empty()) return 0;
-  std::vector<std::pair<double, std::size_t>> order;  // (squared distance to the box, part)
-  order.reserve(parts.size());
-  for (std::size_t i = 0; i < parts.size(); ++i) order.emplace_back(boxGapSquared(p, parts[i]->low, parts[i]->high), i);
-  std::sort(order.begin(), order.end());
-  double best = INFINITY;
-  for (const auto& [gap2, i] : order) {
-    if (gap2 >= best * best) break;
+  // A first answer from the part nearest by its box among those about p along the axis.
+  const auto byLow = [&](double x, const OriginalSurface* g) { return x < g->low[axis]; };
+  const auto at =
+      static_cast<std::size_t>(std::upper_bound(parts.begin(), parts.end(), p[axis], byLow) - parts.begin());
+  std::size_t nearest = at > 0 ? at - 1 : 0;
+  double nearestGap = INFINITY;
+  for (std::size_t i = at > 3 ? at - 3 : 0; i < std::min(parts.size(), at + 3); ++i) {
+    const double gap = boxGapSquared(p, parts[i]->low, parts[i]->high);
+    if (gap < nearestGap) nearestGap = gap, nearest = i;
+  }
+  double best = parts[nearest]->distance(p);
+  // Then every part whose box is nearer than that: those that begin below p + best along the axis,
+  // from the last down, until none before reaches p - best.
+  const double from = p[axis] - best, to = p[axis] + best;
+  const auto end = std::upper_bound(parts.begin(), parts.end(), to, byLow);
+  for (auto i = static_cast<std::size_t>(end - parts.begin()); i-- > 0;) {
+    if (reach[i] < from) break;
+    if (i == nearest || boxGapSquared(p, parts[i]->low, parts[i]->high) >= best * best) continue;
     best = std::min(best, parts[i]->distance(p));
   }
   return best;
