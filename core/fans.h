@@ -75,7 +75,7 @@ inline ScratchVector<std::uint32_t> fanCounts(std::span<const Triangle> triangle
   for (std::uint32_t t = 0; t < triangles.size(); ++t) {
     for (std::uint32_t k = 0; k < 3; ++k) corners[fill[triangles[t][k] - base]++] = 3 * t + k;
   }
-  fill = {};
+  ScratchVector<std::uint32_t>().swap(fill);  // freed (`= {}` would only empty it)
   ScratchVector<std::uint32_t> fans(vertexCount, 0);
   ScratchVector<std::uint32_t> parent;
   ScratchVector<std::pair<VertexId, std::uint32_t>> ends;

@@ -445,7 +445,7 @@ void DecimationSink::processQueued() {
     }
   }
   report_.blocks += blocks.size();
-  {
+  if (options_.maxDistance > 0) {  // the blocks' checks (a measure alone needs only the regions')
     std::vector<ChunkRange> ranges;
     for (const Work& w : blocks) ranges.push_back(w.range);
     buildGrids(ranges);
@@ -561,6 +561,7 @@ void DecimationSink::buildGrids(const std::vector<ChunkRange>& ranges) {
       std::min<std::size_t>(options_.threads > 1 ? static_cast<std::size_t>(options_.threads) - 1 : 0,
                             missing.size() > 1 ? missing.size() - 1 : 0);
   std::vector<std::thread> threads;
+  threads.reserve(helpers);
   std::vector<std::exception_ptr> errors(helpers + 1);
   for (std::size_t h = 0; h < helpers; ++h) {
     try {
@@ -667,7 +668,7 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
       order[start[root]++] = {root, t};
     }
   }
-  parent = {};
+  ScratchVector<std::uint32_t>().swap(parent);  // freed (`= {}` would only empty it)
   ScratchVector<Triangle> grouped(triangles.size());
   for (std::size_t k = 0; k < order.size(); ++k) grouped[k] = triangles[order[k].second];
   ScratchVector<LabelPair> groupedLabels(faces.labels.size());
@@ -680,7 +681,7 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
     if (i > starts.back() && j - starts.back() > options_.batchTriangles) starts.push_back(i);
     i = j;
   }
-  order = {};
+  decltype(order)().swap(order);
   starts.push_back(grouped.size());
   Faces out;
   for (std::size_t b = 0; b + 1 < starts.size(); ++b) {

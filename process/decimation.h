@@ -161,9 +161,9 @@ class DecimationSink final : public MeshSink {
   // a triangle of it, tried first for the next point (kNoHint: none).
   using Hint = std::uint64_t;
   static constexpr Hint kNoHint = ~Hint{0};
-  // The original surface of a range of chunks: each chunk's grid, built once (the first time that a
-  // block or region needs it) and kept while the sink holds the chunk, so that a block and the two
-  // regions across its seams share them.
+  // The original surface of a range of chunks: each chunk's grid, built the first time that a block
+  // or region needs it and kept until the regions go downstream, so that a block, its tries and
+  // the regions across its seams share them.
   struct Originals {
     using Vec3d = OriginalSurface::Vec3d;
     // The chunks' grids that hold triangles, in order of their boxes' low end along `axis` (the

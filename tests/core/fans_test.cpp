@@ -86,5 +86,22 @@ TEST(Fans, ABowtieHasTwoFansAtItsKnot) {
   EXPECT_EQ(fanCountsAt(triangles, std::vector<VertexId>{0}), (std::vector<std::uint32_t>{1}));
 }
 
+// A hub of many triangles (its ends sorted by std::sort, not by insertion): a closed fan of 20 and
+// a second sheet of 2 touching it only at the hub.
+TEST(Fans, AHubOfManyTrianglesCountsBothSheets) {
+  std::vector<Triangle> triangles;
+  for (VertexId i = 1; i <= 20; ++i) triangles.push_back({0, i, i % 20 + 1});
+  triangles.push_back({0, 21, 22});
+  triangles.push_back({0, 22, 23});
+  EXPECT_EQ(fanCounts(triangles, 24)[0], 2u);
+  EXPECT_EQ(bruteFans(triangles, 0), 2u);
+  EXPECT_EQ(fanCountsAt(triangles, std::vector<VertexId>{0, 5, 22}), (std::vector<std::uint32_t>{2, 1, 1}));
+  triangles.push_back({0, 23, 21});  // the second sheet closed: still apart from the first
+  EXPECT_EQ(fanCounts(triangles, 24)[0], 2u);
+  triangles.push_back({0, 20, 21});  // joined to the first along edge 0-21... and 0-20
+  EXPECT_EQ(fanCounts(triangles, 24)[0], bruteFans(triangles, 0));
+  EXPECT_EQ(fanCounts(triangles, 24)[0], 1u);
+}
+
 }  // namespace
 }  // namespace isoslab
