@@ -170,7 +170,9 @@ class DecimationSink final : public MeshSink {
     // one along which the boxes are thinnest: the chunks are slabs across it); reach[i], the
     // furthest that the boxes of parts[0 .. i] reach along it.
     std::vector<const OriginalSurface*> parts;
-    std::size_t axis = 2;
+    // Set by index(). No initializer: clang 14 then cannot default-construct the class in
+    // std::optional (a nested class's initializers, needed within the enclosing class).
+    std::size_t axis;
     std::vector<double> reach;
 
     // Orders the parts, once they are all in.
