@@ -623,7 +623,7 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // beyond theirs): components share no vertex, so a batch's collapses are those it would make among
 // the others, and only the stopping point moves.
 DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTriangles, const Originals* original,
-                                               const ScratchVector<VertexId>& pinned,
+                                               const ScratchVector<VertexId>& pinned, const Steps& steps,
                                                ScratchVector<std::uint8_t>& unchecked) const {
   unchecked.clear();
   if (faces.triangles.empty()) return {};
@@ -634,7 +634,7 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
   // batch resetting the entries it set.
   ScratchVector<unsigned> local(span, ~0u);
   if (faces.size() <= options_.batchTriangles) {
-    return collapseBatch(faces.triangles, faces.labels, targetTriangles, original, pinned, local, low, &faces,
+    return collapseBatch(faces.triangles, faces.labels, targetTriangles, original, pinned, local, low, &faces, steps,
                          unchecked);
   }
   const ScratchVector<Triangle>& triangles = faces.triangles;
@@ -695,7 +695,7 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
         groupedLabels.empty() ? std::span<const LabelPair>()
                               : std::span<const LabelPair>(groupedLabels.data() + starts[b], starts[b + 1] - starts[b]);
     out.append(collapseBatch(batch, batchLabels, upTo > out.size() ? upTo - out.size() : 0, original, pinned, local,
-                             low, nullptr, unchecked));
+                             low, nullptr, steps, unchecked));
   }
   return out;
 }
@@ -709,7 +709,7 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
                                                     std::span<const LabelPair> labels, std::size_t targetTriangles,
                                                     const Originals* original, const ScratchVector<VertexId>& pinned,
                                                     ScratchVector<unsigned>& local, VertexId low, Faces* release,
-                                                    ScratchVector<std::uint8_t>& unchecked) const {
+                                                    const Steps& steps, ScratchVector<std::uint8_t>& unchecked) const {
   if (triangles.empty()) return {};
   // The sides, copied before `release` frees them.
   ScratchVector<LabelPair> sides(labels.begin(), labels.end());
@@ -728,6 +728,17 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
   for (std::size_t t = 0; t < triangles.size(); ++t) {
     for (std::size_t k = 0; k < 3; ++k) ids[indices[3 * t + k]] = triangles[t][k];
   }
+  // The recorded collapses among this batch's vertices, in local ids and in order of pass (a batch
+  // may hold components that the recorded try gave to different batches, each numbering its own).
+  std::vector<SimplifyStep> replay;
+  for (const SimplifyStep& s : steps.replay) {
+    if (s.from < low || s.to < low || s.from - low >= local.size() || s.to - low >= local.size()) continue;
+    const unsigned from = local[s.from - low], to = local[s.to - low];
+    if (from != ~0u && to != ~0u) replay.push_back({from, to, s.pass});
+  }
+  if (!std::is_sorted(replay.begin(), replay.end(), [](const auto& a, const auto& b) { return a.pass < b.pass; })) {
+    std::stable_sort(replay.begin(), replay.end(), [](const auto& a, const auto& b) { return a.pass < b.pass; });
+  }
   for (VertexId v : ids) local[v - low] = ~0u;
   if (release != nullptr) *release = Faces{};  // `triangles` and `labels` are gone from here on
   ScratchVector<float> xyz(ids.size() * 3);
@@ -742,6 +753,9 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
   SimplifyLimits limits;
   limits.targetTriangles = targetTriangles;
   limits.alongLines = complex_;
+  std::vector<SimplifyStep> record;
+  if (steps.record != nullptr) limits.record = &record;
+  limits.replay = replay;
   if (!pinned.empty()) {
     limits.locked.resize(ids.size());
     for (std::size_t i = 0; i < ids.size(); ++i) {
@@ -781,6 +795,7 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
       simplifyTriangles(std::span<std::uint32_t>(indices), xyz.data(), ids.size(), limits,
                         std::span<std::uint32_t>(keptFrom), std::span<std::uint8_t>(unchecked).subspan(before));
   unchecked.resize(before + kept / 3);
+  for (const SimplifyStep& s : record) steps.record->push_back({ids[s.from], ids[s.to], s.pass});
   Faces out;
   out.triangles.resize(kept / 3);
   for (std::size_t t = 0; t < out.size(); ++t) {
@@ -860,6 +875,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   const std::size_t sharedRing = frozenCount;
   // The largest distance allowed from the original surface, in output units.
   const double limit = options_.maxDistance * options_.voxelSize;
+  ScratchVector<SimplifyStep> log;
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
     // Every array at its size (growing one would copy it and leave slack).
     Faces input, result;
@@ -882,7 +898,15 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       pinned.erase(std::unique(pinned.begin(), pinned.end()), pinned.end());
     }
     ScratchVector<std::uint8_t> unchecked;
-    const Faces simplified = collapse(std::move(input), share, original, pinned, unchecked);
+    // The first try's collapses, replayed by each repair: the frozen patch changes only what it
+    // reaches, so the rest is made as before without choosing it again.
+    Steps steps;
+    if (attempt == 0) {
+      steps.record = &log;
+    } else {
+      steps.replay = log;
+    }
+    const Faces simplified = collapse(std::move(input), share, original, pinned, steps, unchecked);
     result.triangles.reserve(frozenCount + simplified.size());
     result.labels.reserve(faces.labels.empty() ? 0 : frozenCount + simplified.size());
     for (std::size_t t = 0; t < triangles.size(); ++t) {

@@ -39,6 +39,7 @@
 
 #include "core/mesh_sink.h"
 #include "core/scratch.h"
+#include "process/simplifier.h"
 
 namespace isoslab {
 
@@ -242,11 +243,18 @@ class DecimationSink final : public MeshSink {
                  Scope& scope) const;
   // The simplifier on a try's triangles (in batches of whole components when there are many);
   // `unchecked` gets a flag per kept triangle (collapseBatch).
+  // A try's collapses, in the sink's vertex ids: the first try records them (`record`), a repair
+  // replays them (`replay`) on its input less the frozen patch (SimplifyLimits::replay).
+  struct Steps {
+    ScratchVector<SimplifyStep>* record = nullptr;
+    std::span<const SimplifyStep> replay;
+  };
   Faces collapse(Faces faces, std::size_t targetTriangles, const Originals* original,
-                 const ScratchVector<VertexId>& pinned, ScratchVector<std::uint8_t>& unchecked) const;
+                 const ScratchVector<VertexId>& pinned, const Steps& steps,
+                 ScratchVector<std::uint8_t>& unchecked) const;
   Faces collapseBatch(std::span<const Triangle> triangles, std::span<const LabelPair> labels,
                       std::size_t targetTriangles, const Originals* original, const ScratchVector<VertexId>& pinned,
-                      ScratchVector<unsigned>& local, VertexId low, Faces* release,
+                      ScratchVector<unsigned>& local, VertexId low, Faces* release, const Steps& steps,
                       ScratchVector<std::uint8_t>& unchecked) const;
   // Sends a final region on (measured before, when asked: measure()).
   void emit(const Faces& faces, std::int64_t slab);

@@ -201,6 +201,8 @@ class Simplifier {
   }
 
   std::size_t run(const SimplifyLimits& limits) {
+    if (!limits.replay.empty()) return replay(limits);
+    record_ = limits.record;
     const double limit = limits.maxError * limits.maxError;
     sampleLimit_ = 4 * limit;  // twice the error, squared
     if (limits.check) {
@@ -222,7 +224,67 @@ class Simplifier {
     return count_;
   }
 
+  // The recorded collapses again (SimplifyLimits::replay). A vertex is `dirty` where its triangles
+  // or its quadric may differ from the recorded run's at the same point: at first those that do
+  // not move (a frozen patch's outline among them), then the ends and neighbours of every recorded
+  // collapse that is not made again, or that a dirty vertex made. A clean vertex's collapse makes
+  // the triangles that the recorded run made, which its check passed.
+  std::size_t replay(const SimplifyLimits& limits) {
+    const double limit = limits.maxError * limits.maxError;
+    sampleLimit_ = 4 * limit;
+    if (limits.check) {
+      check_ = &limits.check;
+      checkAbove_ = limits.checkAbove * limits.checkAbove;
+    }
+    dirty_.assign(vertices_, 0);
+    for (std::size_t v = 0; v < vertices_; ++v) dirty_[v] = free_[v] == kStays ? 1 : 0;
+    const std::span<const SimplifyStep> steps = limits.replay;
+    for (std::size_t i = 0; i < steps.size();) {
+      const std::uint32_t pass = steps[i].pass;
+      for (; i < steps.size() && steps[i].pass == pass; ++i) {
+        const std::uint32_t from = steps[i].from, to = steps[i].to;
+        if (from >= vertices_ || to >= vertices_ || from == to) continue;
+        const bool clean = dirty_[from] == 0;
+        bool made = false;
+        if (mark_[from] != pass && mark_[to] != pass && onLineOrDisk(from, to)) {
+          const double error = quadrics_[from].error(sub(at(to), at(from)));
+          if (clean || error <= limit) made = collapse(from, to, pass, static_cast<float>(error), clean);
+        }
+        if (made && clean) continue;
+        // Not made, or made from a different fan: `to` and the vertices around `from` differ from
+        // the recorded run's.
+        dirty_[to] = 1;
+        for (std::uint32_t a = first_[from]; a < first_[from + 1]; ++a) {
+          const std::uint32_t* t = &idx_[3 * around_[a]];
+          if (t[0] == kDead) continue;
+          for (std::size_t k = 0; k < 3; ++k) dirty_[t[k]] = 1;
+        }
+      }
+      compact();
+      buildAdjacency();
+    }
+    compact();
+    // A kept triangle on a clean vertex is in that vertex's fan as the recorded run left it: it
+    // stands as that run's checks passed it (a triangle that they refused had every corner frozen).
+    if (!unchecked_.empty()) {
+      for (std::size_t t = 0; t < count_ / 3; ++t) {
+        const std::uint32_t* c = &idx_[3 * t];
+        if (dirty_[c[0]] == 0 || dirty_[c[1]] == 0 || dirty_[c[2]] == 0) unchecked_[t] = 0;
+      }
+    }
+    return count_;
+  }
+
  private:
+  // Whether `from` may move onto `to` by its kind: a disk onto any neighbour (the link test finds
+  // one that is none), a line vertex onto a neighbour on its line.
+  bool onLineOrDisk(std::uint32_t from, std::uint32_t to) const {
+    if (free_[from] == kDisk) return true;
+    if (free_[from] != kLine) return false;
+    const std::array<std::uint32_t, 3>& ends = lineEnds_[lineAt_[from]];
+    return ends[1] == to || ends[2] == to;
+  }
+
   // The triangles around each vertex: around_[first_[v] .. first_[v + 1]).
   void buildAdjacency() {
     first_.assign(vertices_ + 1, 0);
@@ -349,7 +411,8 @@ class Simplifier {
   }
 
   // Moves `from` onto `to` if the tests allow; marks what changed.
-  bool collapse(std::uint32_t from, std::uint32_t to, std::uint32_t pass, float error) {
+  // `passed`: a replayed collapse that the check passed when it was recorded (the same triangles).
+  bool collapse(std::uint32_t from, std::uint32_t to, std::uint32_t pass, float error, bool passed = false) {
     // Neither end has changed in this pass, so their lists of triangles are whole (a triangle of
     // theirs may have lost a neighbour to a collapse, which rewrote it in place, or died). The link
     // condition: the ends share only the two vertices opposite the edge. `to`'s neighbours are
@@ -410,9 +473,9 @@ class Simplifier {
       const Vec3 centroid{(toQ[0] + toX[0] + toY[0]) / 3, (toQ[1] + toX[1] + toY[1]) / 3,
                           (toQ[2] + toX[2] + toY[2]) / 3};
       if (planes.error(middle) > sampleLimit_ || planes.error(centroid) > sampleLimit_) return false;
-      if (asked) made_.push_back({to, x, y});
+      if (asked && !passed) made_.push_back({to, x, y});
     }
-    if (asked && !(*check_)(made_)) return false;
+    if (asked && !passed && !(*check_)(made_)) return false;
     for (std::uint32_t i = first_[from]; i < first_[from + 1]; ++i) {
       std::uint32_t* t = &idx_[3 * around_[i]];
       if (t[0] == kDead) continue;
@@ -443,6 +506,7 @@ class Simplifier {
     // `to` has gained triangles that its list lacks, and its quadric has changed: it waits for the
     // next pass, as does `from`, which is gone.
     mark_[from] = mark_[to] = pass;
+    if (record_ != nullptr) record_->push_back({from, to, pass});
     return true;
   }
 
@@ -465,6 +529,8 @@ class Simplifier {
   std::vector<std::array<std::uint32_t, 3>> lineEnds_;
   ScratchVector<std::uint32_t> lineAt_;  // each vertex's entry in lineEnds_ (kDead: none)
   ScratchVector<std::uint32_t> mark_, seen_;
+  ScratchVector<std::uint8_t> dirty_;  // replaying: 1 where the recorded run's fan may differ
+  std::vector<SimplifyStep>* record_ = nullptr;
   ScratchVector<std::uint32_t> first_, fill_, around_;
   LazyScratchVector<std::uint64_t> keys_, spare_;  // reserved for every edge, used for fewer
   const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;
@@ -483,7 +549,7 @@ std::size_t simplifyTriangles(std::span<std::uint32_t> indices, const float* xyz
   if ((!keptFrom.empty() && keptFrom.size() < triangles) || (!unchecked.empty() && unchecked.size() < triangles)) {
     throw std::invalid_argument("simplifyTriangles: an output array is shorter than the triangles");
   }
-  if (triangles <= limits.targetTriangles) {
+  if (triangles <= limits.targetTriangles && limits.replay.empty()) {
     for (std::size_t t = 0; t < std::min(triangles, keptFrom.size()); ++t) keptFrom[t] = static_cast<std::uint32_t>(t);
     std::fill(unchecked.begin(), unchecked.end(), 0);
     return 3 * triangles;

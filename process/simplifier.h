@@ -31,6 +31,11 @@
 
 namespace isoslab {
 
+/// A collapse that was made: `from` moved onto `to` (ids as in the input), in pass `pass` (from 1).
+struct SimplifyStep {
+  std::uint32_t from = 0, to = 0, pass = 0;
+};
+
 struct SimplifyLimits {
   /// Stop at this many triangles or fewer.
   std::size_t targetTriangles = 0;
@@ -50,6 +55,18 @@ struct SimplifyLimits {
   /// simplified along themselves: a vertex inside such a line moves onto one of its two neighbours
   /// on the line, with the tests above for every sheet (false: such vertices stay).
   bool alongLines = false;
+  /// When set, each collapse made is appended to it, in order.
+  std::vector<SimplifyStep>* record = nullptr;
+  /// When not empty (sorted by pass), the simplifier makes these collapses again, pass by pass and
+  /// in order, instead of choosing its own, and stops after them: each only where the tests pass on
+  /// the mesh as it is then, with the errors and the check as above. A repair replays a run's
+  /// collapses on its input less a frozen patch, so the run's choices stand wherever the patch does
+  /// not reach. A collapse whose moving vertex has the triangles and the quadric that it had in the
+  /// recorded run makes the same triangles: `check`, which passed them then, is not asked again.
+  /// The `unchecked` flags (below) are then 0 for every kept triangle with a corner whose triangles
+  /// are as the recorded run left them: it is a triangle of that run's result, which the caller
+  /// has measured.
+  std::span<const SimplifyStep> replay;
 };
 
 /// Simplifies the triangles `indices` (three ids a triangle, into `xyz`: three floats a vertex) in

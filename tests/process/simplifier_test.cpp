@@ -184,5 +184,87 @@ TEST(Simplifier, TheErrorLimitAndTheCheckHoldCollapsesBack) {
   EXPECT_GT(asked, all / 4);
 }
 
+// A replay makes a recorded run's collapses again. On the same input it makes them all, asks the
+// check nothing (the recorded run's check passed those triangles) and leaves nothing to measure.
+// With a patch left out (a repair's frozen triangles), the patch's outline stays as it is, the
+// surface stays closed and oriented elsewhere, and away from the patch the recorded run's triangles
+// come back: only collapses near the patch are asked again.
+TEST(Simplifier, AReplayMakesTheRecordedCollapsesAgainAwayFromWhatIsLeftOut) {
+  const Flat m = torus();
+  const std::size_t all = m.indices.size() / 3;
+  std::size_t asked = 0;
+  SimplifyLimits limits = toTarget(all / 10);
+  limits.checkAbove = 0.01;
+  limits.check = [&](const std::vector<std::array<std::uint32_t, 3>>&) {
+    ++asked;
+    return true;
+  };
+  std::vector<SimplifyStep> steps;
+  limits.record = &steps;
+  Flat recorded = m;
+  std::vector<std::uint8_t> unchecked(all, 2);
+  const std::size_t kept =
+      simplifyTriangles(recorded.indices, recorded.xyz.data(), recorded.vertices(), limits, {}, unchecked);
+  const std::size_t askedFirst = asked;
+  ASSERT_GT(askedFirst, 100u);
+  ASSERT_EQ(steps.size(), (all - kept / 3) / 2);  // each collapse takes two triangles
+  ASSERT_TRUE(std::is_sorted(steps.begin(), steps.end(), [](auto& a, auto& b) { return a.pass < b.pass; }));
+  ASSERT_GT(steps.back().pass, 1u);
+  ASSERT_GT(std::count(unchecked.begin(), unchecked.begin() + long(kept / 3), 1), 0);
+  recorded.indices.resize(kept);
+
+  limits.record = nullptr;
+  limits.replay = steps;
+  asked = 0;
+  Flat again = m;
+  std::vector<std::uint8_t> none(all, 2);
+  const std::size_t keptAgain = simplifyTriangles(again.indices, again.xyz.data(), again.vertices(), limits, {}, none);
+  again.indices.resize(keptAgain);
+  EXPECT_EQ(again.indices, recorded.indices);
+  EXPECT_EQ(asked, 0u);
+  EXPECT_EQ(std::count(none.begin(), none.begin() + long(keptAgain / 3), 0), long(keptAgain / 3));
+
+  // The patch: the triangles within two rings of one vertex.
+  std::set<std::uint32_t> ring{m.indices[0]};
+  std::vector<bool> out(all, false);
+  for (int step = 0; step < 2; ++step) {
+    std::set<std::uint32_t> next = ring;
+    for (std::size_t t = 0; t < all; ++t) {
+      const std::uint32_t* c = &m.indices[3 * t];
+      if (!ring.count(c[0]) && !ring.count(c[1]) && !ring.count(c[2])) continue;
+      out[t] = true;
+      next.insert(c, c + 3);
+    }
+    ring = next;
+  }
+  Flat patched = m;
+  patched.indices.clear();
+  for (std::size_t t = 0; t < all; ++t) {
+    if (!out[t]) patched.indices.insert(patched.indices.end(), &m.indices[3 * t], &m.indices[3 * t + 3]);
+  }
+  const Shape input = shapeOf(patched, patched.indices.size());
+  ASSERT_GT(input.border, 10u);
+  asked = 0;
+  const std::size_t keptPatched = simplifyTriangles(patched.indices, patched.xyz.data(), patched.vertices(), limits);
+  const Shape after = shapeOf(patched, keptPatched);
+  EXPECT_EQ(after.borderEdges, input.borderEdges);
+  EXPECT_EQ(after.nonManifold, 0u);
+  EXPECT_EQ(after.sameWay, 0u);
+  EXPECT_EQ(after.degenerate, 0u);
+  EXPECT_EQ(after.repeated, 0u);
+  EXPECT_EQ(after.euler(), input.euler());
+  EXPECT_LT(after.triangles, input.triangles / 8);
+  EXPECT_LT(asked, askedFirst / 10);
+  std::set<std::array<std::uint32_t, 3>> before;
+  for (std::size_t i = 0; i < recorded.indices.size(); i += 3) {
+    before.insert({recorded.indices[i], recorded.indices[i + 1], recorded.indices[i + 2]});
+  }
+  std::size_t same = 0;
+  for (std::size_t i = 0; i < keptPatched; i += 3) {
+    same += before.count({patched.indices[i], patched.indices[i + 1], patched.indices[i + 2]});
+  }
+  EXPECT_GT(same, after.triangles * 9 / 10);
+}
+
 }  // namespace
 }  // namespace isoslab
