@@ -971,11 +971,15 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // the distance measure of the try that succeeds reuses. Only those that a collapse changed
     // unchecked: the others are unchanged (an original triangle in a block; in a region, a block's
     // triangle that its own check passed) or were measured as the collapses made them.
+    // On a surface (not a label complex, whose lines have three triangles an edge), each edge is
+    // run once each way, so an edge's midpoint is measured only where it runs from the smaller id:
+    // its other triangle measures it there if that one changed unchecked, and is within the bound
+    // whole if not. A result that is no such surface has bad edges already.
     if (original != nullptr) {
       Hint hint = kNoHint;
       for (std::size_t t = 0; t < simplified.size(); ++t) {
         const Triangle& tri = simplified.triangles[t];
-        if (unchecked[t] != 0 && !triangleWithin(tri, *original, limit, hint))
+        if (unchecked[t] != 0 && !triangleWithin(tri, *original, limit, hint, !complex_))
           bad.insert(bad.end(), tri.begin(), tri.end());
       }
     }
@@ -1368,10 +1372,13 @@ double DecimationSink::Originals::distance(const Vec3d& p) const {
 
 // Whether every sample point of the triangle (centroid and edge midpoints) lies within `limit` of
 // the original surface.
-bool DecimationSink::triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint) const {
+bool DecimationSink::triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint,
+                                    bool forwardEdges) const {
   const std::array<Vec3d, 4> samples = samplePoints(t);
-  for (const Vec3d& sample : samples) {
-    if (!surface.within(sample, limit, hint)) return false;
+  for (std::size_t k = 0; k < 4; ++k) {
+    // samples[k] (k from 1) is the midpoint of the edge from t[k - 1] to t[k % 3].
+    if (forwardEdges && k > 0 && t[k - 1] > t[k % 3]) continue;
+    if (!surface.within(samples[k], limit, hint)) return false;
   }
   return true;
 }

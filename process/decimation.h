@@ -272,7 +272,10 @@ class DecimationSink final : public MeshSink {
   // The vertices of triangles that pass through one another (or fold over a corner they share).
   ScratchVector<VertexId> crossingVertices(std::span<const Triangle> triangles) const;
   double triangleDistance(const Triangle& t, const Originals& surface, double* sum, std::uint64_t* count) const;
-  bool triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint) const;
+  // Whether the triangle's centroid and edge midpoints are within `limit` of the original surface
+  // (with `forwardEdges`, only the midpoints of the edges that run from the smaller id).
+  bool triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint,
+                      bool forwardEdges = false) const;
   using Vec3d = std::array<double, 3>;
   std::array<Vec3d, 4> samplePoints(const Triangle& t) const;
   std::size_t chunkOfVertex(VertexId v) const;
