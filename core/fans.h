@@ -18,6 +18,29 @@ namespace isoslab {
 
 namespace detail {
 
+/// Whether one vertex's triangles, given as its corners (3 t + k, the vertex at corner k of triangle
+/// t), are one closed fan wound one way: from each triangle (v, x, y) to the one triangle that has
+/// the edge back from x to v, (v, w, x), round a cycle through all of them. Then each edge at the
+/// vertex is in exactly two of its triangles, once each way. Up to 16 triangles (more: false).
+inline bool closedFan(std::span<const Triangle> triangles, std::span<const std::uint32_t> corners) {
+  const auto n = static_cast<std::uint32_t>(corners.size());
+  if (n < 3 || n > 16) return false;
+  const auto next = [&](std::uint32_t i) { return triangles[corners[i] / 3][(corners[i] % 3 + 1) % 3]; };
+  const auto prev = [&](std::uint32_t i) { return triangles[corners[i] / 3][(corners[i] % 3 + 2) % 3]; };
+  std::uint32_t at = 0;
+  for (std::uint32_t step = 1; step <= n; ++step) {
+    const VertexId x = next(at);
+    std::uint32_t found = n, matches = 0;
+    for (std::uint32_t j = 0; j < n; ++j) {
+      if (prev(j) == x) found = j, ++matches;
+    }
+    if (matches != 1) return false;
+    at = found;
+    if (at == 0) return step == n;
+  }
+  return false;
+}
+
 /// The fans of one vertex's triangles, given as its corners (3 t + k, the vertex at corner k of
 /// triangle t). `parent` and `ends` are working arrays that the calls share.
 inline std::uint32_t fansAmong(std::span<const Triangle> triangles, std::span<const std::uint32_t> corners,
@@ -25,6 +48,8 @@ inline std::uint32_t fansAmong(std::span<const Triangle> triangles, std::span<co
                                ScratchVector<std::pair<VertexId, std::uint32_t>>& ends) {
   const auto n = static_cast<std::uint32_t>(corners.size());
   if (n == 0) return 0;
+  // Most vertices have one fan wound one way (closedFan); where that fails, the general count.
+  if (closedFan(triangles, corners)) return 1;
   parent.resize(n);
   std::iota(parent.begin(), parent.end(), 0u);
   const auto find = [&](std::uint32_t x) {
@@ -61,9 +86,10 @@ inline std::uint32_t fansAmong(std::span<const Triangle> triangles, std::span<co
 }  // namespace detail
 
 /// Per vertex base .. base + vertexCount - 1, the number of fans of its triangles (0 when no triangle
-/// uses it); the triangles use only those vertices.
+/// uses it); the triangles use only those vertices. With `closed`, also 1 per vertex whose triangles
+/// are one closed fan wound one way (detail::closedFan), else 0.
 inline ScratchVector<std::uint32_t> fanCounts(std::span<const Triangle> triangles, std::size_t vertexCount,
-                                              VertexId base = 0) {
+                                              VertexId base = 0, ScratchVector<std::uint8_t>* closed = nullptr) {
   // The corners at each vertex, in order (counting sort by vertex).
   ScratchVector<std::uint32_t> first(vertexCount + 1, 0);
   for (const Triangle& t : triangles) {
@@ -79,9 +105,15 @@ inline ScratchVector<std::uint32_t> fanCounts(std::span<const Triangle> triangle
   ScratchVector<std::uint32_t> fans(vertexCount, 0);
   ScratchVector<std::uint32_t> parent;
   ScratchVector<std::pair<VertexId, std::uint32_t>> ends;
+  if (closed != nullptr) closed->assign(vertexCount, 0);
   for (std::size_t v = 0; v < vertexCount; ++v) {
-    fans[v] = detail::fansAmong(
-        triangles, std::span<const std::uint32_t>(corners).subspan(first[v], first[v + 1] - first[v]), parent, ends);
+    const auto around = std::span<const std::uint32_t>(corners).subspan(first[v], first[v + 1] - first[v]);
+    if (detail::closedFan(triangles, around)) {
+      fans[v] = 1;
+      if (closed != nullptr) (*closed)[v] = 1;
+    } else {
+      fans[v] = detail::fansAmong(triangles, around, parent, ends);
+    }
   }
   return fans;
 }

@@ -914,13 +914,32 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     }
     result.append(simplified);
     const ScratchVector<Triangle>& out = result.triangles;
+    // The result's fans; a vertex whose triangles are one closed fan wound one way has each of its
+    // edges in two triangles, once each way (core/fans.h), so only the edges between two other
+    // vertices are tallied: those of the triangles that have such an edge (every triangle on such
+    // an edge is one of them).
+    ScratchVector<std::uint8_t> closed;
+    const ScratchVector<std::uint32_t> fansAfter = fanCounts(out, span, first, &closed);
+    const auto open = [&](VertexId v) { return closed[v - first] == 0; };
+    ScratchVector<Triangle> openTriangles;
+    {
+      const auto hasOpenEdge = [&](const Triangle& t) {
+        const bool a = open(t[0]), b = open(t[1]), c = open(t[2]);
+        return (a && b) || (b && c) || (c && a);
+      };
+      openTriangles.reserve(static_cast<std::size_t>(std::count_if(out.begin(), out.end(), hasOpenEdge)));
+      for (const Triangle& t : out) {
+        if (hasOpenEdge(t)) openTriangles.push_back(t);
+      }
+    }
     // The edges the result should not have; a label complex's odd edges as they were.
     ScratchVector<VertexId> bad;
     std::size_t border = 0, oddKept = 0;
-    for (const auto& [key, e] : tallyEdges(out)) {
-      border += e.uses == 1 ? 1 : 0;
+    for (const auto& [key, e] : tallyEdges(openTriangles)) {
       const auto a = static_cast<VertexId>(key >> 32);
       const auto b = static_cast<VertexId>(key & 0xffffffffu);
+      if (!open(a) || !open(b)) continue;  // not every triangle on it was tallied
+      border += e.uses == 1 ? 1 : 0;
       bool odd = e.uses > 2 || (e.uses == 2 && e.forward != 1);
       if (odd && complex_) {
         // Lines where three labels meet are simplified along themselves: a line's edge joins two
@@ -946,7 +965,6 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     }
     // Pinched vertices: more fans than before, and more than one.
     {
-      const ScratchVector<std::uint32_t> fansAfter = fanCounts(out, span, first);
       ScratchVector<VertexId> several, unknown;
       for (std::size_t v = 0; v < fansAfter.size(); ++v) {
         if (fansAfter[v] < 2) continue;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <map>
 #include <random>
 #include <vector>
 
@@ -46,6 +47,58 @@ std::uint32_t bruteFans(const std::vector<Triangle>& triangles, VertexId v) {
     }
   }
   return fans;
+}
+
+// Whether v's triangles are one fan whose every edge at v is in exactly two of them, once each way.
+bool bruteClosed(const std::vector<Triangle>& triangles, VertexId v) {
+  std::map<VertexId, std::pair<int, int>> edges;  // other end: (uses from v, uses into v)
+  for (const Triangle& t : triangles) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (t[k] != v) continue;
+      ++edges[t[(k + 1) % 3]].first;
+      ++edges[t[(k + 2) % 3]].second;
+    }
+  }
+  if (edges.empty()) return false;
+  for (const auto& [end, uses] : edges) {
+    if (uses.first != 1 || uses.second != 1) return false;
+  }
+  return bruteFans(triangles, v) == 1;
+}
+
+// Bipyramids (apexes with 3 to 20 triangles, every vertex one closed fan), then each spoiled once:
+// a triangle turned over, dropped, repeated, or a fin on an edge. `closed` and the fan counts
+// against the brute force, vertex by vertex.
+TEST(Fans, ClosedFansMatchABruteForceOnSpoiledBipyramids) {
+  for (VertexId n = 3; n <= 20; ++n) {
+    std::vector<Triangle> pyramid;
+    const VertexId top = n, bottom = n + 1;
+    for (VertexId i = 0; i < n; ++i) {
+      pyramid.push_back({top, i, (i + 1) % n});
+      pyramid.push_back({bottom, (i + 1) % n, i});
+    }
+    for (int spoil = 0; spoil < 5; ++spoil) {
+      std::vector<Triangle> triangles = pyramid;
+      const std::size_t t = (n * 7 + static_cast<std::size_t>(spoil)) % triangles.size();
+      if (spoil == 1) std::swap(triangles[t][1], triangles[t][2]);
+      if (spoil == 2) triangles.erase(triangles.begin() + static_cast<std::ptrdiff_t>(t));
+      if (spoil == 3) triangles.push_back(triangles[t]);
+      if (spoil == 4) triangles.push_back({triangles[t][1], triangles[t][0], n + 2});
+      ScratchVector<std::uint8_t> closed;
+      const ScratchVector<std::uint32_t> fans = fanCounts(triangles, n + 3, 0, &closed);
+      for (VertexId v = 0; v < n + 3; ++v) {
+        SCOPED_TRACE(testing::Message() << n << " " << spoil << " " << v);
+        EXPECT_EQ(fans[v], bruteFans(triangles, v));
+        // Up to 16 triangles at a vertex are tested; more are left to the general count.
+        std::size_t at = 0;
+        for (const Triangle& tri : triangles) at += (tri[0] == v || tri[1] == v || tri[2] == v) ? 1 : 0;
+        EXPECT_EQ(closed[v] != 0, at <= 16 && bruteClosed(triangles, v));
+        if (spoil == 0 && at > 0 && at <= 16) {
+          EXPECT_EQ(closed[v], 1);
+        }
+      }
+    }
+  }
 }
 
 TEST(Fans, CountsMatchABruteForceOnRandomMeshes) {
