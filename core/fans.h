@@ -5,6 +5,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <numeric>
 #include <span>
@@ -18,6 +19,27 @@ namespace isoslab {
 
 namespace detail {
 
+/// Whether the triangles around a vertex v, each given as the two corners after v, (next[i],
+/// prev[i]) of (v, next[i], prev[i]), are one closed fan wound one way: from each triangle to the
+/// one triangle whose prev is its next (the edge back from next to v), round one cycle through all
+/// of them. Then each edge at v is in exactly two of the triangles, once each way. O(n^2).
+inline bool oneCycle(std::span<const VertexId> next, std::span<const VertexId> prev) {
+  const auto n = static_cast<std::uint32_t>(next.size());
+  if (n < 3 || prev.size() != n) return false;
+  std::uint32_t at = 0;
+  for (std::uint32_t step = 1; step <= n; ++step) {
+    const VertexId x = next[at];
+    std::uint32_t found = n, matches = 0;
+    for (std::uint32_t j = 0; j < n; ++j) {
+      if (prev[j] == x) found = j, ++matches;
+    }
+    if (matches != 1) return false;
+    at = found;
+    if (at == 0) return step == n;
+  }
+  return false;
+}
+
 /// Whether one vertex's triangles, given as its corners (3 t + k, the vertex at corner k of triangle
 /// t), are one closed fan wound one way: from each triangle (v, x, y) to the one triangle that has
 /// the edge back from x to v, (v, w, x), round a cycle through all of them. Then each edge at the
@@ -25,20 +47,15 @@ namespace detail {
 inline bool closedFan(std::span<const Triangle> triangles, std::span<const std::uint32_t> corners) {
   const auto n = static_cast<std::uint32_t>(corners.size());
   if (n < 3 || n > 16) return false;
-  const auto next = [&](std::uint32_t i) { return triangles[corners[i] / 3][(corners[i] % 3 + 1) % 3]; };
-  const auto prev = [&](std::uint32_t i) { return triangles[corners[i] / 3][(corners[i] % 3 + 2) % 3]; };
-  std::uint32_t at = 0;
-  for (std::uint32_t step = 1; step <= n; ++step) {
-    const VertexId x = next(at);
-    std::uint32_t found = n, matches = 0;
-    for (std::uint32_t j = 0; j < n; ++j) {
-      if (prev(j) == x) found = j, ++matches;
-    }
-    if (matches != 1) return false;
-    at = found;
-    if (at == 0) return step == n;
+  // Each triangle's corners after the vertex, (x, y) of (v, x, y).
+  std::array<VertexId, 16> next{}, prev{};
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const Triangle& t = triangles[corners[i] / 3];
+    const std::uint32_t k = corners[i] % 3;
+    next[i] = t[k == 2 ? 0 : k + 1];
+    prev[i] = t[k == 0 ? 2 : k - 1];
   }
-  return false;
+  return oneCycle(std::span<const VertexId>(next.data(), n), std::span<const VertexId>(prev.data(), n));
 }
 
 /// The fans of one vertex's triangles, given as its corners (3 t + k, the vertex at corner k of

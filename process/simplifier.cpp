@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "core/fans.h"
 #include "core/scratch.h"
 
 namespace isoslab {
@@ -73,26 +74,10 @@ bool isDisk(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
   // More than kMaxFan triangles at a vertex stays put: the test is quadratic, and no surface from a
   // lattice has such a vertex (a hostile mesh might).
   if (n < 3 || n > kMaxFan) return false;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (pairs[i][0] == pairs[i][1]) return false;
-    for (std::size_t j = i + 1; j < n; ++j) {
-      if (pairs[i][0] == pairs[j][0] || pairs[i][1] == pairs[j][1]) return false;
-    }
-  }
-  std::size_t at = 0;
-  for (std::size_t step = 1; step <= n; ++step) {
-    std::size_t next = n;
-    for (std::size_t j = 0; j < n; ++j) {
-      if (pairs[j][0] == pairs[at][1]) {
-        next = j;
-        break;
-      }
-    }
-    if (next == n) return false;  // a border
-    at = next;
-    if (at == 0) return step == n;
-  }
-  return false;
+  std::array<std::uint32_t, kMaxFan> next{}, prev{};
+  for (std::size_t i = 0; i < n; ++i) next[i] = pairs[i][0], prev[i] = pairs[i][1];
+  return detail::oneCycle(std::span<const std::uint32_t>(next.data(), n),
+                          std::span<const std::uint32_t>(prev.data(), n));
 }
 
 // Whether the triangles around v (as for isDisk) are three sheets that meet along a line through v:
