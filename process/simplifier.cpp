@@ -291,9 +291,6 @@ class Simplifier {
         std::memmove(&idx_[3 * kept], &idx_[3 * t], 3 * sizeof(std::uint32_t));
         if (!origin_.empty()) origin_[kept] = origin_[t];
         if (!unchecked_.empty()) unchecked_[kept] = unchecked_[t];
-        if (!cornerError_.empty()) {
-          std::memmove(&cornerError_[3 * kept], &cornerError_[3 * t], 3 * sizeof(std::uint32_t));
-        }
       }
       ++kept;
     }
@@ -305,7 +302,6 @@ class Simplifier {
   std::size_t collapsePass(std::uint32_t pass, std::size_t target, double limit) {
     keys_.clear();
     const std::size_t triangles = count_ / 3;
-    if (pass == 1) cornerError_.resize(count_);
     // Each edge once, and two a line vertex: about 3/2 a triangle. Reserved, not grown, so that the
     // array has no untouched tail (a huge page of it would be resident: core/scratch.h).
     keys_.reserve(3 * triangles / 2 + 2 * lineEnds_.size() + 64);
@@ -315,27 +311,17 @@ class Simplifier {
         // Each edge between two triangles once (where it runs from the smaller id); a border
         // edge's ends do not move.
         if (a > b || (free_[a] != kDisk && free_[b] != kDisk)) continue;
-        // The last pass's error stands where neither end took part in a collapse since (a vertex's
-        // quadric changes only as a collapse's `to`; positions never).
-        std::uint32_t& entry = cornerError_[3 * t + k];
-        if (pass == 1 || mark_[a] == pass - 1 || mark_[b] == pass - 1) {
-          const Vec3 ab = sub(at(b), at(a));
-          const double abError = free_[a] == kDisk ? quadrics_[a].error(ab) : INFINITY;
-          const double baError = free_[b] == kDisk ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
-          const double e = std::min(abError, baError);
-          if (!(e <= limit)) {
-            entry = kOverLimit;
-          } else {
-            const auto error = static_cast<float>(e);
-            std::uint32_t bits = 0;
-            std::memcpy(&bits, &error, sizeof bits);
-            entry = bits | (abError <= baError ? 0u : 0x80000000u);
-          }
-        }
-        if (entry == kOverLimit) continue;
-        // The candidate: its error, its corner (which holds the edge's first end) and 1 when the
-        // second end moves.
-        keys_.push_back(static_cast<std::uint64_t>(entry & 0x7fffffffu) << 32 | (3 * t + k) << 1 | entry >> 31);
+        const Vec3 ab = sub(at(b), at(a));
+        const double abError = free_[a] == kDisk ? quadrics_[a].error(ab) : INFINITY;
+        const double baError = free_[b] == kDisk ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
+        const double e = std::min(abError, baError);
+        if (!(e <= limit)) continue;
+        const auto error = static_cast<float>(e);
+        std::uint32_t bits = 0;
+        std::memcpy(&bits, &error, sizeof bits);
+        // The candidate: its corner (which holds the edge's first end) and 1 when the second end
+        // moves.
+        keys_.push_back(static_cast<std::uint64_t>(bits) << 32 | (3 * t + k) << 1 | (abError <= baError ? 0u : 1u));
       }
     }
     // A line vertex's collapses onto its neighbours on the line, each named by a corner of a
@@ -531,10 +517,6 @@ class Simplifier {
   ScratchVector<std::uint8_t> dirty_;  // replaying: 1 where the recorded run's fan may differ
   std::vector<SimplifyStep>* record_ = nullptr;
   ScratchVector<std::uint32_t> first_, fill_, around_;
-  // Per corner (moved with its triangle), its edge's error as a pass found it, as float bits with
-  // the direction in the top bit (errors are not negative), or kOverLimit; kept for the next pass.
-  static constexpr std::uint32_t kOverLimit = 0xffffffffu;
-  ScratchVector<std::uint32_t> cornerError_;
   LazyScratchVector<std::uint64_t> keys_, spare_;  // reserved for every edge, used for fewer
   const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;
   double checkAbove_ = INFINITY;
