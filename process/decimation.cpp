@@ -729,15 +729,28 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
     for (std::size_t k = 0; k < 3; ++k) ids[indices[3 * t + k]] = triangles[t][k];
   }
   // The recorded collapses among this batch's vertices, in local ids and in order of pass (a batch
-  // may hold components that the recorded try gave to different batches, each numbering its own).
-  std::vector<SimplifyStep> replay;
-  for (const SimplifyStep& s : steps.replay) {
-    if (s.from < low || s.to < low || s.from - low >= local.size() || s.to - low >= local.size()) continue;
-    const unsigned from = local[s.from - low], to = local[s.to - low];
-    if (from != ~0u && to != ~0u) replay.push_back({from, to, s.pass});
-  }
-  if (!std::is_sorted(replay.begin(), replay.end(), [](const auto& a, const auto& b) { return a.pass < b.pass; })) {
-    std::stable_sort(replay.begin(), replay.end(), [](const auto& a, const auto& b) { return a.pass < b.pass; });
+  // may hold components that the recorded try gave to different batches, each numbering its own
+  // passes: each pass is gathered from all of them).
+  LazyScratchVector<SimplifyStep> replay;
+  if (!steps.replay.empty()) {
+    std::uint32_t passes = 0;
+    for (const SimplifyStep& s : steps.replay) passes = s.isPass() ? std::max(passes, s.to) : passes;
+    replay.reserve(steps.replay.size() + passes);
+    for (std::uint32_t p = 1; p <= passes; ++p) {
+      replay.push_back({SimplifyStep::kPassMark, p});
+      std::uint32_t pass = 0;
+      for (const SimplifyStep& s : steps.replay) {
+        if (s.isPass()) {
+          pass = s.to;
+          continue;
+        }
+        if (pass != p || s.from < low || s.to < low || s.from - low >= local.size() || s.to - low >= local.size()) {
+          continue;
+        }
+        const unsigned from = local[s.from - low], to = local[s.to - low];
+        if (from != ~0u && to != ~0u) replay.push_back({from, to});
+      }
+    }
   }
   for (VertexId v : ids) local[v - low] = ~0u;
   if (release != nullptr) *release = Faces{};  // `triangles` and `labels` are gone from here on
@@ -753,8 +766,12 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
   SimplifyLimits limits;
   limits.targetTriangles = targetTriangles;
   limits.alongLines = complex_;
-  std::vector<SimplifyStep> record;
-  if (steps.record != nullptr) limits.record = &record;
+  // Recorded in place, in local ids, then renamed: each collapse takes at least two triangles.
+  const std::size_t recordedBefore = steps.record != nullptr ? steps.record->size() : 0;
+  if (steps.record != nullptr) {
+    steps.record->reserve(recordedBefore + indices.size() / 6 + 64);
+    limits.record = steps.record;
+  }
   limits.replay = replay;
   if (!pinned.empty()) {
     limits.locked.resize(ids.size());
@@ -795,7 +812,14 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
       simplifyTriangles(std::span<std::uint32_t>(indices), xyz.data(), ids.size(), limits,
                         std::span<std::uint32_t>(keptFrom), std::span<std::uint8_t>(unchecked).subspan(before));
   unchecked.resize(before + kept / 3);
-  for (const SimplifyStep& s : record) steps.record->push_back({ids[s.from], ids[s.to], s.pass});
+  if (steps.record != nullptr) {
+    for (std::size_t i = recordedBefore; i < steps.record->size(); ++i) {
+      SimplifyStep& s = (*steps.record)[i];
+      if (s.isPass()) continue;
+      s.from = ids[s.from];
+      s.to = ids[s.to];
+    }
+  }
   Faces out;
   out.triangles.resize(kept / 3);
   for (std::size_t t = 0; t < out.size(); ++t) {
@@ -875,7 +899,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   const std::size_t sharedRing = frozenCount;
   // The largest distance allowed from the original surface, in output units.
   const double limit = options_.maxDistance * options_.voxelSize;
-  ScratchVector<SimplifyStep> log;
+  LazyScratchVector<SimplifyStep> log;
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
     // Every array at its size (growing one would copy it and leave slack).
     Faces input, result;

@@ -246,7 +246,7 @@ class DecimationSink final : public MeshSink {
   // A try's collapses, in the sink's vertex ids: the first try records them (`record`), a repair
   // replays them (`replay`) on its input less the frozen patch (SimplifyLimits::replay).
   struct Steps {
-    ScratchVector<SimplifyStep>* record = nullptr;
+    LazyScratchVector<SimplifyStep>* record = nullptr;
     std::span<const SimplifyStep> replay;
   };
   Faces collapse(Faces faces, std::size_t targetTriangles, const Originals* original,

@@ -200,6 +200,7 @@ class Simplifier {
       // candidates that the tests refuse, tried again every pass for a handful more (a noisy
       // surface that its bound stops short of the target spent half its passes so).
       const std::size_t wanted = (live_ - limits.targetTriangles + 1) / 2;
+      if (record_ != nullptr) record_->push_back({SimplifyStep::kPassMark, pass});
       const std::size_t made = collapsePass(pass, limits.targetTriangles, limit);
       if (made == 0 || made * kLastPass < wanted) break;
       compact();
@@ -224,9 +225,17 @@ class Simplifier {
     dirty_.assign(vertices_, 0);
     for (std::size_t v = 0; v < vertices_; ++v) dirty_[v] = free_[v] == kStays ? 1 : 0;
     const std::span<const SimplifyStep> steps = limits.replay;
+    std::uint32_t pass = 0;
     for (std::size_t i = 0; i < steps.size();) {
-      const std::uint32_t pass = steps[i].pass;
-      for (; i < steps.size() && steps[i].pass == pass; ++i) {
+      if (steps[i].isPass()) {
+        if (pass > 0) {
+          compact();
+          buildAdjacency();
+        }
+        pass = steps[i++].to;
+        continue;
+      }
+      for (; i < steps.size() && !steps[i].isPass(); ++i) {
         const std::uint32_t from = steps[i].from, to = steps[i].to;
         if (from >= vertices_ || to >= vertices_ || from == to) continue;
         const bool clean = dirty_[from] == 0;
@@ -245,8 +254,6 @@ class Simplifier {
           for (std::size_t k = 0; k < 3; ++k) dirty_[t[k]] = 1;
         }
       }
-      compact();
-      buildAdjacency();
     }
     compact();
     // A kept triangle on a clean vertex is in that vertex's fan as the recorded run left it: it
@@ -491,7 +498,7 @@ class Simplifier {
     // `to` has gained triangles that its list lacks, and its quadric has changed: it waits for the
     // next pass, as does `from`, which is gone.
     mark_[from] = mark_[to] = pass;
-    if (record_ != nullptr) record_->push_back({from, to, pass});
+    if (record_ != nullptr) record_->push_back({from, to});
     return true;
   }
 
@@ -515,7 +522,7 @@ class Simplifier {
   ScratchVector<std::uint32_t> lineAt_;  // each vertex's entry in lineEnds_ (kDead: none)
   ScratchVector<std::uint32_t> mark_, seen_;
   ScratchVector<std::uint8_t> dirty_;  // replaying: 1 where the recorded run's fan may differ
-  std::vector<SimplifyStep>* record_ = nullptr;
+  LazyScratchVector<SimplifyStep>* record_ = nullptr;
   ScratchVector<std::uint32_t> first_, fill_, around_;
   LazyScratchVector<std::uint64_t> keys_, spare_;  // reserved for every edge, used for fewer
   const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;

@@ -29,11 +29,16 @@
 #include <span>
 #include <vector>
 
+#include "core/scratch.h"
+
 namespace isoslab {
 
-/// A collapse that was made: `from` moved onto `to` (ids as in the input), in pass `pass` (from 1).
+/// A collapse that was made: `from` moved onto `to` (ids as in the input). A log of them begins each
+/// pass with a mark: `from` kPassMark, `to` the pass's number (from 1).
 struct SimplifyStep {
-  std::uint32_t from = 0, to = 0, pass = 0;
+  static constexpr std::uint32_t kPassMark = 0xffffffffu;
+  std::uint32_t from = 0, to = 0;
+  bool isPass() const { return from == kPassMark; }
 };
 
 struct SimplifyLimits {
@@ -55,10 +60,12 @@ struct SimplifyLimits {
   /// simplified along themselves: a vertex inside such a line moves onto one of its two neighbours
   /// on the line, with the tests above for every sheet (false: such vertices stay).
   bool alongLines = false;
-  /// When set, each collapse made is appended to it, in order.
-  std::vector<SimplifyStep>* record = nullptr;
-  /// When not empty (sorted by pass), the simplifier makes these collapses again, pass by pass and
-  /// in order, instead of choosing its own, and stops after them: each only where the tests pass on
+  /// When set, each collapse made is appended to it, in order, each pass after its mark (a lazy
+  /// buffer: reserve it for the most that may come, and only what is written is resident).
+  LazyScratchVector<SimplifyStep>* record = nullptr;
+  /// When not empty (a log as `record` makes, its pass marks in increasing order), the simplifier
+  /// makes these collapses again, pass by pass and in order, instead of choosing its own, and stops
+  /// after them: each only where the tests pass on
   /// the mesh as it is then, with the errors and the check as above. A repair replays a run's
   /// collapses on its input less a frozen patch, so the run's choices stand wherever the patch does
   /// not reach. A collapse whose moving vertex has the triangles and the quadric that it had in the
