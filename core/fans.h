@@ -59,14 +59,13 @@ inline bool closedFan(std::span<const Triangle> triangles, std::span<const std::
 }
 
 /// The fans of one vertex's triangles, given as its corners (3 t + k, the vertex at corner k of
-/// triangle t). `parent` and `ends` are working arrays that the calls share.
+/// triangle t), by union-find over the edges at the vertex (callers try closedFan first, which
+/// settles most vertices). `parent` and `ends` are working arrays that the calls share.
 inline std::uint32_t fansAmong(std::span<const Triangle> triangles, std::span<const std::uint32_t> corners,
                                ScratchVector<std::uint32_t>& parent,
                                ScratchVector<std::pair<VertexId, std::uint32_t>>& ends) {
   const auto n = static_cast<std::uint32_t>(corners.size());
   if (n == 0) return 0;
-  // Most vertices have one fan wound one way (closedFan); where that fails, the general count.
-  if (closedFan(triangles, corners)) return 1;
   parent.resize(n);
   std::iota(parent.begin(), parent.end(), 0u);
   const auto find = [&](std::uint32_t x) {
@@ -160,7 +159,8 @@ inline std::vector<std::uint32_t> fanCountsAt(std::span<const Triangle> triangle
     std::size_t j = i;
     corners.clear();
     for (; j < found.size() && found[j].first == found[i].first; ++j) corners.push_back(found[j].second);
-    fans[found[i].first] = detail::fansAmong(triangles, corners, parent, ends);
+    fans[found[i].first] =
+        detail::closedFan(triangles, corners) ? 1 : detail::fansAmong(triangles, corners, parent, ends);
     i = j;
   }
   return fans;

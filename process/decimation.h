@@ -241,14 +241,14 @@ class DecimationSink final : public MeshSink {
   void runAll(std::vector<Work>& works);
   Faces simplify(const Faces& faces, std::int64_t originalTriangles, ChunkRange originals, const Lock& lock,
                  Scope& scope) const;
-  // The simplifier on a try's triangles (in batches of whole components when there are many);
-  // `unchecked` gets a flag per kept triangle (collapseBatch).
   // A try's collapses, in the sink's vertex ids: the first try records them (`record`), a repair
   // replays them (`replay`) on its input less the frozen patch (SimplifyLimits::replay).
   struct Steps {
     LazyScratchVector<SimplifyStep>* record = nullptr;
     std::span<const SimplifyStep> replay;
   };
+  // The simplifier on a try's triangles (in batches of whole components when there are many);
+  // `unchecked` gets a flag per kept triangle (collapseBatch).
   Faces collapse(Faces faces, std::size_t targetTriangles, const Originals* original,
                  const ScratchVector<VertexId>& pinned, const Steps& steps,
                  ScratchVector<std::uint8_t>& unchecked) const;

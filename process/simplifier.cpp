@@ -188,12 +188,7 @@ class Simplifier {
   std::size_t run(const SimplifyLimits& limits) {
     if (!limits.replay.empty()) return replay(limits);
     record_ = limits.record;
-    const double limit = limits.maxError * limits.maxError;
-    sampleLimit_ = 4 * limit;  // twice the error, squared
-    if (limits.check) {
-      check_ = &limits.check;
-      checkAbove_ = limits.checkAbove * limits.checkAbove;
-    }
+    const double limit = takeLimits(limits);
 
     for (std::uint32_t pass = 1; live_ > limits.targetTriangles; ++pass) {
       // A pass that makes only a sliver of the collapses still wanted is the last: what is left are
@@ -216,12 +211,7 @@ class Simplifier {
   // collapse that is not made again, or that a dirty vertex made. A clean vertex's collapse makes
   // the triangles that the recorded run made, which its check passed.
   std::size_t replay(const SimplifyLimits& limits) {
-    const double limit = limits.maxError * limits.maxError;
-    sampleLimit_ = 4 * limit;
-    if (limits.check) {
-      check_ = &limits.check;
-      checkAbove_ = limits.checkAbove * limits.checkAbove;
-    }
+    const double limit = takeLimits(limits);
     dirty_.assign(vertices_, 0);
     for (std::size_t v = 0; v < vertices_; ++v) dirty_[v] = free_[v] == kStays ? 1 : 0;
     const std::span<const SimplifyStep> steps = limits.replay;
@@ -268,6 +258,17 @@ class Simplifier {
   }
 
  private:
+  // The limits' squared error bound (returned), sample bound and check, for run() and replay().
+  double takeLimits(const SimplifyLimits& limits) {
+    const double limit = limits.maxError * limits.maxError;
+    sampleLimit_ = 4 * limit;  // twice the error, squared
+    if (limits.check) {
+      check_ = &limits.check;
+      checkAbove_ = limits.checkAbove * limits.checkAbove;
+    }
+    return limit;
+  }
+
   // Whether `from` may move onto `to` by its kind: a disk onto any neighbour (the link test finds
   // one that is none), a line vertex onto a neighbour on its line.
   bool onLineOrDisk(std::uint32_t from, std::uint32_t to) const {
