@@ -5,7 +5,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <condition_variable>
 #include <exception>
+#include <functional>
+#include <mutex>
 #include <system_error>
 #include <thread>
 #include <utility>
@@ -26,6 +29,9 @@ constexpr int kAttempts = 12;
 constexpr double kCheckAbove = 0.2;
 // What a block keeps, as a multiple of the ratio (the regions bring it down).
 constexpr double kBlockSlack = 1.2;
+// The most simplify calls that run side by side (the memory budget, DecimateOptions::pairBytes, is
+// for a pair of blocks).
+constexpr std::size_t kSideBySide = 2;
 
 // The least and the greatest of three (std::min of a list is a loop that the compiler keeps).
 template <class T>
@@ -309,12 +315,14 @@ void DecimationSink::consume(const MeshChunk& chunk) {
   if (static_cast<std::int64_t>(chunks_ - blockStart_) >= options_.blockSlabs &&
       blockTriangles_ >= options_.blockTriangles) {
     queueBlock();
-    // A second block is taken only with a thread for it and memory for the first one's pair.
+    // More blocks are taken only with a thread for a second one and memory for the first one's
+    // pair: kSideBySide of them and one more, for the first thread that is free (blocks of the
+    // same size can take twice as long as one another).
     const Block& first = queued_.front();
     std::size_t firstTriangles = 0;
     for (std::size_t c = first.start; c < first.end; ++c) firstTriangles += chunkTriangles_[c - chunkBase_].size();
     const bool pair = options_.threads > 1 && firstTriangles * kPairBytesPerTriangle <= options_.pairBytes;
-    if (!pair || queued_.size() >= 2) processQueued();
+    if (!pair || queued_.size() >= kSideBySide + 1) processQueued();
   }
 }
 
@@ -328,7 +336,7 @@ void DecimationSink::finish() {
     ++report_.regions;
     Lock lock;
     if (complex_) lock.curve = std::move(pendingCurve_);
-    buildGrids({range});
+    buildGrids({range}, options_.threads);
     const Faces last = simplify(pendingUpper_, originalIn(pendingMiddle_, chunks_), range, lock, scope);
     count(scope);
     if (options_.measure) measure(last.triangles, range, scope);
@@ -373,152 +381,193 @@ void DecimationSink::queueBlock() {
   blockTriangles_ = 0;
 }
 
-// Each work's simplify call, side by side when there are threads for it: the calls only read the
-// sink's vertices and chunks (nothing is consumed meanwhile) and keep their own scopes.
-void DecimationSink::runAll(std::vector<Work>& works) {
-  std::vector<Work*> todo;
-  for (Work& w : works) todo.push_back(&w);
-  const auto run = [this](Work& w) { w.output = simplify(w.input, w.original, w.range, w.lock, w.scope); };
-  if (options_.threads < 2 || todo.size() < 2) {
-    for (Work* w : todo) run(*w);
-    return;
-  }
-  std::vector<std::exception_ptr> errors(todo.size());
-  std::vector<std::thread> helpers;
-  std::size_t started = 0;  // works [0, started) run on helpers, the rest here
-  for (; started + 1 < todo.size(); ++started) {
+// Runs body(0) .. body(n - 1), body(0) here and the others on threads of their own; a share whose
+// thread cannot start runs here afterwards. Rethrows the first error, in the order of the shares.
+void DecimationSink::onThreads(std::size_t n, const std::function<void(std::size_t)>& body) {
+  std::vector<std::exception_ptr> errors(n);
+  const auto share = [&](std::size_t i) {
     try {
-      helpers.emplace_back([&, k = started] {
-        try {
-          run(*todo[k]);
-        } catch (...) {
-          errors[k] = std::current_exception();
-        }
-      });
-    } catch (const std::system_error&) {
-      break;  // no thread to be had: the rest run here
-    }
-  }
-  for (std::size_t k = started; k < todo.size(); ++k) {
-    try {
-      run(*todo[k]);
+      body(i);
     } catch (...) {
-      errors[k] = std::current_exception();
+      errors[i] = std::current_exception();
+    }
+  };
+  std::vector<std::thread> threads;
+  threads.reserve(n > 0 ? n - 1 : 0);
+  for (std::size_t i = 1; i < n; ++i) {
+    try {
+      threads.emplace_back(share, i);
+    } catch (const std::system_error&) {
+      break;  // no thread to be had
     }
   }
-  for (std::thread& t : helpers) t.join();
+  if (n > 0) share(0);
+  for (std::thread& t : threads) t.join();
+  for (std::size_t i = threads.size() + 1; i < n; ++i) share(i);
   for (const std::exception_ptr& e : errors) {
     if (e) std::rethrow_exception(e);
   }
 }
 
-// Simplifies the queued blocks (side by side), then the regions across their seams (side by
-// side), and sends them on in stream order. Every range is clamped to what the one-block-at-a-time
-// schedule would hold at that point, so the output is the same however many blocks are queued.
+// A block's simplify call: its chunks' triangles, the chunks that measure them, and what it locks.
+void DecimationSink::makeBlock(const Block& b, Work& w) const {
+  // Reserved at its size (a mapped buffer is resident whole: core/scratch.h).
+  std::size_t size = 0;
+  for (std::size_t c = b.start; c < b.end; ++c) size += chunkTriangles_[c - chunkBase_].size();
+  w.input.triangles.reserve(size);
+  w.input.labels.reserve(complex_ ? size : 0);
+  for (std::size_t c = b.start; c < b.end; ++c) {
+    const auto& t = chunkTriangles_[c - chunkBase_];
+    w.input.triangles.insert(w.input.triangles.end(), t.begin(), t.end());
+    if (complex_) {
+      const auto& l = chunkLabels_[c - chunkBase_];
+      w.input.labels.insert(w.input.labels.end(), l.begin(), l.end());
+    }
+  }
+  w.original = originalIn(b.start, b.end);
+  w.range = rangeAround(w.input.triangles, b.base, b.end);
+  w.scope.block = true;
+  if (complex_) {
+    // The chunk before the block's (the block before it uses them) and its last chunk's (the
+    // next block's may).
+    w.lock.below = chunkFirst_[b.start - chunkBase_];
+    w.lock.from = chunkFirst_[b.end - 1 - chunkBase_];
+  }
+}
+
+// Makes region k from block k's output, which it splits at the block's middle chunk (a triangle
+// with a vertex below it is the lower half): the lower half and the pending upper half (none before
+// the first block) are the region; the upper half waits for the next block. Called in block order.
+void DecimationSink::makeRegion(const Block& b, Work& block, Work& w) {
+  const VertexId middleFirst =
+      b.middle < chunks_ ? chunkFirst_[b.middle - chunkBase_] : base_ + static_cast<VertexId>(positions_.size());
+  // Each half at its size: the upper one waits for the next block (a grown array's untouched
+  // tail would be resident where it lies in a huge page: core/scratch.h).
+  const auto isLower = [&](const Triangle& tri) { return min3(tri[0], tri[1], tri[2]) < middleFirst; };
+  const auto lowerCount =
+      static_cast<std::size_t>(std::count_if(block.output.triangles.begin(), block.output.triangles.end(), isLower));
+  Faces lower, upper;
+  const bool sided = !block.output.labels.empty();
+  lower.triangles.reserve(lowerCount);
+  upper.triangles.reserve(block.output.size() - lowerCount);
+  lower.labels.reserve(sided ? lowerCount : 0);
+  upper.labels.reserve(sided ? block.output.size() - lowerCount : 0);
+  for (std::size_t t = 0; t < block.output.size(); ++t) {
+    (isLower(block.output.triangles[t]) ? lower : upper).add(block.output, t);
+  }
+  block.output = Faces{};
+  w.slab = chunkSlab_[b.middle - 1 - chunkBase_];
+  w.input.triangles.reserve(pendingUpper_.size() + lower.size());
+  w.input.labels.reserve(sided ? pendingUpper_.size() + lower.size() : 0);
+  w.input.append(pendingUpper_);
+  w.input.append(lower);
+  pendingUpper_ = Faces{};
+  w.original = originalIn(hasPending_ ? pendingMiddle_ : b.start, b.middle);
+  ++report_.regions;
+  w.range = rangeAround(w.input.triangles, b.base, b.end);
+  // The grids that the blocks did not need (the pending upper half's, which the last regions
+  // freed), here: the calls running meanwhile read only the other chunks' grids.
+  buildGrids({w.range}, 1);
+  block.scope.surface.reset();
+  if (complex_) {
+    // The split curve before the region and the one after it (the lower half's vertices from
+    // the middle chunk on, which the upper half shares).
+    w.lock.curve = std::move(pendingCurve_);
+    w.lock.from = middleFirst;
+    pendingCurve_.clear();
+    for (const Triangle& t : lower.triangles) {
+      for (VertexId v : t) {
+        if (v >= middleFirst) pendingCurve_.push_back(v);
+      }
+    }
+    std::sort(pendingCurve_.begin(), pendingCurve_.end());
+    pendingCurve_.erase(std::unique(pendingCurve_.begin(), pendingCurve_.end()), pendingCurve_.end());
+  }
+  pendingUpper_ = std::move(upper);
+  pendingMiddle_ = b.middle;
+  hasPending_ = true;
+}
+
+// Simplifies the queued blocks, and the regions across their seams, on the threads that the
+// options give: each thread takes the next region whose block is done (regions are made in block
+// order), else the next block. Then the regions go on in stream order. Every range is clamped to
+// what the one-block-at-a-time schedule would hold at that point, and each call depends only on its
+// input, so the output is the same however many blocks are queued and whatever runs where.
 void DecimationSink::processQueued() {
   if (queued_.empty()) return;
-  std::vector<Work> blocks(queued_.size());
-  for (std::size_t k = 0; k < queued_.size(); ++k) {
-    const Block& b = queued_[k];
-    Work& w = blocks[k];
-    // Reserved at its size (a mapped buffer is resident whole: core/scratch.h).
-    std::size_t size = 0;
-    for (std::size_t c = b.start; c < b.end; ++c) size += chunkTriangles_[c - chunkBase_].size();
-    w.input.triangles.reserve(size);
-    w.input.labels.reserve(complex_ ? size : 0);
-    for (std::size_t c = b.start; c < b.end; ++c) {
-      const auto& t = chunkTriangles_[c - chunkBase_];
-      w.input.triangles.insert(w.input.triangles.end(), t.begin(), t.end());
-      if (complex_) {
-        const auto& l = chunkLabels_[c - chunkBase_];
-        w.input.labels.insert(w.input.labels.end(), l.begin(), l.end());
-      }
-    }
-    w.original = originalIn(b.start, b.end);
-    w.range = rangeAround(w.input.triangles, b.base, b.end);
-    w.scope.block = true;
-    if (complex_) {
-      // The chunk before the block's (the block before it uses them) and its last chunk's (the
-      // next block's may).
-      w.lock.below = chunkFirst_[b.start - chunkBase_];
-      w.lock.from = chunkFirst_[b.end - 1 - chunkBase_];
-    }
-  }
-  report_.blocks += blocks.size();
-  if (options_.maxDistance > 0) {  // the blocks' checks (a measure alone needs only the regions')
+  const std::size_t n = queued_.size();
+  std::vector<Work> blocks(n), regions(n);
+  // The blocks that start at once, here; a later one when it starts (its copy is not held before).
+  const std::size_t atOnce = std::min(n, kSideBySide);
+  for (std::size_t k = 0; k < atOnce; ++k) makeBlock(queued_[k], blocks[k]);
+  report_.blocks += n;
+  // The grids for the blocks' checks (a measure alone needs only the regions'): those of the
+  // blocks that start at once here, side by side; a later block's when it starts.
+  const bool checked = options_.maxDistance > 0;
+  if (checked) {
     std::vector<ChunkRange> ranges;
-    for (const Work& w : blocks) ranges.push_back(w.range);
-    buildGrids(ranges);
-  }
-  runAll(blocks);
-  // Split each block at its middle chunk (a triangle with a vertex below it is the lower half); the
-  // lower half and the pending upper half (none before the first block) are a region.
-  std::vector<Work> out;
-  for (std::size_t k = 0; k < queued_.size(); ++k) {
-    const Block& b = queued_[k];
-    Work& block = blocks[k];
-    const VertexId middleFirst =
-        b.middle < chunks_ ? chunkFirst_[b.middle - chunkBase_] : base_ + static_cast<VertexId>(positions_.size());
-    // Each half at its size: the upper one waits for the next block (a grown array's untouched
-    // tail would be resident where it lies in a huge page: core/scratch.h).
-    const auto isLower = [&](const Triangle& tri) { return min3(tri[0], tri[1], tri[2]) < middleFirst; };
-    const auto lowerCount =
-        static_cast<std::size_t>(std::count_if(block.output.triangles.begin(), block.output.triangles.end(), isLower));
-    Faces lower, upper;
-    const bool sided = !block.output.labels.empty();
-    lower.triangles.reserve(lowerCount);
-    upper.triangles.reserve(block.output.size() - lowerCount);
-    lower.labels.reserve(sided ? lowerCount : 0);
-    upper.labels.reserve(sided ? block.output.size() - lowerCount : 0);
-    for (std::size_t t = 0; t < block.output.size(); ++t) {
-      (isLower(block.output.triangles[t]) ? lower : upper).add(block.output, t);
-    }
-    Work& w = out.emplace_back();
-    w.slab = chunkSlab_[b.middle - 1 - chunkBase_];
-    w.input.triangles.reserve(pendingUpper_.size() + lower.size());
-    w.input.labels.reserve(sided ? pendingUpper_.size() + lower.size() : 0);
-    w.input.append(pendingUpper_);
-    w.input.append(lower);
-    pendingUpper_ = Faces{};
-    w.original = originalIn(hasPending_ ? pendingMiddle_ : b.start, b.middle);
-    ++report_.regions;
-    w.range = rangeAround(w.input.triangles, b.base, b.end);
-    block.scope.surface.reset();
-    if (complex_) {
-      // The split curve before the region and the one after it (the lower half's vertices from
-      // the middle chunk on, which the upper half shares).
-      w.lock.curve = std::move(pendingCurve_);
-      w.lock.from = middleFirst;
-      pendingCurve_.clear();
-      for (const Triangle& t : lower.triangles) {
-        for (VertexId v : t) {
-          if (v >= middleFirst) pendingCurve_.push_back(v);
-        }
-      }
-      std::sort(pendingCurve_.begin(), pendingCurve_.end());
-      pendingCurve_.erase(std::unique(pendingCurve_.begin(), pendingCurve_.end()), pendingCurve_.end());
-    }
-    pendingUpper_ = std::move(upper);
-    pendingMiddle_ = b.middle;
-    hasPending_ = true;
+    for (std::size_t k = 0; k < atOnce; ++k) ranges.push_back(blocks[k].range);
+    buildGrids(ranges, options_.threads);
   }
   {
-    std::vector<ChunkRange> ranges;
-    for (const Work& w : out) ranges.push_back(w.range);
-    buildGrids(ranges);
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::vector<std::uint8_t> blockDone(n, 0);
+    std::size_t nextBlock = 0, nextRegion = 0;
+    bool failed = false;
+    // Each input freed once simplified (the output is a copy).
+    const auto run = [this](Work& w) {
+      w.output = simplify(w.input, w.original, w.range, w.lock, w.scope);
+      w.input = Faces{};
+    };
+    const auto work = [&](std::size_t) {
+      std::unique_lock<std::mutex> lock(mutex);
+      try {
+        while (!failed) {
+          if (nextBlock < n) {
+            const std::size_t k = nextBlock++;
+            if (k >= atOnce) {
+              makeBlock(queued_[k], blocks[k]);
+              // The calls running meanwhile read only grids built before they started.
+              if (checked) buildGrids({blocks[k].range}, 1);
+            }
+            lock.unlock();
+            run(blocks[k]);
+            lock.lock();
+            blockDone[k] = 1;
+            changed.notify_all();
+          } else if (nextRegion < n && blockDone[nextRegion] != 0) {
+            const std::size_t k = nextRegion++;
+            makeRegion(queued_[k], blocks[k], regions[k]);
+            lock.unlock();
+            run(regions[k]);
+            lock.lock();
+          } else if (nextRegion == n) {
+            return;
+          } else {
+            changed.wait(lock);
+          }
+        }
+      } catch (...) {
+        if (!lock.owns_lock()) lock.lock();
+        failed = true;
+        changed.notify_all();
+        throw;
+      }
+    };
+    onThreads(std::min({static_cast<std::size_t>(std::max(1, options_.threads)), kSideBySide, n}), work);
   }
-  runAll(out);
-  for (std::vector<Work>* group : {&blocks, &out}) {
+  for (std::vector<Work>* group : {&blocks, &regions}) {
     for (const Work& w : *group) count(w.scope);
   }
   // The regions measured, then the grids freed: none is held while the regions go on downstream
   // (the next region's are made again, half a block's).
   if (options_.measure) {
-    for (Work& w : out) measure(w.output.triangles, w.range, w.scope);
+    for (Work& w : regions) measure(w.output.triangles, w.range, w.scope);
   }
-  for (Work& w : out) w.scope.surface.reset();
+  for (Work& w : regions) w.scope.surface.reset();
   for (std::unique_ptr<OriginalSurface>& grid : chunkGrids_) grid.reset();
-  for (Work& w : out) {
+  for (Work& w : regions) {
     emit(w.output, w.slab);
     w = Work{};
   }
@@ -540,7 +589,7 @@ const DecimationSink::Originals& DecimationSink::surfaceFor(ChunkRange range, Sc
   return *scope.surface;
 }
 
-void DecimationSink::buildGrids(const std::vector<ChunkRange>& ranges) {
+void DecimationSink::buildGrids(const std::vector<ChunkRange>& ranges, int threads) {
   if (!(options_.maxDistance > 0) && !options_.measure) return;  // no check and no measure: no grid
   std::vector<std::size_t> missing;
   for (const ChunkRange& range : ranges) {
@@ -551,48 +600,13 @@ void DecimationSink::buildGrids(const std::vector<ChunkRange>& ranges) {
   std::sort(missing.begin(), missing.end());
   missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
   // Each grid reads only the chunk's triangles and the positions, and writes only its own slot.
-  const auto build = [&](std::size_t from, std::size_t step) {
-    for (std::size_t i = from; i < missing.size(); i += step) {
+  const std::size_t shares = std::min<std::size_t>(static_cast<std::size_t>(std::max(1, threads)), missing.size());
+  onThreads(shares, [&](std::size_t from) {
+    for (std::size_t i = from; i < missing.size(); i += shares) {
       const std::size_t c = missing[i];
       chunkGrids_[c - chunkBase_] = std::make_unique<OriginalSurface>(originalSurface(c));
     }
-  };
-  const std::size_t helpers =
-      std::min<std::size_t>(options_.threads > 1 ? static_cast<std::size_t>(options_.threads) - 1 : 0,
-                            missing.size() > 1 ? missing.size() - 1 : 0);
-  std::vector<std::thread> threads;
-  threads.reserve(helpers);
-  std::vector<std::exception_ptr> errors(helpers + 1);
-  for (std::size_t h = 0; h < helpers; ++h) {
-    try {
-      threads.emplace_back([&, h] {
-        try {
-          build(h + 1, helpers + 1);
-        } catch (...) {
-          errors[h + 1] = std::current_exception();
-        }
-      });
-    } catch (const std::system_error&) {
-      break;
-    }
-  }
-  try {
-    // The share of a helper that could not start is built here afterwards.
-    build(0, helpers + 1);
-  } catch (...) {
-    errors[0] = std::current_exception();
-  }
-  for (std::thread& t : threads) t.join();
-  for (std::size_t h = threads.size() + 1; h <= helpers; ++h) {
-    try {
-      build(h, helpers + 1);
-    } catch (...) {
-      errors[h] = std::current_exception();
-    }
-  }
-  for (const std::exception_ptr& e : errors) {
-    if (e) std::rethrow_exception(e);
-  }
+  });
 }
 
 void DecimationSink::trim(std::size_t firstChunk) {

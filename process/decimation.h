@@ -31,6 +31,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -69,10 +70,11 @@ struct DecimateOptions {
   /// Measure the one-sided distance of every output triangle to the original surface, for the
   /// report (DecimationReport::distanceMean, distanceMax, samples); false leaves them 0.
   bool measure = true;
-  /// Threads for the blocks and regions: with two or more, blocks are taken two at a time and
-  /// simplified side by side (then their regions), while the first block's triangles times
-  /// kPairBytesPerTriangle fit in `pairBytes` (the second block and its working set). The output is
-  /// the same for every thread count and budget.
+  /// Threads for the blocks and regions: with two or more, blocks are taken three at a time, while
+  /// the first block's triangles times kPairBytesPerTriangle fit in `pairBytes` (a second block and
+  /// its working set), and two threads simplify them and their regions (each takes the next block,
+  /// else the next region whose block is done). The output is the same for every thread count and
+  /// budget.
   int threads = 1;
   std::size_t pairBytes = std::size_t{128} << 20;
 };
@@ -238,7 +240,9 @@ class DecimationSink final : public MeshSink {
 
   void queueBlock();
   void processQueued();
-  void runAll(std::vector<Work>& works);
+  void makeBlock(const Block& b, Work& block) const;
+  void makeRegion(const Block& b, Work& block, Work& region);
+  static void onThreads(std::size_t n, const std::function<void(std::size_t)>& body);
   Faces simplify(const Faces& faces, std::int64_t originalTriangles, ChunkRange originals, const Lock& lock,
                  Scope& scope) const;
   // A try's collapses, in the sink's vertex ids: the first try records them (`record`), a repair
@@ -262,9 +266,9 @@ class DecimationSink final : public MeshSink {
   // The chunks whose original triangles measure `triangles`, within chunks [firstChunk, end).
   ChunkRange rangeAround(std::span<const Triangle> triangles, std::size_t firstChunk, std::size_t end) const;
   OriginalSurface originalSurface(std::size_t chunk) const;
-  // Builds the grids of the chunks in the ranges that have none (on the threads that the options
-  // give: each chunk's grid is its own).
-  void buildGrids(const std::vector<ChunkRange>& ranges);
+  // Builds the grids of the chunks in the ranges that have none, on up to `threads` threads (each
+  // chunk's grid is its own).
+  void buildGrids(const std::vector<ChunkRange>& ranges, int threads);
   // The original surface of `range` (its grids built), kept in the scope for the next caller with
   // the same range: the tries, the simplifier's checks and the distance measure of the output share
   // it.

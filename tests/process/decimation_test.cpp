@@ -273,9 +273,10 @@ TEST(Decimation, WithoutTheMeasureTheOutputIsTheSame) {
   EXPECT_EQ(b.report.distanceMax, 0.0);
 }
 
-// With threads, blocks are simplified two at a time (then their regions): the same triangles, the
-// same vertices and the same report as one block at a time, whether or not the budget lets a
-// block pair up, and on the threads of the extraction too.
+// With threads, blocks are taken three at a time and simplified two side by side (then their
+// regions, as their blocks are done): the same triangles, the same vertices and the same report as
+// one block at a time, whether or not the budget lets blocks queue up, and on the threads of the
+// extraction too.
 TEST(Decimation, BlocksSideBySideGiveTheSameOutputAndReport) {
   DecimateOptions one = smallBlocks(0.25);
   one.blockSlabs = 3;  // many blocks: pairs, and an odd one at the end
