@@ -328,8 +328,9 @@ void DecimationSink::consume(const MeshChunk& chunk) {
 
 void DecimationSink::finish() {
   if (chunks_ > blockStart_) queueBlock();
-  processQueued();
-  if (hasPending_) {
+  // The last blocks' call takes the stream's last half block too, as a region of its own.
+  processQueued(true);
+  if (hasPending_) {  // no block since the last call
     // The stream's last half block is a region of its own.
     Scope scope;
     const ChunkRange range = rangeAround(pendingUpper_.triangles, chunkBase_, chunks_);
@@ -407,6 +408,20 @@ void DecimationSink::onThreads(std::size_t n, const std::function<void(std::size
   for (const std::exception_ptr& e : errors) {
     if (e) std::rethrow_exception(e);
   }
+}
+
+// The stream's last half block, as a region of its own (after the last block's region is made).
+void DecimationSink::makeLastRegion(Work& w) {
+  w.input = std::move(pendingUpper_);
+  pendingUpper_ = Faces{};
+  hasPending_ = false;
+  w.original = originalIn(pendingMiddle_, chunks_);
+  w.slab = chunkSlab_.back();
+  ++report_.regions;
+  // Clamped as one block at a time would (its last call has trimmed the chunks below this).
+  w.range = rangeAround(w.input.triangles, std::max(chunkBase_, scheduleBase_), chunks_);
+  if (complex_) w.lock.curve = std::move(pendingCurve_);
+  buildGrids({w.range}, 1);
 }
 
 // A block's simplify call: its chunks' triangles, the chunks that measure them, and what it locks.
@@ -493,10 +508,12 @@ void DecimationSink::makeRegion(const Block& b, Work& block, Work& w) {
 // order), else the next block. Then the regions go on in stream order. Every range is clamped to
 // what the one-block-at-a-time schedule would hold at that point, and each call depends only on its
 // input, so the output is the same however many blocks are queued and whatever runs where.
-void DecimationSink::processQueued() {
+void DecimationSink::processQueued(bool last) {
   if (queued_.empty()) return;
   const std::size_t n = queued_.size();
-  std::vector<Work> blocks(n), regions(n);
+  // With `last`, region n is the last block's upper half.
+  const std::size_t regionCount = last ? n + 1 : n;
+  std::vector<Work> blocks(n), regions(regionCount);
   // The blocks that start at once, here; a later one when it starts (its copy is not held before).
   const std::size_t atOnce = std::min(n, kSideBySide);
   for (std::size_t k = 0; k < atOnce; ++k) makeBlock(queued_[k], blocks[k]);
@@ -536,13 +553,17 @@ void DecimationSink::processQueued() {
             lock.lock();
             blockDone[k] = 1;
             changed.notify_all();
-          } else if (nextRegion < n && blockDone[nextRegion] != 0) {
+          } else if (nextRegion < regionCount && blockDone[std::min(nextRegion, n - 1)] != 0) {
             const std::size_t k = nextRegion++;
-            makeRegion(queued_[k], blocks[k], regions[k]);
+            if (k < n) {
+              makeRegion(queued_[k], blocks[k], regions[k]);
+            } else {
+              makeLastRegion(regions[k]);
+            }
             lock.unlock();
             run(regions[k]);
             lock.lock();
-          } else if (nextRegion == n) {
+          } else if (nextRegion == regionCount) {
             return;
           } else {
             changed.wait(lock);
@@ -555,7 +576,7 @@ void DecimationSink::processQueued() {
         throw;
       }
     };
-    onThreads(std::min({static_cast<std::size_t>(std::max(1, options_.threads)), kSideBySide, n}), work);
+    onThreads(std::min({static_cast<std::size_t>(std::max(1, options_.threads)), kSideBySide, regionCount}), work);
   }
   for (std::vector<Work>* group : {&blocks, &regions}) {
     for (const Work& w : *group) count(w.scope);

@@ -239,9 +239,11 @@ class DecimationSink final : public MeshSink {
   };
 
   void queueBlock();
-  void processQueued();
+  // `last`: the stream's last blocks, whose call takes the last half block too.
+  void processQueued(bool last = false);
   void makeBlock(const Block& b, Work& block) const;
   void makeRegion(const Block& b, Work& block, Work& region);
+  void makeLastRegion(Work& region);
   static void onThreads(std::size_t n, const std::function<void(std::size_t)>& body);
   Faces simplify(const Faces& faces, std::int64_t originalTriangles, ChunkRange originals, const Lock& lock,
                  Scope& scope) const;
