@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <exception>
 #include <functional>
+#include <limits>
 #include <mutex>
 #include <system_error>
 #include <thread>
@@ -1170,6 +1171,7 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(std::size_t chun
     if (cells <= most) break;
     surface.cell *= 2;
   }
+  surface.inverse = 1.0 / surface.cell;
   const auto cells = static_cast<std::size_t>(surface.dims[0] * surface.dims[1] * surface.dims[2]);
   // Each triangle's cells, from the bounding box of its corners.
   const auto cellsOf = [&](const Triangle& t, std::array<std::int64_t, 3>& first, std::array<std::int64_t, 3>& last) {
@@ -1311,18 +1313,25 @@ std::array<DecimationSink::Vec3d, 4> DecimationSink::samplePoints(const Triangle
 bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::uint32_t& hint) const {
   if (count == 0) return true;
   const double limit2 = limit * limit;
+  // The triangle's bounding box first, in floats: most triangles of a cell are farther than the
+  // limit. Each gap is lessened by more than the rounding of p to a float and of the subtraction
+  // (a few units in the last place of the largest coordinate), so the test refuses only a triangle
+  // that the exact test would.
+  const std::array<float, 3> q{static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])};
+  const auto largest = static_cast<float>(std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2]), 1.0}));
+  const float slack = 4 * std::numeric_limits<float>::epsilon() * (largest + static_cast<float>(limit));
+  const auto limit2f = static_cast<float>(limit2);
   const auto near = [&](std::uint32_t k) {
     const Triangle& t = triangles[k];
-    const Vec3d a = toDouble(sink->position(t[0])), b = toDouble(sink->position(t[1])),
-                c = toDouble(sink->position(t[2]));
-    // The triangle's bounding box first: most triangles of a cell are farther than the limit.
-    double outside = 0;
-    for (std::size_t d = 0; d < 3; ++d) {
-      const double gap = std::max(std::max(min3(a[d], b[d], c[d]) - p[d], p[d] - max3(a[d], b[d], c[d])), 0.0);
+    const Vec3f &a = sink->position(t[0]), &b = sink->position(t[1]), &c = sink->position(t[2]);
+    float outside = 0;
+    const auto axis = [&](float u, float v, float w, float x) {
+      const float gap = std::max(std::max(min3(u, v, w) - x, x - max3(u, v, w)) - slack, 0.0f);
       outside += gap * gap;
-      if (outside > limit2) return false;
-    }
-    return distanceSquared(p, a, b, c) <= limit2;
+      return outside > limit2f;
+    };
+    if (axis(a.x, b.x, c.x, q[0]) || axis(a.y, b.y, c.y, q[1]) || axis(a.z, b.z, c.z, q[2])) return false;
+    return distanceSquared(p, toDouble(a), toDouble(b), toDouble(c)) <= limit2;
   };
   if (hint < triangles.size() && near(hint)) return true;
   std::int64_t lo[3], hi[3];

@@ -143,8 +143,15 @@ class DecimationSink final : public MeshSink {
     std::size_t count = 0;
     ScratchVector<std::uint32_t> cellStart, cellTriangles;
 
+    // The cell's width and its inverse (the cells are found by multiplying: the same function for
+    // the triangles listed and the points asked about, and monotonic, so that the answers do not
+    // depend on it).
+    double inverse = 1;
     std::int64_t cellOf(double x, std::size_t axis) const {
-      return static_cast<std::int64_t>(std::floor((x - origin[axis]) / cell));
+      // floor, inline (std::floor is a call to libm on this target).
+      const double q = (x - origin[axis]) * inverse;
+      const auto t = static_cast<std::int64_t>(q);
+      return t - (q < static_cast<double>(t) ? 1 : 0);
     }
     // The cell's index, or -1 outside the grid.
     std::int64_t index(std::int64_t x, std::int64_t y, std::int64_t z) const {

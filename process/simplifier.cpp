@@ -74,7 +74,7 @@ bool isDisk(const std::vector<std::array<std::uint32_t, 2>>& pairs) {
   // More than kMaxFan triangles at a vertex stays put: the test is quadratic, and no surface from a
   // lattice has such a vertex (a hostile mesh might).
   if (n < 3 || n > kMaxFan) return false;
-  std::array<std::uint32_t, kMaxFan> next{}, prev{};
+  std::array<std::uint32_t, kMaxFan> next, prev;  // only the first n are read
   for (std::size_t i = 0; i < n; ++i) next[i] = pairs[i][0], prev[i] = pairs[i][1];
   return detail::oneCycle(std::span<const std::uint32_t>(next.data(), n),
                           std::span<const std::uint32_t>(prev.data(), n));
