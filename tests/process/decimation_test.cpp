@@ -278,27 +278,35 @@ TEST(Decimation, WithoutTheMeasureTheOutputIsTheSame) {
 // one block at a time, whether or not the budget lets blocks queue up, and on the threads of the
 // extraction too.
 TEST(Decimation, BlocksSideBySideGiveTheSameOutputAndReport) {
-  DecimateOptions one = smallBlocks(0.25);
-  one.blockSlabs = 3;  // many blocks: pairs, and an odd one at the end
-  one.blockTriangles = 500;
-  DecimateOptions two = one;
-  two.threads = 2;
-  DecimateOptions tight = two;
-  tight.pairBytes = 3000 * kPairBytesPerTriangle;  // some blocks pair up, larger ones go alone
-  const Decimated a = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, one);
-  ASSERT_GT(a.report.blocks, 5u);
-  for (const auto& [options, threads] : {std::pair{two, 1}, std::pair{two, 3}, std::pair{tight, 2}}) {
-    const Decimated b = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, options, threads);
-    EXPECT_TRUE(a.decimated.positions == b.decimated.positions);
-    EXPECT_TRUE(a.decimated.triangles == b.decimated.triangles);
-    EXPECT_EQ(a.report.blocks, b.report.blocks);
-    EXPECT_EQ(a.report.regions, b.report.regions);
-    EXPECT_EQ(a.report.attempts, b.report.attempts);
-    EXPECT_EQ(a.report.frozenTriangles, b.report.frozenTriangles);
-    EXPECT_EQ(a.report.distanceMax, b.report.distanceMax);
-    EXPECT_EQ(a.report.distanceMean, b.report.distanceMean);
-    EXPECT_EQ(b.stats.boundaryEdges, 0u);
-    EXPECT_EQ(b.stats.nonManifoldEdges, 0u);
+  DecimateOptions near = smallBlocks(0.25);
+  near.blockSlabs = 3;  // many blocks: pairs, and an odd one at the end
+  near.blockTriangles = 500;
+  // A bound of two voxels: the original triangles that a region's checks see reach further than
+  // the chunk below its range.
+  DecimateOptions far = near;
+  far.maxError = 2;
+  far.maxDistance = 2;
+  for (const DecimateOptions& one : {near, far}) {
+    SCOPED_TRACE(one.maxDistance);
+    DecimateOptions two = one;
+    two.threads = 2;
+    DecimateOptions tight = two;
+    tight.pairBytes = 3000 * kPairBytesPerTriangle;  // some blocks pair up, larger ones go alone
+    const Decimated a = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, one);
+    ASSERT_GT(a.report.blocks, 5u);
+    for (const auto& [options, threads] : {std::pair{two, 1}, std::pair{two, 3}, std::pair{tight, 2}}) {
+      const Decimated b = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, options, threads);
+      EXPECT_TRUE(a.decimated.positions == b.decimated.positions);
+      EXPECT_TRUE(a.decimated.triangles == b.decimated.triangles);
+      EXPECT_EQ(a.report.blocks, b.report.blocks);
+      EXPECT_EQ(a.report.regions, b.report.regions);
+      EXPECT_EQ(a.report.attempts, b.report.attempts);
+      EXPECT_EQ(a.report.frozenTriangles, b.report.frozenTriangles);
+      EXPECT_EQ(a.report.distanceMax, b.report.distanceMax);
+      EXPECT_EQ(a.report.distanceMean, b.report.distanceMean);
+      EXPECT_EQ(b.stats.boundaryEdges, 0u);
+      EXPECT_EQ(b.stats.nonManifoldEdges, 0u);
+    }
   }
 }
 
