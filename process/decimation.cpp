@@ -1607,6 +1607,30 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
           continue;
         }
         if (shared > 1) continue;
+        // Where the corners of one that it does not share lie strictly on one side of the other's
+        // plane (by more than rounding), neither passes through the other: one's edges do not reach
+        // the plane, and the other's edges lie in it, where the first has no point but a shared
+        // corner. Most pairs in a cell end here.
+        const auto oneSide = [](const std::array<Vec3d, 3>& x, const Triangle& xi, const std::array<Vec3d, 3>& y,
+                                const Triangle& yi) {
+          const Vec3d normal = cross(sub(y[1], y[0]), sub(y[2], y[0]));
+          double size = 0;
+          for (std::size_t k = 0; k < 3; ++k) {
+            const Vec3d e = sub(x[(k + 1) % 3], x[k]);
+            size = std::max(size, dot(e, e));
+          }
+          const double tolerance = 1e-6 * std::sqrt(dot(normal, normal) * size);
+          int above = 0, below = 0, free = 0;
+          for (std::size_t k = 0; k < 3; ++k) {
+            if (xi[k] == yi[0] || xi[k] == yi[1] || xi[k] == yi[2]) continue;
+            ++free;
+            const double d = dot(normal, sub(x[k], y[0]));
+            above += d > tolerance ? 1 : 0;
+            below += d < -tolerance ? 1 : 0;
+          }
+          return free > 0 && (above == free || below == free);
+        };
+        if (oneSide(p, s, q, t) || oneSide(q, t, p, s)) continue;
         bool hit = false;
         for (std::size_t k = 0; k < 3 && !hit; ++k) {
           const bool fromS = shared == 1 && (k == sharedInS || (k + 1) % 3 == sharedInS);
