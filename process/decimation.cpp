@@ -1557,8 +1557,11 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
     if (cells <= 2.0 * static_cast<double>(triangles.size()) + 4096.0) break;
     cell *= 2;
   }
+  // By the inverse width (the same function for the lists and the pairs' corners); x is within the
+  // box, so truncating is flooring.
+  const double inverse = 1.0 / cell;
   const auto cellOf = [&](double x, std::size_t d) {
-    return std::clamp(static_cast<std::int64_t>(std::floor((x - low[d]) / cell)), std::int64_t{0}, dims[d] - 1);
+    return std::clamp(static_cast<std::int64_t>((x - low[d]) * inverse), std::int64_t{0}, dims[d] - 1);
   };
   const auto indexOf = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
     return static_cast<std::size_t>(x + dims[0] * (y + dims[1] * z));
@@ -1594,19 +1597,22 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
             if (s[a] == t[b]) ++shared, sharedInS = a, sharedInT = b;
           }
         }
-        const std::array<Vec3d, 3> p{toDouble(position(s[0])), toDouble(position(s[1])), toDouble(position(s[2]))};
-        const std::array<Vec3d, 3> q{toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))};
         // Two triangles on the same three points (by id, or by position: the copies of a split
         // vertex lie on one point) press a label flat or fold a sheet onto itself.
-        const auto among = [](const Vec3d& x, const std::array<Vec3d, 3>& set) {
+        const std::array<Vec3f, 3> pf{position(s[0]), position(s[1]), position(s[2])};
+        const std::array<Vec3f, 3> qf{position(t[0]), position(t[1]), position(t[2])};
+        const auto among = [](const Vec3f& x, const std::array<Vec3f, 3>& set) {
           return x == set[0] || x == set[1] || x == set[2];
         };
-        if (among(p[0], q) && among(p[1], q) && among(p[2], q) && among(q[0], p) && among(q[1], p) && among(q[2], p)) {
+        if (among(pf[0], qf) && among(pf[1], qf) && among(pf[2], qf) && among(qf[0], pf) && among(qf[1], pf) &&
+            among(qf[2], pf)) {
           out.insert(out.end(), s.begin(), s.end());
           out.insert(out.end(), t.begin(), t.end());
           continue;
         }
         if (shared > 1) continue;
+        const std::array<Vec3d, 3> p{toDouble(pf[0]), toDouble(pf[1]), toDouble(pf[2])};
+        const std::array<Vec3d, 3> q{toDouble(qf[0]), toDouble(qf[1]), toDouble(qf[2])};
         // Where the corners of one that it does not share lie strictly on one side of the other's
         // plane (by more than rounding), neither passes through the other: one's edges do not reach
         // the plane, and the other's edges lie in it, where the first has no point but a shared
