@@ -505,8 +505,9 @@ void DecimationSink::makeRegion(const Block& b, Work& block, Work& w) {
 }
 
 // Simplifies the queued blocks, and the regions across their seams, on the threads that the
-// options give: each thread takes the next region whose block is done (regions are made in block
-// order), else the next block. Then the regions go on in stream order. Every range is clamped to
+// options give (kSideBySide at most): each thread takes the next block while one is left (the
+// long calls first), else the next region whose block is done (regions are made in block order).
+// Then the regions go on in stream order. Every range is clamped to
 // what the one-block-at-a-time schedule would hold at that point, and each call depends only on its
 // input, so the output is the same however many blocks are queued and whatever runs where.
 void DecimationSink::processQueued(bool last) {
