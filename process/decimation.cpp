@@ -329,24 +329,9 @@ void DecimationSink::consume(const MeshChunk& chunk) {
 
 void DecimationSink::finish() {
   if (chunks_ > blockStart_) queueBlock();
-  // The last blocks' call takes the stream's last half block too, as a region of its own.
+  // The last blocks' call takes the stream's last half block too, as a region of its own (alone
+  // when no block came after the last call).
   processQueued(true);
-  if (hasPending_) {  // no block since the last call
-    // The stream's last half block is a region of its own.
-    Scope scope;
-    const ChunkRange range = rangeAround(pendingUpper_.triangles, chunkBase_, chunks_);
-    ++report_.regions;
-    Lock lock;
-    if (complex_) lock.curve = std::move(pendingCurve_);
-    buildGrids({range}, options_.threads);
-    const Faces last = simplify(pendingUpper_, originalIn(pendingMiddle_, chunks_), range, lock, scope);
-    count(scope);
-    if (options_.measure) measure(last.triangles, range, scope);
-    scope.surface.reset();
-    for (std::unique_ptr<OriginalSurface>& grid : chunkGrids_) grid.reset();
-    emit(last, chunkSlab_.back());
-    hasPending_ = false;
-  }
   if (report_.samples > 0) report_.distanceMean = distanceSum_ / static_cast<double>(report_.samples);
   next_.finish();
 }
@@ -511,10 +496,10 @@ void DecimationSink::makeRegion(const Block& b, Work& block, Work& w) {
 // what the one-block-at-a-time schedule would hold at that point, and each call depends only on its
 // input, so the output is the same however many blocks are queued and whatever runs where.
 void DecimationSink::processQueued(bool last) {
-  if (queued_.empty()) return;
   const std::size_t n = queued_.size();
-  // With `last`, region n is the last block's upper half.
-  const std::size_t regionCount = last ? n + 1 : n;
+  // With `last`, region n is the last block's upper half (made once region n - 1 is).
+  const std::size_t regionCount = last && (n > 0 || hasPending_) ? n + 1 : n;
+  if (regionCount == 0) return;
   std::vector<Work> blocks(n), regions(regionCount);
   // The blocks that start at once, here; a later one when it starts (its copy is not held before).
   const std::size_t atOnce = std::min(n, kSideBySide);
@@ -555,7 +540,7 @@ void DecimationSink::processQueued(bool last) {
             lock.lock();
             blockDone[k] = 1;
             changed.notify_all();
-          } else if (nextRegion < regionCount && blockDone[std::min(nextRegion, n - 1)] != 0) {
+          } else if (nextRegion < regionCount && (n == 0 || blockDone[std::min(nextRegion, n - 1)] != 0)) {
             const std::size_t k = nextRegion++;
             if (k < n) {
               makeRegion(queued_[k], blocks[k], regions[k]);

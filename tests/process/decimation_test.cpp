@@ -310,6 +310,28 @@ TEST(Decimation, BlocksSideBySideGiveTheSameOutputAndReport) {
   }
 }
 
+// A surface in every slab up to the top, in blocks of 2 to 6 slabs: where the stream's last chunk
+// closes a block (3 slabs), one thread simplifies that block in its own call and the last half
+// block alone at the end, two threads take both in one call. The same triangles, closed.
+TEST(Decimation, TheLastHalfBlockGivesTheSameOutputAloneOrWithItsBlock) {
+  const auto field = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return static_cast<float>(30.0 - std::hypot(double(x) - 22.0, double(y) - 16.0, double(z) - 60.0));
+  };
+  for (std::int64_t k = 2; k <= 6; ++k) {
+    DecimateOptions one = smallBlocks(0.25);
+    one.blockSlabs = k;
+    one.blockTriangles = 1;
+    DecimateOptions two = one;
+    two.threads = 2;
+    const Decimated a = decimate(field, {44, 32, 44}, Method::kMarchingCubes, one);
+    const Decimated b = decimate(field, {44, 32, 44}, Method::kMarchingCubes, two, 2);
+    EXPECT_TRUE(a.decimated.triangles == b.decimated.triangles);
+    EXPECT_EQ(a.stats.boundaryEdges, 0u);
+    EXPECT_EQ(a.stats.nonManifoldEdges, 0u);
+    EXPECT_EQ(b.stats.boundaryEdges, 0u);
+  }
+}
+
 TEST(Decimation, RefusesBadOptions) {
   DecimateOptions o;
   o.ratio = 0;
