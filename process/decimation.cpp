@@ -589,6 +589,12 @@ const DecimationSink::Originals& DecimationSink::surfaceFor(ChunkRange range, Sc
     for (std::size_t c = std::max(chunkBase_, range.first); c < std::min(chunks_, range.end); ++c) {
       const std::unique_ptr<OriginalSurface>& grid = chunkGrids_[c - chunkBase_];
       if (grid == nullptr) throw std::logic_error("decimation: a chunk's grid was not built before its use");
+      // Every range starts a chunk above its block's base (queueBlock, rangeAround), whose vertices
+      // the window holds, so a grid in use holds all of its chunk's triangles: what a call measures
+      // against does not depend on how far down the window reaches (the number of blocks queued).
+      if (grid->count != grid->triangles.size()) {
+        throw std::logic_error("decimation: a chunk's grid in use lacks triangles below the window");
+      }
       if (grid->count > 0) surface.parts.push_back(grid.get());
     }
     surface.index();
