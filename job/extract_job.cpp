@@ -113,8 +113,11 @@ struct SinkChain {
             bool listComponents, double voxelSize, std::vector<bool>* keepPart, int threads) {
     std::vector<MeshSink*> sinks{&stats};
     if (writer != nullptr) sinks.insert(sinks.begin(), writer);
-    // The report lists the connected components (memory: the live front and the components).
-    if (listComponents) sinks.push_back(&components.emplace());
+    // The report lists the connected components (memory: the live front, 4 bytes a component).
+    if (listComponents) {
+      sinks.push_back(&components.emplace());
+      components->summarize(10);  // what the report lists: not every component of a foam
+    }
     if (sphere) sinks.push_back(&sphereErrors.emplace(*sphere));
     // The preview keeps the image and two slabs' vertices, never the mesh.
     const PreviewSettings& p = settings.preview;
@@ -157,9 +160,9 @@ void describeFinishing(const ExtractSettings& settings, const SinkChain& chain, 
   }
   if (chain.decimation) report.decimation = decimationReport(settings, voxelSize, *chain.decimation);
   if (!settings.components.any()) {
-    const std::vector<Component> none;
+    const ComponentSummary none;
     report.componentsJson =
-        reportText(componentsJson(chain.components ? chain.components->components() : none), settings.reportPath, -1);
+        reportText(componentsJson(chain.components ? chain.components->summary() : none), settings.reportPath, -1);
   }
   if (sphere) {
     report.sphereJson =

@@ -50,6 +50,8 @@ void ComponentSink::begin(const MeshHeader&) {
   clearLive();
   chunks_ = 0;
   finished_.clear();
+  summary_ = ComponentSummary{};
+  firstVertices_.clear();
   peakLive_ = 0;
   partParent_.clear();
   partCount_ = 0;
@@ -221,10 +223,7 @@ void ComponentSink::retire() {
   }
   for (std::uint32_t r = 0; r < live_.size(); ++r) {
     if (inUse_[r] && touched_[r] != chunks_) {
-      if (!labelVertices_) {
-        finished_.push_back(live_[r]);
-        finishedSerial_.push_back(serial_[r]);
-      }
+      if (!labelVertices_) settle(r);
       inUse_[r] = 0;
       freeRecords_.push_back(r);
       --liveCount_;
@@ -251,6 +250,27 @@ void ComponentSink::retire() {
   frontFirst_ = front_.currentFirst();
 }
 
+void ComponentSink::settle(std::uint32_t r) {
+  const Component& c = live_[r];
+  if (!summarize_) {
+    finished_.push_back(c);
+    finishedSerial_.push_back(serial_[r]);
+    return;
+  }
+  ++summary_.count;
+  summary_.closed += c.closed() ? 1 : 0;
+  firstVertices_.push_back(c.firstVertex);
+  // The largest, in the order that the report lists them (firstVertex orders as the id does).
+  const auto before = [](const Component& a, const Component& b) {
+    return a.triangles != b.triangles ? a.triangles > b.triangles : a.firstVertex < b.firstVertex;
+  };
+  std::vector<Component>& largest = summary_.largest;
+  const auto at = std::upper_bound(largest.begin(), largest.end(), c, before);
+  if (static_cast<std::size_t>(at - largest.begin()) >= listed_) return;
+  largest.insert(at, c);
+  if (largest.size() > listed_) largest.pop_back();
+}
+
 void ComponentSink::finish() {
   edges_.settle(front_.currentFirst(), front_.currentEnd(), [this](const EdgeTally::Edge& e) { settleEdge(e); });
   label(front_.currentFirst(), front_.currentEnd());
@@ -259,10 +279,20 @@ void ComponentSink::finish() {
     return;
   }
   for (std::uint32_t r = 0; r < live_.size(); ++r) {
-    if (inUse_[r]) {
-      finished_.push_back(live_[r]);
-      finishedSerial_.push_back(serial_[r]);
+    if (inUse_[r]) settle(r);
+  }
+  if (summarize_) {
+    // A component's id is its rank by first vertex (each vertex is in one component).
+    std::sort(firstVertices_.begin(), firstVertices_.end());
+    for (Component& c : summary_.largest) {
+      c.id = static_cast<std::uint64_t>(std::lower_bound(firstVertices_.begin(), firstVertices_.end(), c.firstVertex) -
+                                        firstVertices_.begin());
+      if (seed_) c.seedDistance = std::sqrt(c.seedDistance);
     }
+    firstVertices_ = {};
+    partParent_ = {};
+    clearLive();
+    return;
   }
   // Sorts by firstVertex in place (the list can be long: a foam has hundreds of thousands), through
   // the permutation's cycles: position i receives the record at order[i].

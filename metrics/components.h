@@ -50,6 +50,14 @@ struct Component {
   friend bool operator==(const Component&, const Component&) = default;
 };
 
+/// What a report says of the components: how many, how many are closed, and the largest few by
+/// triangle count (ties by id), each with its id.
+struct ComponentSummary {
+  std::uint64_t count = 0;
+  std::uint64_t closed = 0;
+  std::vector<Component> largest;
+};
+
 class ComponentSink final : public MeshSink {
  public:
   /// No part: a vertex that no triangle uses.
@@ -66,6 +74,17 @@ class ComponentSink final : public MeshSink {
   /// Throws isoslab::Error when the chunk breaks the streaming contract.
   void consume(const MeshChunk& chunk) override;
   void finish() override;
+
+  /// Keeps only what a report says (ComponentSummary, `listed` components), not every component:
+  /// a foam has hundreds of thousands, 120 bytes each, where this keeps 4 bytes each (their first
+  /// vertices, which number the listed ones). Set before begin(); components() and
+  /// partComponents() then stay empty.
+  void summarize(std::size_t listed) {
+    summarize_ = true;
+    listed_ = listed;
+  }
+  /// With summarize(): the summary, complete after finish().
+  const ComponentSummary& summary() const noexcept { return summary_; }
 
   /// Every component, by id (ascending firstVertex); complete after finish().
   const std::vector<Component>& components() const noexcept { return finished_; }
@@ -92,6 +111,8 @@ class ComponentSink final : public MeshSink {
   void join(std::uint32_t a, std::uint32_t b);
   void settleEdge(const EdgeTally::Edge& e);
   void retire();
+  // A component that can grow no more: to the finished list, or into the summary.
+  void settle(std::uint32_t record);
   void clearLive();
   void label(VertexId first, VertexId end);
   std::uint32_t rootPart(std::uint32_t serial) noexcept;
@@ -110,6 +131,12 @@ class ComponentSink final : public MeshSink {
   std::vector<std::uint32_t> touched_;  // per record: the chunk count when a vertex of it was last seen
   std::uint32_t chunks_ = 0;
   std::vector<Component> finished_;
+  // summarize(): the summary so far, the largest ones by (triangles descending, firstVertex), and
+  // every settled component's first vertex.
+  bool summarize_ = false;
+  std::size_t listed_ = 0;
+  ComponentSummary summary_;
+  std::vector<VertexId> firstVertices_;
   // Part serials: serial_[record] is the serial that a live record stands for (a root of
   // partParent_, the union-find over serials); finishedSerial_ runs beside finished_.
   std::vector<std::uint32_t> serial_, partParent_, finishedSerial_, partComponents_;

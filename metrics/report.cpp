@@ -46,6 +46,23 @@ void addStatsJson(nlohmann::ordered_json& r, const MeshStats& s) {
   r["closed"] = s.closed();
 }
 
+namespace {
+
+// A listed component of the report.
+nlohmann::ordered_json listedJson(const Component& c) {
+  nlohmann::ordered_json e;
+  e["id"] = c.id;
+  if (c.label != 0) e["label"] = c.label;
+  e["triangles"] = c.triangles;
+  e["area"] = c.area;
+  e["volume"] = c.volume;
+  e["bounds"] = c.bounds;
+  e["closed"] = c.closed();
+  return e;
+}
+
+}  // namespace
+
 nlohmann::ordered_json componentsJson(const std::vector<Component>& components, std::size_t listed,
                                       const std::vector<bool>* kept) {
   nlohmann::ordered_json j;
@@ -60,18 +77,20 @@ nlohmann::ordered_json componentsJson(const std::vector<Component>& components, 
   });
   nlohmann::ordered_json largest = nlohmann::ordered_json::array();
   for (auto i = order.begin(); i != order.begin() + shown; ++i) {
-    const Component& c = components[*i];
-    nlohmann::ordered_json e;
-    e["id"] = c.id;
-    if (c.label != 0) e["label"] = c.label;
-    e["triangles"] = c.triangles;
-    e["area"] = c.area;
-    e["volume"] = c.volume;
-    e["bounds"] = c.bounds;
-    e["closed"] = c.closed();
+    nlohmann::ordered_json e = listedJson(components[*i]);
     if (kept != nullptr) e["kept"] = static_cast<bool>((*kept)[*i]);
     largest.push_back(std::move(e));
   }
+  j["largest"] = std::move(largest);
+  return j;
+}
+
+nlohmann::ordered_json componentsJson(const ComponentSummary& summary) {
+  nlohmann::ordered_json j;
+  j["count"] = summary.count;
+  j["closed"] = summary.closed;
+  nlohmann::ordered_json largest = nlohmann::ordered_json::array();
+  for (const Component& c : summary.largest) largest.push_back(listedJson(c));
   j["largest"] = std::move(largest);
   return j;
 }

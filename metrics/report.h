@@ -25,6 +25,8 @@ void addStatsJson(nlohmann::ordered_json& r, const MeshStats& s);
 /// was kept.
 nlohmann::ordered_json componentsJson(const std::vector<Component>& components, std::size_t listed = 10,
                                       const std::vector<bool>* kept = nullptr);
+/// The same from a summary (ComponentSink::summarize), which lists its `largest` in their order.
+nlohmann::ordered_json componentsJson(const ComponentSummary& summary);
 
 /// A component filter's work: {"rules", "passes": 2, "parts" (the first pass's part serials), "kept":
 /// {"count", "triangles", "area", "volume"}, "dropped": {the same}}.

@@ -401,6 +401,7 @@ std::string meshMetrics(const py::array_t<float, py::array::c_style | py::array:
   }
   MeshStatsSink stats;
   ComponentSink components;
+  components.summarize(10);
   std::optional<SphereErrorSink> errors;
   std::vector<MeshSink*> sinks{&stats, &components};
   std::optional<Sphere> s;
@@ -417,7 +418,7 @@ std::string meshMetrics(const py::array_t<float, py::array::c_style | py::array:
     feedMesh(mesh, MeshHeader{}, tee);
     addStatsJson(r, stats.stats());
     r["interior_boundary_edges"] = nullptr;  // unknown: no volume faces
-    r["components"] = componentsJson(components.components());
+    r["components"] = componentsJson(components.summary());
     if (s) r["sphere"] = sphereJson(sphereReport(*s, stats.stats(), *errors));
   }
   return reportText(r, "the mesh", -1);

@@ -1,6 +1,7 @@
 #include "metrics/components.h"
 
 #include "metrics/component_filter.h"
+#include "metrics/report.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -290,6 +291,32 @@ TEST(Components, RandomFoamMatchesAWholeMeshUnionFind) {
         ++expected;
       }
       EXPECT_EQ(triangles, r.mesh.triangles.size());
+    }
+  }
+}
+
+// A report's summary (count, closed, the largest by triangles with ties by id) kept as the stream
+// goes equals the one made from every component at the end, for lists shorter and longer than the
+// ties among a foam's many small blobs of the same size.
+TEST(Components, SummaryEqualsTheReportOfEveryComponent) {
+  for (Method method : {Method::kMarchingCubes, Method::kTetra6}) {
+    SCOPED_TRACE(std::string(methodName(method)));
+    const ComponentRun r = run(foam(11), {40, 40, 40}, method, 0.7);
+    ASSERT_GT(r.components.size(), 100u);
+    std::map<std::uint64_t, int> sizes;
+    for (const Component& c : r.components) ++sizes[c.triangles];
+    ASSERT_LT(sizes.size(), r.components.size() / 2);  // many ties
+    for (std::size_t listed :
+         {std::size_t{0}, std::size_t{1}, std::size_t{10}, std::size_t{97}, r.components.size() + 5}) {
+      SCOPED_TRACE("listed " + std::to_string(listed));
+      ComponentSink sink;
+      sink.summarize(listed);
+      sink.begin(r.header);
+      for (const MeshChunk& chunk : r.chunks) sink.consume(chunk);
+      sink.finish();
+      EXPECT_TRUE(sink.components().empty());
+      EXPECT_EQ(sink.summary().count, r.components.size());
+      EXPECT_EQ(componentsJson(sink.summary()).dump(), componentsJson(r.components, listed).dump());
     }
   }
 }
