@@ -6,7 +6,11 @@ Inputs: the Philips head at -400 HU (../shared/data), the MRI brain of Debian's 
 and a 512x512x256 noisy head phantom at -400 (written as NIfTI first, so that the phantom's own
 cost is not timed). For each, and for 1 and 2 threads:
 - isoslab: plain extraction, `--decimate 0.1`, `--smooth 10 --decimate 0.1` (wall time, peak RSS,
-  triangles; the decimation's added time is the decimated run less the plain one);
+  triangles; the decimation's added time is the decimated run less the plain one). All three write
+  PLY, so that the added time is the finishing's alone: a `.glb` run also pays Draco's encoding of
+  its output, which meshoptimizer's and VTK's timed calls do not (and a plain `.glb` run would pay
+  it on ten times the triangles). One more `--decimate 0.1` run to `.glb` shows what that encoding
+  adds (and gives the peak with the `.glb` encoder, as a user's run has it);
 - on the plain mesh read from PLY: meshoptimizer's whole-mesh `meshopt_simplify` (Debian's 0.18,
   locked border) to the count isoslab kept (bench/isoslab_simplify_whole, the call alone),
   `vtkDecimatePro` and `vtkQuadricDecimation` (Debian's VTK 9.1, the filter alone, target reduction
@@ -104,11 +108,12 @@ def main():
                 plain[who] = isoslab(program, source, iso, plain_mesh if who == "isoslab" else plain_mesh + ".old.ply",
                                      threads, [])
                 show(f"{label}: {who} extract, {threads} thread(s)", plain[who])
-            for finish in (["--decimate", "0.1"], ["--smooth", "10", "--decimate", "0.1"]):
+            for finish, ext in ((["--decimate", "0.1"], "ply"), (["--smooth", "10", "--decimate", "0.1"], "ply"),
+                                (["--decimate", "0.1"], "glb")):
                 for who, program in programs:
-                    r = isoslab(program, source, iso, os.path.join(a.out, f"{who}.glb"), threads, finish)
+                    r = isoslab(program, source, iso, os.path.join(a.out, f"{who}.{ext}"), threads, finish)
                     r["added"] = r["wall"] - plain[who]["wall"]
-                    show(f"{label}: {who} {' '.join(finish)}, {threads} thread(s)", r)
+                    show(f"{label}: {who} {' '.join(finish)} to .{ext}, {threads} thread(s)", r)
                     if who == "isoslab" and finish[0] == "--decimate":
                         kept = r["triangles"]
         if kept and os.path.exists(a.simplify):
