@@ -110,7 +110,7 @@ void ComponentSink::join(std::uint32_t a, std::uint32_t b) {
     return;
   }
   merge(live_[record_[a]], live_[from]);
-  if (!labelVertices_) partParent_[serial_[from]] = serial_[record_[a]];
+  if (!labelVertices_ && !summarize_) partParent_[serial_[from]] = serial_[record_[a]];
   inUse_[from] = 0;
   freeRecords_.push_back(from);
   --liveCount_;
@@ -161,7 +161,7 @@ void ComponentSink::consume(const MeshChunk& chunk) {
       const std::uint32_t serial = partCount_;
       if (serial == kNoPart) throw Error("the mesh has more parts than component labels can count (2^32 - 1)");
       ++partCount_;
-      if (!labelVertices_) partParent_.push_back(serial);
+      if (!labelVertices_ && !summarize_) partParent_.push_back(serial);
       serial_[record_[root]] = serial;
       inUse_[record_[root]] = 1;
       ++liveCount_;
