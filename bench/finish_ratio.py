@@ -21,8 +21,7 @@ import subprocess
 import tempfile
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-SHARED = os.path.join(HERE, "..", "..", "shared", "data")
+from finish_speed import finish_inputs  # bench/finish_speed.py
 
 
 def wall(command):
@@ -39,18 +38,7 @@ def main():
     parser.add_argument("--only", default="philips,brain,phantom")
     a = parser.parse_args()
     out = tempfile.mkdtemp(prefix="finish-ratio-")
-    inputs = []
-    philips = os.path.join(SHARED, "ct-philips-head")
-    if "philips" in a.only and os.path.isdir(philips):
-        inputs.append(("Philips head, -400 HU", [philips], -400))
-    brain = "/usr/share/mricron/templates/ch2better.nii.gz"
-    if "brain" in a.only and os.path.exists(brain):
-        inputs.append(("MRI brain (ch2better), 50", [brain], 50))
-    if "phantom" in a.only:
-        phantom = os.path.join(out, "head512.nii")
-        subprocess.run([a.program, "phantom", "phantom:head?n=512,512,256", "-o", phantom], check=True,
-                       capture_output=True)
-        inputs.append(("noisy head 512x512x256, -400", [phantom], -400))
+    inputs = finish_inputs(a.program, a.only, out)
     plain_mesh, decimated = os.path.join(out, "plain.ply"), os.path.join(out, "decimated.ply")
     for label, source, iso in inputs:
         def run(threads, extra, path):

@@ -66,6 +66,25 @@ def isoslab(program, source, iso, out, threads, extra):
             "decimation": r.get("decimation")}
 
 
+def finish_inputs(program, only, out):
+    """The issue's inputs as (label, source arguments, iso), those of `only` that are here: the
+    Philips head, the MRI brain, and the noisy phantom, written to `out` as NIfTI first (so that its
+    own making is not timed). bench/finish_ratio.py uses the same."""
+    inputs = []
+    philips = os.path.join(SHARED, "ct-philips-head")
+    if "philips" in only and os.path.isdir(philips):
+        inputs.append(("Philips head, -400 HU", [philips], -400))
+    brain = "/usr/share/mricron/templates/ch2better.nii.gz"
+    if "brain" in only and os.path.exists(brain):
+        inputs.append(("MRI brain (ch2better), 50", [brain], 50))
+    if "phantom" in only:
+        phantom = os.path.join(out, "head512.nii")
+        subprocess.run([program, "phantom", "phantom:head?n=512,512,256", "-o", phantom], check=True,
+                       capture_output=True)
+        inputs.append(("noisy head 512x512x256, -400", [phantom], -400))
+    return inputs
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--program", default="build/cli/isoslab")
@@ -76,18 +95,7 @@ def main():
     parser.add_argument("--out", default=tempfile.mkdtemp(prefix="finish-speed-"))
     a = parser.parse_args()
     os.makedirs(a.out, exist_ok=True)
-    inputs = []
-    philips = os.path.join(SHARED, "ct-philips-head")
-    if "philips" in a.only and os.path.isdir(philips):
-        inputs.append(("Philips head, -400 HU", [philips], -400))
-    brain = "/usr/share/mricron/templates/ch2better.nii.gz"
-    if "brain" in a.only and os.path.exists(brain):
-        inputs.append(("MRI brain (ch2better), 50", [brain], 50))
-    if "phantom" in a.only:
-        phantom = os.path.join(a.out, "head512.nii")
-        subprocess.run([a.program, "phantom", "phantom:head?n=512,512,256", "-o", phantom], check=True,
-                       capture_output=True)
-        inputs.append(("noisy head 512x512x256, -400", [phantom], -400))
+    inputs = finish_inputs(a.program, a.only, a.out)
     programs = [("isoslab", a.program)] + ([("old", a.old)] if a.old else [])
     results = []
 
