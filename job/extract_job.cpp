@@ -131,7 +131,7 @@ struct SinkChain {
     // Decimation, last before the writer and the measures: on the smoothed surface.
     if (decimates(settings)) head = &decimation.emplace(*head, decimateOptions(settings, voxelSize, threads));
     // Smoothing runs on what the filter keeps; its output feeds the writer and the measures.
-    if (settings.smoothing.iterations > 0) head = &smoothing.emplace(*head, settings.smoothing);
+    if (settings.smoothing.iterations > 0) head = &smoothing.emplace(*head, settings.smoothing, threads);
     if (keepPart != nullptr) head = &filter.emplace(*head, std::move(*keepPart));
   }
 };

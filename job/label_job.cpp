@@ -171,7 +171,7 @@ class SurfaceSetRun {
       SmoothOptions smooth = settings_.smoothing;
       smooth.maxDisplacement = 0.5 * frame_.smallestEdge();
       if (!settings_.passBandGiven) smooth.passBand = kLabelPassBand;
-      smoothing_.emplace(*head, smooth);
+      smoothing_.emplace(*head, smooth, threads);
       head = &*smoothing_;
     }
     if (isoSet_ && settings_.components.any()) head = &filter_.emplace(*head, std::move(keepPart_));

@@ -109,9 +109,13 @@ SmoothRecurrence smoothRecurrence(const SmoothOptions& o) {
   return r;
 }
 
-SmoothingSink::SmoothingSink(MeshSink& next, const SmoothOptions& options)
-    : next_(next), options_(options), recurrence_(smoothRecurrence(options)) {
+SmoothingSink::SmoothingSink(MeshSink& next, const SmoothOptions& options, int threads, std::size_t minShare)
+    : next_(next),
+      options_(options),
+      recurrence_(smoothRecurrence(options)),
+      minShare_(std::max<std::size_t>(1, minShare)) {
   if (const std::string e = checkSmoothOptions(options); !e.empty()) throw Error(e);
+  if (threads > 1) threads_ = std::make_unique<ThreadShares>(threads);
 }
 
 void SmoothingSink::begin(const MeshHeader& header) {
@@ -211,43 +215,53 @@ void SmoothingSink::finish() {
 }
 
 // Makes the chunk's neighbour lists, each neighbour once, from the edges of its triangles and of
-// the next chunk's (the only ones that use its vertices).
+// the next chunk's (the only ones that use its vertices). Each vertex's neighbours, once per
+// triangle at the edge, are placed by counting (a vertex has a handful), then sorted in place.
 void SmoothingSink::link(std::size_t index) {
   Chunk& chunk = chunks_[index];
   if (chunk.linked) return;
   const VertexId first = chunk.mesh.firstVertex;
   const VertexId end = chunk.end();
-  std::size_t edges = 3 * chunk.mesh.triangles.size();
-  if (index + 1 < chunks_.size()) edges += 3 * chunks_[index + 1].mesh.triangles.size();
-  // (local vertex << 32 | neighbour), two per edge at most.
-  std::vector<std::uint64_t> pairs;
-  pairs.reserve(2 * edges);
-  const auto add = [&](const std::vector<Triangle>& triangles) {
-    for (const Triangle& t : triangles) {
-      for (std::size_t k = 0; k < 3; ++k) {
-        const VertexId a = t[k];
-        const VertexId b = t[(k + 1) % 3];
-        if (a == b) continue;
-        if (a >= first && a < end) pairs.push_back((std::uint64_t{a - first} << 32) | b);
-        if (b >= first && b < end) pairs.push_back((std::uint64_t{b - first} << 32) | a);
+  const std::size_t n = chunk.count;
+  const std::vector<Triangle>* next = index + 1 < chunks_.size() ? &chunks_[index + 1].mesh.triangles : nullptr;
+  const auto eachEnd = [&](auto&& use) {
+    const auto edges = [&](const std::vector<Triangle>& triangles) {
+      for (const Triangle& t : triangles) {
+        for (std::size_t k = 0; k < 3; ++k) {
+          const VertexId a = t[k];
+          const VertexId b = t[(k + 1) % 3];
+          if (a == b) continue;
+          if (a >= first && a < end) use(a - first, b);
+          if (b >= first && b < end) use(b - first, a);
+        }
       }
-    }
+    };
+    edges(chunk.mesh.triangles);
+    if (next != nullptr) edges(*next);
   };
-  add(chunk.mesh.triangles);
-  if (index + 1 < chunks_.size()) add(chunks_[index + 1].mesh.triangles);
-  std::sort(pairs.begin(), pairs.end());
+  std::vector<std::uint32_t> starts(n + 1, 0);
+  eachEnd([&](VertexId local, VertexId) { ++starts[local + 1]; });
+  for (std::size_t v = 0; v < n; ++v) starts[v + 1] += starts[v];
+  std::vector<VertexId> all(starts[n]);
+  {
+    std::vector<std::uint32_t> fill(starts.begin(), starts.end() - 1);
+    eachEnd([&](VertexId local, VertexId neighbour) { all[fill[local]++] = neighbour; });
+  }
+  for (std::size_t v = 0; v < n; ++v) std::sort(all.begin() + starts[v], all.begin() + starts[v + 1]);
   if (header_.labels) {
-    classify(chunk, pairs);
+    classify(chunk, starts, all);
     chunk.linked = true;
     return;
   }
-  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  const std::size_t n = chunk.count;
   chunk.offsets.assign(n + 1, 0);
-  for (std::uint64_t p : pairs) ++chunk.offsets[(p >> 32) + 1];
-  for (std::size_t v = 0; v < n; ++v) chunk.offsets[v + 1] += chunk.offsets[v];
-  chunk.neighbours.resize(pairs.size());
-  for (std::size_t i = 0; i < pairs.size(); ++i) chunk.neighbours[i] = static_cast<VertexId>(pairs[i] & 0xffffffffu);
+  std::size_t kept = 0;
+  for (std::size_t v = 0; v < n; ++v) {
+    for (std::uint32_t i = starts[v]; i < starts[v + 1]; ++i) {
+      if (i == starts[v] || all[i] != all[i - 1]) all[kept++] = all[i];
+    }
+    chunk.offsets[v + 1] = static_cast<std::uint32_t>(kept);
+  }
+  chunk.neighbours.assign(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(kept));
   chunk.linked = true;
 }
 
@@ -286,40 +300,38 @@ Vec3d projectToFaces(std::uint8_t bits, const VolumeFaces& planes, const Vec3d& 
 
 }  // namespace
 
-// A label complex's neighbour lists: `pairs` (sorted, one per triangle at an edge) tell how many
-// triangles each edge has. A sheet vertex takes all its neighbours, a line vertex its two
-// neighbours along the line, a fixed vertex none.
-void SmoothingSink::classify(Chunk& chunk, const std::vector<std::uint64_t>& pairs) {
+// A label complex's neighbour lists: `all[starts[v] .. starts[v + 1])` (sorted, once per triangle at
+// an edge) tell how many triangles each edge has. A sheet vertex takes all its neighbours, a line
+// vertex its two neighbours along the line, a fixed vertex none.
+void SmoothingSink::classify(Chunk& chunk, const std::vector<std::uint32_t>& starts, const std::vector<VertexId>& all) {
   const std::size_t n = chunk.count;
   chunk.offsets.assign(n + 1, 0);
   chunk.kind.assign(n, kSheet);
   chunk.neighbours.clear();
-  std::vector<VertexId> all;
+  chunk.neighbours.reserve(all.size() / 2);
+  std::vector<VertexId> each;
   std::vector<VertexId> line;
-  for (std::size_t i = 0; i < pairs.size();) {
-    const std::uint64_t local = pairs[i] >> 32;
-    all.clear();
+  for (std::size_t v = 0; v < n; ++v) {
+    each.clear();
     line.clear();
-    while (i < pairs.size() && (pairs[i] >> 32) == local) {
-      std::size_t j = i;
-      while (j < pairs.size() && pairs[j] == pairs[i]) ++j;
-      const auto neighbour = static_cast<VertexId>(pairs[i] & 0xffffffffu);
-      all.push_back(neighbour);
-      if (j - i >= 3) line.push_back(neighbour);
+    for (std::uint32_t i = starts[v]; i < starts[v + 1];) {
+      std::uint32_t j = i;
+      while (j < starts[v + 1] && all[j] == all[i]) ++j;
+      each.push_back(all[i]);
+      if (j - i >= 3) line.push_back(all[i]);
       i = j;
     }
-    std::vector<VertexId>* keep = &all;
+    const std::vector<VertexId>* keep = &each;
     if (line.size() == 2) {
-      chunk.kind[local] = kLine;
+      chunk.kind[v] = kLine;
       keep = &line;
     } else if (!line.empty()) {
-      chunk.kind[local] = kFixed;
+      chunk.kind[v] = kFixed;
       keep = nullptr;
     }
     if (keep != nullptr) chunk.neighbours.insert(chunk.neighbours.end(), keep->begin(), keep->end());
-    chunk.offsets[local + 1] = static_cast<std::uint32_t>(chunk.neighbours.size());
+    chunk.offsets[v + 1] = static_cast<std::uint32_t>(chunk.neighbours.size());
   }
-  for (std::size_t v = 0; v < n; ++v) chunk.offsets[v + 1] = std::max(chunk.offsets[v + 1], chunk.offsets[v]);
 }
 
 // A label complex's vertex: a fixed one stays; the others keep to the volume's faces they lie
@@ -336,7 +348,10 @@ SmoothingSink::Vec3d SmoothingSink::constrainLabel(const Chunk& chunk, std::size
   const double limit = options_.maxDisplacement;
   if (limit > 0) {
     const Vec3d d{q[0] - start[0], q[1] - start[1], q[2] - start[2]};
-    const double length = std::sqrt(dot(d, d));
+    const double squared = dot(d, d);
+    // Well inside the limit, the length (rounded) cannot exceed it: no square root.
+    if (squared <= limit * limit * (1 - 1e-12)) return q;
+    const double length = std::sqrt(squared);
     if (length > limit) {
       const double scale = limit / length;
       q = {start[0] + d[0] * scale, start[1] + d[1] * scale, start[2] + d[2] * scale};
@@ -346,27 +361,46 @@ SmoothingSink::Vec3d SmoothingSink::constrainLabel(const Chunk& chunk, std::size
   return q;
 }
 
-// Per label, the largest move of its surface's vertices and how many were held back.
+// Per label, the largest move of its surface's vertices and how many were held back. A vertex's
+// move counts for each label of a triangle that uses it; a held vertex once per label.
 void SmoothingSink::tallyLabels(const Chunk& c) {
-  std::vector<std::pair<std::int32_t, std::uint32_t>> uses;  // (label, local vertex)
-  for (std::size_t t = 0; t < c.mesh.triangles.size() && t < c.mesh.faceLabels.size(); ++t) {
-    for (const VertexId v : c.mesh.triangles[t]) {
-      if (v < c.mesh.firstVertex || v >= c.end()) continue;
-      for (const std::int32_t label : c.mesh.faceLabels[t]) {
-        if (label != 0) uses.emplace_back(label, static_cast<std::uint32_t>(v - c.mesh.firstVertex));
-      }
-    }
-  }
-  std::sort(uses.begin(), uses.end());
-  uses.erase(std::unique(uses.begin(), uses.end()), uses.end());
-  for (const auto& [label, v] : uses) {
-    LabelSmoothing& s = labels_[label];
+  std::vector<double> moved(c.count);
+  for (std::size_t v = 0; v < c.count; ++v) {
     const Vec3d a = toDouble(c.output[v]);
     const Vec3d b = toDouble(c.starts[v]);
     const Vec3d d{a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-    s.largestDisplacement = std::max(s.largestDisplacement, std::sqrt(dot(d, d)));
-    s.heldBack += c.held[v];
+    moved[v] = std::sqrt(dot(d, d));
   }
+  std::vector<std::pair<std::int32_t, std::uint32_t>> held;  // (label, local vertex)
+  std::int32_t lastLabel = 0;
+  LabelSmoothing* last = nullptr;
+  for (std::size_t t = 0; t < c.mesh.triangles.size() && t < c.mesh.faceLabels.size(); ++t) {
+    double largest = -1;
+    bool anyHeld = false;
+    for (const VertexId v : c.mesh.triangles[t]) {
+      if (v < c.mesh.firstVertex || v >= c.end()) continue;
+      largest = std::max(largest, moved[v - c.mesh.firstVertex]);
+      anyHeld = anyHeld || c.held[v - c.mesh.firstVertex] != 0;
+    }
+    if (largest < 0) continue;  // no vertex of this chunk
+    for (const std::int32_t label : c.mesh.faceLabels[t]) {
+      if (label == 0) continue;
+      if (last == nullptr || label != lastLabel) {
+        last = &labels_[label];
+        lastLabel = label;
+      }
+      last->largestDisplacement = std::max(last->largestDisplacement, largest);
+      if (!anyHeld) continue;
+      for (const VertexId v : c.mesh.triangles[t]) {
+        if (v >= c.mesh.firstVertex && v < c.end() && c.held[v - c.mesh.firstVertex] != 0) {
+          held.emplace_back(label, static_cast<std::uint32_t>(v - c.mesh.firstVertex));
+        }
+      }
+    }
+  }
+  std::sort(held.begin(), held.end());
+  held.erase(std::unique(held.begin(), held.end()), held.end());
+  for (const auto& [label, v] : held) ++labels_[label].heldBack;
 }
 
 // Whether the chunk at `index` can go from iteration L to L + 1: its neighbour lists are complete,
@@ -387,31 +421,50 @@ bool SmoothingSink::canAdvance(std::size_t index) const {
 void SmoothingSink::advance(std::size_t index) {
   Chunk& c = chunks_[index];
   const auto level = static_cast<std::size_t>(c.level);
-  const double a = recurrence_.a[level];
-  const double b = recurrence_.b[level];
-  const double cc = recurrence_.c[level];
-  // Iterate `level` of a vertex: current in a chunk at this level, previous in one a step ahead.
-  const auto iterate = [&](VertexId v) -> const Vec3d& {
-    const Chunk& owner = chunks_[index];
-    const Chunk* o = &owner;
-    if (v < owner.mesh.firstVertex) {
-      o = &chunks_[index - 1];
-    } else if (v >= owner.end()) {
-      o = &chunks_[index + 1];
-    }
-    const std::size_t local = v - o->mesh.firstVertex;
-    return o->level == c.level ? o->current[local] : o->previous[local];
-  };
   const std::size_t n = c.current.size();
+  // Iterate `level` of a vertex: current in a chunk at this level, previous in one a step ahead.
+  // A vertex's neighbours lie in its chunk and the ones on either side.
+  const auto iterateOf = [&](const Chunk& o) { return o.level == c.level ? o.current.data() : o.previous.data(); };
+  Step step;
+  step.a = recurrence_.a[level];
+  step.b = recurrence_.b[level];
+  step.c = recurrence_.c[level];
+  step.first = c.mesh.firstVertex;
+  step.end = c.end();
+  step.own = c.current.data();
+  if (index > 0) {
+    step.before = iterateOf(chunks_[index - 1]);
+    step.beforeFirst = chunks_[index - 1].mesh.firstVertex;
+  }
+  if (index + 1 < chunks_.size()) step.after = iterateOf(chunks_[index + 1]);
+  if (options_.method == SmoothMethod::kSinc) step.w = recurrence_.w[level + 1];
   scratch_.resize(n);
-  for (std::size_t v = 0; v < n; ++v) {
+  // The vertices' steps are independent: shared among the threads, the same bytes for any count.
+  const std::size_t shares = threads_ ? std::min(threads_->size(), n / minShare_) : 1;
+  if (shares <= 1) {
+    run(c, step, 0, n);
+  } else {
+    threads_->run(shares, [&](std::size_t i) { run(c, step, n * i / shares, n * (i + 1) / shares); });
+  }
+  std::swap(c.previous, c.current);
+  std::swap(c.current, scratch_);
+  ++c.level;
+}
+
+// One step of the vertices [from, to) of a chunk into scratch_ (and the sinc's sum).
+void SmoothingSink::run(Chunk& c, const Step& step, std::size_t from, std::size_t to) {
+  const bool sum = options_.method == SmoothMethod::kSinc;
+  for (std::size_t v = from; v < to; ++v) {
     const Vec3d& x = c.current[v];
     Vec3d lap{0, 0, 0};
     const std::uint32_t begin = c.offsets[v];
     const std::uint32_t end = c.offsets[v + 1];
     if (end > begin) {
       for (std::uint32_t k = begin; k < end; ++k) {
-        const Vec3d& u = iterate(c.neighbours[k]);
+        const VertexId id = c.neighbours[k];
+        const Vec3d& u = id < step.first ? step.before[id - step.beforeFirst]
+                         : id < step.end ? step.own[id - step.first]
+                                         : step.after[id - step.end];
         for (std::size_t d = 0; d < 3; ++d) lap[d] += u[d];
       }
       const double inv = 1.0 / static_cast<double>(end - begin);
@@ -419,18 +472,12 @@ void SmoothingSink::advance(std::size_t index) {
     }
     Vec3d next;
     for (std::size_t d = 0; d < 3; ++d) {
-      next[d] = a * x[d] + b * lap[d];
-      if (cc != 0) next[d] += cc * c.previous[v][d];
+      next[d] = step.a * x[d] + step.b * lap[d];
+      if (step.c != 0) next[d] += step.c * c.previous[v][d];
     }
     scratch_[v] = constrain(c, v, next);
-  }
-  std::swap(c.previous, c.current);
-  std::swap(c.current, scratch_);
-  ++c.level;
-  if (options_.method == SmoothMethod::kSinc) {
-    const double w = recurrence_.w[level + 1];
-    for (std::size_t v = 0; v < n; ++v) {
-      for (std::size_t d = 0; d < 3; ++d) c.sum[v][d] += w * c.current[v][d];
+    if (sum) {
+      for (std::size_t d = 0; d < 3; ++d) c.sum[v][d] += step.w * scratch_[v][d];
     }
   }
 }

@@ -15,10 +15,12 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "core/mesh_sink.h"
+#include "core/thread_shares.h"
 
 namespace isoslab {
 
@@ -58,6 +60,10 @@ struct LabelSmoothing {
 /// atlas with 1,000 voxels or more keeps its volume within 1% (0.08 loses up to 1.75%).
 inline constexpr double kLabelPassBand = 0.3;
 
+/// The fewest vertices of a chunk's step that a thread takes: a share of a few thousand vertices
+/// takes about as long as waking a thread (measured in docs/performance.md, "Stop 54").
+inline constexpr std::size_t kSmoothMinShare = 2048;
+
 /// The most iterations allowed: the sink holds N + 2 chunks.
 inline constexpr int kMaxSmoothIterations = 500;
 
@@ -78,7 +84,9 @@ std::string checkSmoothOptions(const SmoothOptions& options);
 
 class SmoothingSink final : public MeshSink {
  public:
-  SmoothingSink(MeshSink& next, const SmoothOptions& options);
+  /// Each step of a chunk is shared among up to `threads` threads, at least `minShare` vertices
+  /// each; the output is the same for any count.
+  SmoothingSink(MeshSink& next, const SmoothOptions& options, int threads = 1, std::size_t minShare = kSmoothMinShare);
 
   void begin(const MeshHeader& header) override;
   void consume(const MeshChunk& chunk) override;
@@ -120,6 +128,16 @@ class SmoothingSink final : public MeshSink {
   void link(std::size_t index);
   bool canAdvance(std::size_t index) const;
   void advance(std::size_t index);
+  // What one step of a chunk reads: the recurrence's coefficients, and the iterates of the chunk's
+  // vertices [first, end) and of the chunks on either side.
+  struct Step {
+    double a = 0, b = 0, c = 0, w = 0;
+    VertexId first = 0, end = 0, beforeFirst = 0;
+    const Vec3d* own = nullptr;
+    const Vec3d* before = nullptr;
+    const Vec3d* after = nullptr;
+  };
+  void run(Chunk& chunk, const Step& step, std::size_t from, std::size_t to);
   void sweep();
   void emitReady(bool finished);
   void emit(std::size_t index);
@@ -127,7 +145,7 @@ class SmoothingSink final : public MeshSink {
   const Vec3f& finalPosition(VertexId v);
   Vec3d constrain(const Chunk& chunk, std::size_t local, const Vec3d& p) const;
   Vec3d constrainLabel(const Chunk& chunk, std::size_t local, const Vec3d& p, bool* held) const;
-  void classify(Chunk& chunk, const std::vector<std::uint64_t>& pairs);
+  void classify(Chunk& chunk, const std::vector<std::uint32_t>& starts, const std::vector<VertexId>& all);
   void tallyLabels(const Chunk& chunk);
 
   MeshSink& next_;
@@ -141,6 +159,8 @@ class SmoothingSink final : public MeshSink {
   MeshChunk out_;
   std::vector<Vec3d> scratch_;
   std::map<std::int32_t, LabelSmoothing> labels_;
+  std::size_t minShare_;
+  std::unique_ptr<ThreadShares> threads_;  // none for one thread
 };
 
 }  // namespace isoslab

@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <set>
+#include <tuple>
 
 #include "core/error.h"
 #include "encode/indexed_mesh.h"
@@ -257,11 +258,19 @@ TEST(Smoothing, EveryMethodAndCappedFacesSlideOrLock) {
   }
 }
 
+// The extraction on 1 or 3 threads, and each chunk's steps shared among 1 to 3 threads (a share
+// as small as one vertex here): the same positions and normals as the 1-thread run.
 TEST(Smoothing, SameForEveryThreadCount) {
-  for (int threads : {1, 3}) {
-    SCOPED_TRACE(threads);
+  for (const auto& [threads, smoothThreads, method] : {std::tuple{1, 1, SmoothMethod::kSinc},
+                                                       {3, 1, SmoothMethod::kSinc},
+                                                       {1, 2, SmoothMethod::kSinc},
+                                                       {3, 3, SmoothMethod::kSinc},
+                                                       {1, 2, SmoothMethod::kTaubin},
+                                                       {3, 3, SmoothMethod::kTaubin}}) {
+    SCOPED_TRACE(std::to_string(threads) + " extracting, " + std::to_string(smoothThreads) + " smoothing");
     SmoothOptions o;
     o.iterations = 7;
+    o.method = method;
     std::unique_ptr<SliceSource> source =
         std::make_unique<testing::VectorSource>(std::array<std::int64_t, 3>{32, 30, 34}, lumpyTorus());
     ExtractOptions e;
@@ -271,7 +280,7 @@ TEST(Smoothing, SameForEveryThreadCount) {
     const LatticeFrame frame = LatticeFrame::physical(info);
     auto extractor = makeExtractor(e, info, frame);
     MemoryMeshSink memory;
-    SmoothingSink smooth(memory, o);
+    SmoothingSink smooth(memory, o, smoothThreads, 1);
     PipelineOptions p;
     p.threads = threads;
     p.sequentialVoxels = 0;  // threads even on a small volume
