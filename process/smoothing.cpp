@@ -348,10 +348,7 @@ SmoothingSink::Vec3d SmoothingSink::constrainLabel(const Chunk& chunk, std::size
   const double limit = options_.maxDisplacement;
   if (limit > 0) {
     const Vec3d d{q[0] - start[0], q[1] - start[1], q[2] - start[2]};
-    const double squared = dot(d, d);
-    // Well inside the limit, the length (rounded) cannot exceed it: no square root.
-    if (squared <= limit * limit * (1 - 1e-12)) return q;
-    const double length = std::sqrt(squared);
+    const double length = std::sqrt(dot(d, d));
     if (length > limit) {
       const double scale = limit / length;
       q = {start[0] + d[0] * scale, start[1] + d[1] * scale, start[2] + d[2] * scale};
@@ -454,6 +451,7 @@ void SmoothingSink::advance(std::size_t index) {
 // One step of the vertices [from, to) of a chunk into scratch_ (and the sinc's sum).
 void SmoothingSink::run(Chunk& c, const Step& step, std::size_t from, std::size_t to) {
   const bool sum = options_.method == SmoothMethod::kSinc;
+  const double limitSquared = options_.maxDisplacement * options_.maxDisplacement * (1 - 1e-12);
   for (std::size_t v = from; v < to; ++v) {
     const Vec3d& x = c.current[v];
     Vec3d lap{0, 0, 0};
@@ -475,7 +473,16 @@ void SmoothingSink::run(Chunk& c, const Step& step, std::size_t from, std::size_
       next[d] = step.a * x[d] + step.b * lap[d];
       if (step.c != 0) next[d] += step.c * c.previous[v][d];
     }
-    scratch_[v] = constrain(c, v, next);
+    // Most vertices lie inside the volume, and (a label complex's) well within their limit.
+    bool free = false;
+    if (!header_.labels) {
+      free = c.mesh.boundary.empty() || c.mesh.boundary[v] == 0;
+    } else if (c.faceBits[v] == 0 && (c.kind.empty() || c.kind[v] != kFixed)) {
+      const Vec3d start = toDouble(c.starts[v]);
+      const Vec3d d{next[0] - start[0], next[1] - start[1], next[2] - start[2]};
+      free = options_.maxDisplacement <= 0 || dot(d, d) <= limitSquared;
+    }
+    scratch_[v] = free ? next : constrain(c, v, next);
     if (sum) {
       for (std::size_t d = 0; d < 3; ++d) c.sum[v][d] += step.w * scratch_[v][d];
     }
