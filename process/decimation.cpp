@@ -928,6 +928,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   // The largest distance allowed from the original surface, in output units.
   const double limit = options_.maxDistance * options_.voxelSize;
   LazyScratchVector<SimplifyStep> log;
+  CrossingCache crossingCache;
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
     // Every array at its size (growing one would copy it and leave slack).
     Faces input, result;
@@ -1056,7 +1057,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // A label complex's sheets lie close together (a label one voxel thick): a collapse within the
     // bound can push one through another.
     if (complex_) {
-      const ScratchVector<VertexId> crossing = crossingVertices(out);
+      const ScratchVector<VertexId> crossing = crossingVertices(out, crossingCache);
       bad.insert(bad.end(), crossing.begin(), crossing.end());
     }
     const bool shaped = complex_ ? oddKept == otherOdd : before.odd.empty();
@@ -1521,9 +1522,37 @@ namespace isoslab {
 // there would be more than about two cells a triangle), each pair tested in the one cell that holds
 // the low corner of their boxes' overlap: an edge of either through the other (for two triangles
 // with a corner in common, a fold: the edge opposite it), or both on the same three points.
-ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangle> triangles) const {
+ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangle> triangles,
+                                                         CrossingCache& cache) const {
   ScratchVector<VertexId> out;
-  if (triangles.size() < 2) return out;
+  // The triangles of the last try that are here again (each once here and once there): a pair of
+  // them is not tested again, and crosses if it crossed then.
+  ScratchVector<Triangle> sorted(triangles.begin(), triangles.end());
+  std::sort(sorted.begin(), sorted.end());
+  const auto once = [](const ScratchVector<Triangle>& list, const Triangle& t) {
+    const auto [from, to] = std::equal_range(list.begin(), list.end(), t);
+    return to - from == 1;
+  };
+  ScratchVector<std::uint8_t> known(triangles.size(), 0);
+  if (!cache.tested.empty()) {
+    for (std::size_t t = 0; t < triangles.size(); ++t) {
+      known[t] = once(cache.tested, triangles[t]) && once(sorted, triangles[t]) ? 1 : 0;
+    }
+  }
+  std::vector<std::pair<Triangle, Triangle>> pairs;
+  for (const auto& [s, t] : cache.pairs) {
+    if (once(cache.tested, s) && once(sorted, s) && once(cache.tested, t) && once(sorted, t)) {
+      out.insert(out.end(), s.begin(), s.end());
+      out.insert(out.end(), t.begin(), t.end());
+      pairs.emplace_back(s, t);
+    }
+  }
+  const auto keep = [&] {
+    cache.tested = std::move(sorted);
+    cache.pairs = std::move(pairs);
+    return std::move(out);
+  };
+  if (triangles.size() < 2) return keep();
   struct Box {
     Vec3d low, high;
   };
@@ -1571,6 +1600,7 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
   for (std::size_t i = 0; i + 1 < start.size(); ++i) {
     for (std::uint32_t m = start[i]; m < start[i + 1]; ++m) {
       for (std::uint32_t n = m + 1; n < start[i + 1]; ++n) {
+        if (known[list[m]] != 0 && known[list[n]] != 0) continue;
         const Triangle &s = triangles[list[m]], &t = triangles[list[n]];
         const Box &bs = boxes[list[m]], &bt = boxes[list[n]];
         bool apart = false;
@@ -1600,6 +1630,7 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
             among(qf[2], pf)) {
           out.insert(out.end(), s.begin(), s.end());
           out.insert(out.end(), t.begin(), t.end());
+          pairs.emplace_back(s, t);
           continue;
         }
         if (shared > 1) continue;
@@ -1639,11 +1670,12 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
         if (hit) {
           out.insert(out.end(), s.begin(), s.end());
           out.insert(out.end(), t.begin(), t.end());
+          pairs.emplace_back(s, t);
         }
       }
     }
   }
-  return out;
+  return keep();
 }
 
 }  // namespace isoslab

@@ -282,8 +282,15 @@ class DecimationSink final : public MeshSink {
   // the same range: the tries, the simplifier's checks and the distance measure of the output share
   // it.
   const Originals& surfaceFor(ChunkRange range, Scope& scope) const;
+  // What a region's crossing search found in its last try: the triangles it tested (sorted) and
+  // the pairs that cross. A pair of triangles that were both in that try, once each, crosses now
+  // as it did then, so the next try tests only the pairs with a triangle that is new.
+  struct CrossingCache {
+    ScratchVector<Triangle> tested;
+    std::vector<std::pair<Triangle, Triangle>> pairs;
+  };
   // The vertices of triangles that pass through one another (or fold over a corner they share).
-  ScratchVector<VertexId> crossingVertices(std::span<const Triangle> triangles) const;
+  ScratchVector<VertexId> crossingVertices(std::span<const Triangle> triangles, CrossingCache& cache) const;
   double triangleDistance(const Triangle& t, const Originals& surface, double* sum, std::uint64_t* count) const;
   // Whether the triangle's centroid and edge midpoints are within `limit` of the original surface
   // (with `forwardEdges`, only the midpoints of the edges that run from the smaller id).
