@@ -1596,11 +1596,16 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
   for (const Box& b : boxes) forCells(b, [&](std::size_t i) { ++start[i + 1]; });
   for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
   ScratchVector<std::uint32_t> list(start.back()), fill(start.begin(), start.end() - 1);
-  for (std::uint32_t t = 0; t < boxes.size(); ++t) forCells(boxes[t], [&](std::size_t i) { list[fill[i]++] = t; });
+  // Each cell lists its new triangles first: a pair is tested from its first triangle, which must
+  // be new unless the last try had both.
+  for (const int listed : {0, 1}) {
+    for (std::uint32_t t = 0; t < boxes.size(); ++t) {
+      if (known[t] == listed) forCells(boxes[t], [&](std::size_t i) { list[fill[i]++] = t; });
+    }
+  }
   for (std::size_t i = 0; i + 1 < start.size(); ++i) {
-    for (std::uint32_t m = start[i]; m < start[i + 1]; ++m) {
+    for (std::uint32_t m = start[i]; m < start[i + 1] && known[list[m]] == 0; ++m) {
       for (std::uint32_t n = m + 1; n < start[i + 1]; ++n) {
-        if (known[list[m]] != 0 && known[list[n]] != 0) continue;
         const Triangle &s = triangles[list[m]], &t = triangles[list[n]];
         const Box &bs = boxes[list[m]], &bt = boxes[list[n]];
         bool apart = false;
