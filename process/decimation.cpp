@@ -1235,27 +1235,39 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(std::size_t chun
   return surface;
 }
 
-double DecimationSink::OriginalSurface::nearestInCell(std::int64_t x, std::int64_t y, std::int64_t z,
-                                                      const Vec3d& p) const {
+double DecimationSink::OriginalSurface::nearestInCell(std::int64_t x, std::int64_t y, std::int64_t z, const Vec3d& p,
+                                                      double best, std::uint32_t& which) const {
   const std::int64_t i = index(x, y, z);
-  if (i < 0) return INFINITY;
-  double best = INFINITY;
+  if (i < 0) return best;
   for (std::uint32_t k = cellStart[static_cast<std::size_t>(i)]; k < cellStart[static_cast<std::size_t>(i) + 1]; ++k) {
     const Triangle& t = triangles[cellTriangles[k]];
-    best = std::min(best, distanceSquared(p, toDouble(sink->position(t[0])), toDouble(sink->position(t[1])),
-                                          toDouble(sink->position(t[2]))));
+    const Vec3d a = toDouble(sink->position(t[0])), b = toDouble(sink->position(t[1])),
+                c = toDouble(sink->position(t[2]));
+    // The triangle's box farther than the nearest so far (with room for rounding): no point of it
+    // is nearer.
+    double gap = 0;
+    for (std::size_t d = 0; d < 3; ++d) {
+      const double g = std::max({min3(a[d], b[d], c[d]) - p[d], p[d] - max3(a[d], b[d], c[d]), 0.0});
+      gap += g * g;
+    }
+    if (gap > best * (1 + 1e-9)) continue;
+    const double d = distanceSquared(p, a, b, c);
+    if (d < best) {
+      best = d;
+      which = cellTriangles[k];
+    }
   }
   return best;
 }
 
-// The distance from p to the nearest original triangle. A triangle nearer than the nearest in p's
-// cell meets the ball of that radius around p, so it is listed in a cell that the ball's box
-// meets; when p's cell is empty, the cells in growing rings around it, until no cell further out
-// can hold a nearer one.
-double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
+// A triangle nearer than `best` (the nearest in p's cell, or the one known) meets the ball of that
+// radius around p, so it is listed in a cell that the ball's box meets; when p's cell is empty and
+// none is known, the cells in growing rings around it, until no cell further out can hold a nearer
+// one.
+double DecimationSink::OriginalSurface::nearestSquared(const Vec3d& p, double best, std::uint32_t& which) const {
   if (count == 0) return 0;
   const std::int64_t cx = cellOf(p[0], 0), cy = cellOf(p[1], 1), cz = cellOf(p[2], 2);
-  double best = nearestInCell(cx, cy, cz, p);
+  best = nearestInCell(cx, cy, cz, p, best, which);
   if (best < INFINITY) {
     const double r = std::sqrt(best);
     std::int64_t lo[3], hi[3];
@@ -1266,16 +1278,16 @@ double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
     for (std::int64_t z = lo[2]; z <= hi[2]; ++z)
       for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
         for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
-          if (x != cx || y != cy || z != cz) best = std::min(best, nearestInCell(x, y, z, p));
+          if (x != cx || y != cy || z != cz) best = nearestInCell(x, y, z, p, best, which);
         }
-    return std::sqrt(best);
+    return best;
   }
   for (std::int64_t ring = 1;; ++ring) {
     for (std::int64_t z = cz - ring; z <= cz + ring; ++z) {
       for (std::int64_t y = cy - ring; y <= cy + ring; ++y) {
         for (std::int64_t x = cx - ring; x <= cx + ring; ++x) {
           if (std::max({std::abs(x - cx), std::abs(y - cy), std::abs(z - cz)}) != ring) continue;
-          best = std::min(best, nearestInCell(x, y, z, p));
+          best = nearestInCell(x, y, z, p, best, which);
         }
       }
     }
@@ -1288,7 +1300,7 @@ double DecimationSink::OriginalSurface::distance(const Vec3d& p) const {
       const double above = origin[a] + static_cast<double>(centre[a] + ring + 1) * cell - p[a];
       reach = std::min({reach, below, above});
     }
-    if (best <= reach * reach || ring > 64) return std::sqrt(best);
+    if (best <= reach * reach || ring > 64) return best;
   }
 }
 
@@ -1424,8 +1436,25 @@ void DecimationSink::Originals::index() {
 
 // The distance from p to the nearest original triangle: the grid nearest by its box first, then
 // every grid whose box is nearer than the nearest triangle found.
-double DecimationSink::Originals::distance(const Vec3d& p) const {
+double DecimationSink::Originals::distance(const Vec3d& p, Hint& hint) const {
   if (parts.empty()) return 0;
+  // The hinted triangle's distance bounds the search.
+  double best = INFINITY;  // squared
+  if (hint != kNoHint) {
+    const std::size_t part = hint >> 32;
+    const auto k = static_cast<std::uint32_t>(hint & 0xffffffffu);
+    if (part < parts.size() && k < parts[part]->triangles.size()) {
+      const Triangle& t = parts[part]->triangles[k];
+      const DecimationSink& sink = *parts[part]->sink;
+      best = distanceSquared(p, toDouble(sink.position(t[0])), toDouble(sink.position(t[1])),
+                             toDouble(sink.position(t[2])));
+    }
+  }
+  const auto search = [&](std::size_t i) {
+    std::uint32_t which = ~0u;
+    best = parts[i]->nearestSquared(p, best, which);
+    if (which != ~0u) hint = static_cast<Hint>(i) << 32 | which;
+  };
   // A first answer from the part nearest by its box among those about p along the axis.
   const auto byLow = [&](double x, const OriginalSurface* g) { return x < g->low[axis]; };
   const auto at =
@@ -1436,17 +1465,18 @@ double DecimationSink::Originals::distance(const Vec3d& p) const {
     const double gap = boxGapSquared(p, parts[i]->low, parts[i]->high);
     if (gap < nearestGap) nearestGap = gap, nearest = i;
   }
-  double best = parts[nearest]->distance(p);
+  search(nearest);
   // Then every part whose box is nearer than that: those that begin below p + best along the axis,
   // from the last down, until none before reaches p - best.
-  const double from = p[axis] - best, to = p[axis] + best;
+  const double r = std::sqrt(best);
+  const double from = p[axis] - r, to = p[axis] + r;
   const auto end = std::upper_bound(parts.begin(), parts.end(), to, byLow);
   for (auto i = static_cast<std::size_t>(end - parts.begin()); i-- > 0;) {
     if (reach[i] < from) break;
-    if (i == nearest || boxGapSquared(p, parts[i]->low, parts[i]->high) >= best * best) continue;
-    best = std::min(best, parts[i]->distance(p));
+    if (i == nearest || boxGapSquared(p, parts[i]->low, parts[i]->high) >= best) continue;
+    search(i);
   }
-  return best;
+  return std::sqrt(best);
 }
 
 // Whether every sample point of the triangle (centroid and edge midpoints) lies within `limit` of
@@ -1464,12 +1494,12 @@ bool DecimationSink::triangleWithin(const Triangle& t, const Originals& surface,
 
 // The largest distance from the triangle's sample points (centroid and edge midpoints) to the
 // original surface; with `sum` and `count`, their sum and number too.
-double DecimationSink::triangleDistance(const Triangle& t, const Originals& surface, double* sum,
+double DecimationSink::triangleDistance(const Triangle& t, const Originals& surface, Hint& hint, double* sum,
                                         std::uint64_t* count) const {
   const std::array<Vec3d, 4> samples = samplePoints(t);
   double worst = 0;
   for (const Vec3d& s : samples) {
-    const double d = surface.distance(s);
+    const double d = surface.distance(s, hint);
     worst = std::max(worst, d);
     if (sum != nullptr) *sum += d;
   }
@@ -1481,8 +1511,10 @@ double DecimationSink::triangleDistance(const Triangle& t, const Originals& surf
 void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope) {
   if (triangles.empty()) return;
   const Originals& surface = surfaceFor(originals, scope);
+  Hint hint = kNoHint;
   for (const Triangle& t : triangles) {
-    report_.distanceMax = std::max(report_.distanceMax, triangleDistance(t, surface, &distanceSum_, &report_.samples));
+    report_.distanceMax =
+        std::max(report_.distanceMax, triangleDistance(t, surface, hint, &distanceSum_, &report_.samples));
   }
   scope.surface.reset();  // not held while the region goes on downstream
 }

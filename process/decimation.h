@@ -158,9 +158,14 @@ class DecimationSink final : public MeshSink {
       if (x < 0 || y < 0 || z < 0 || x >= dims[0] || y >= dims[1] || z >= dims[2]) return -1;
       return x + dims[0] * (y + dims[1] * z);
     }
-    // The squared distance from p to the nearest triangle in the cell, or infinity.
-    double nearestInCell(std::int64_t x, std::int64_t y, std::int64_t z, const Vec3d& p) const;
-    double distance(const Vec3d& p) const;
+    // The squared distance from p to the nearest triangle in the cell if it is below `best`
+    // (squared), else `best`; `which` is set to that triangle. A triangle whose box is farther than
+    // `best` is not measured.
+    double nearestInCell(std::int64_t x, std::int64_t y, std::int64_t z, const Vec3d& p, double best,
+                         std::uint32_t& which) const;
+    // The squared distance from p to the nearest listed triangle if it is below `best` (squared: a
+    // triangle at that distance is known), else `best`; `which` is set to that triangle.
+    double nearestSquared(const Vec3d& p, double best, std::uint32_t& which) const;
     // Whether some original triangle lies within `limit` of p. `hint` names a triangle to try first
     // (the last one found, as the points asked about in turn lie close together) and is set to the
     // one found; the answer does not depend on it.
@@ -188,8 +193,10 @@ class DecimationSink final : public MeshSink {
     // Orders the parts, once they are all in.
     void index();
 
-    // The distance from p to the nearest original triangle (0 where there is none).
-    double distance(const Vec3d& p) const;
+    // The distance from p to the nearest original triangle (0 where there is none). `hint` names a
+    // triangle measured first (the last one found: the points asked about in turn lie close
+    // together), and is set to the one found; the answer does not depend on it.
+    double distance(const Vec3d& p, Hint& hint) const;
     // Whether some original triangle lies within `limit` of p (true where there is none); the
     // answer does not depend on `hint`.
     bool within(const Vec3d& p, double limit, Hint& hint) const;
@@ -291,7 +298,8 @@ class DecimationSink final : public MeshSink {
   };
   // The vertices of triangles that pass through one another (or fold over a corner they share).
   ScratchVector<VertexId> crossingVertices(std::span<const Triangle> triangles, CrossingCache& cache) const;
-  double triangleDistance(const Triangle& t, const Originals& surface, double* sum, std::uint64_t* count) const;
+  double triangleDistance(const Triangle& t, const Originals& surface, Hint& hint, double* sum,
+                          std::uint64_t* count) const;
   // Whether the triangle's centroid and edge midpoints are within `limit` of the original surface
   // (with `forwardEdges`, only the midpoints of the edges that run from the smaller id).
   bool triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint,
