@@ -115,7 +115,7 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
   extract
       ->add_option("--threads", args.threads,
                    "Threads (default: the core count, at most 8, shared among the ranks on a machine under mpirun): N "
-                   "threads share reading, extracting and "
+                   "threads share reading, extracting, smoothing and "
                    "writing, and .glb chunks encode on up to N more, as --max-memory allows; volumes under "
                    "2^24 voxels take 1. The output is the same for every count")
       ->check(integerIn(1, kMaxThreads));
