@@ -25,6 +25,7 @@ class ThreadShares {
   /// The most shares that run() runs at once.
   std::size_t size() const noexcept { return size_; }
 
+  /// One caller at a time, and not from within a body.
   /// Runs body(0) .. body(n - 1) and returns when all are done: body(0) on the calling thread, the
   /// next size() - 1 on the waiting threads, and the rest (beyond size(), or whose thread could not
   /// be started) on the calling thread afterwards. Rethrows the first error, in the order of the

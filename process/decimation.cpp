@@ -1250,7 +1250,7 @@ double DecimationSink::OriginalSurface::nearestInCell(std::int64_t x, std::int64
       const double g = std::max({min3(a[d], b[d], c[d]) - p[d], p[d] - max3(a[d], b[d], c[d]), 0.0});
       gap += g * g;
     }
-    if (gap > best * (1 + 1e-9)) continue;
+    if (gap > best * (1 + 1e-9) + 1e-9 * cell * cell) continue;
     const double d = distanceSquared(p, a, b, c);
     if (d < best) {
       best = d;
@@ -1443,11 +1443,16 @@ double DecimationSink::Originals::distance(const Vec3d& p, Hint& hint) const {
   if (hint != kNoHint) {
     const std::size_t part = hint >> 32;
     const auto k = static_cast<std::uint32_t>(hint & 0xffffffffu);
-    if (part < parts.size() && k < parts[part]->triangles.size()) {
+    // A listed triangle (its corners from the grid's least vertex on: the others' may be gone).
+    if (part < parts.size() && k < parts[part]->triangles.size() &&
+        min3(parts[part]->triangles[k][0], parts[part]->triangles[k][1], parts[part]->triangles[k][2]) >=
+            parts[part]->minVertex) {
       const Triangle& t = parts[part]->triangles[k];
       const DecimationSink& sink = *parts[part]->sink;
-      best = distanceSquared(p, toDouble(sink.position(t[0])), toDouble(sink.position(t[1])),
-                             toDouble(sink.position(t[2])));
+      // Not NaN (a triangle with two corners on one point can give it): the search ignores those.
+      const double d = distanceSquared(p, toDouble(sink.position(t[0])), toDouble(sink.position(t[1])),
+                                       toDouble(sink.position(t[2])));
+      if (d < best) best = d;
     }
   }
   const auto search = [&](std::size_t i) {
@@ -1466,14 +1471,16 @@ double DecimationSink::Originals::distance(const Vec3d& p, Hint& hint) const {
     if (gap < nearestGap) nearestGap = gap, nearest = i;
   }
   search(nearest);
-  // Then every part whose box is nearer than that: those that begin below p + best along the axis,
-  // from the last down, until none before reaches p - best.
+  // Then every part whose box is nearer than that (with room for rounding): those that begin below
+  // p + r along the axis (r: the distance so far), from the last down, until none before reaches
+  // p - r.
   const double r = std::sqrt(best);
   const double from = p[axis] - r, to = p[axis] + r;
   const auto end = std::upper_bound(parts.begin(), parts.end(), to, byLow);
   for (auto i = static_cast<std::size_t>(end - parts.begin()); i-- > 0;) {
     if (reach[i] < from) break;
-    if (i == nearest || boxGapSquared(p, parts[i]->low, parts[i]->high) >= best) continue;
+    const double slack = 1e-9 * parts[i]->cell * parts[i]->cell;
+    if (i == nearest || boxGapSquared(p, parts[i]->low, parts[i]->high) > best * (1 + 1e-9) + slack) continue;
     search(i);
   }
   return std::sqrt(best);

@@ -160,11 +160,13 @@ class DecimationSink final : public MeshSink {
     }
     // The squared distance from p to the nearest triangle in the cell if it is below `best`
     // (squared), else `best`; `which` is set to that triangle. A triangle whose box is farther than
-    // `best` is not measured.
+    // `best` (by more than rounding) is not measured.
     double nearestInCell(std::int64_t x, std::int64_t y, std::int64_t z, const Vec3d& p, double best,
                          std::uint32_t& which) const;
     // The squared distance from p to the nearest listed triangle if it is below `best` (squared: a
-    // triangle at that distance is known), else `best`; `which` is set to that triangle.
+    // triangle at that distance is known), else `best` (0 for a grid without triangles); `which` is
+    // set to that triangle. Exact, except that without a bound and with p's cell empty the search
+    // stops after 64 rings of cells.
     double nearestSquared(const Vec3d& p, double best, std::uint32_t& which) const;
     // Whether some original triangle lies within `limit` of p. `hint` names a triangle to try first
     // (the last one found, as the points asked about in turn lie close together) and is set to the
@@ -195,7 +197,8 @@ class DecimationSink final : public MeshSink {
 
     // The distance from p to the nearest original triangle (0 where there is none). `hint` names a
     // triangle measured first (the last one found: the points asked about in turn lie close
-    // together), and is set to the one found; the answer does not depend on it.
+    // together), and is set to the one found; it bounds the search, so the answer does not depend
+    // on it (but for the ring search's limit above, which a bound avoids).
     double distance(const Vec3d& p, Hint& hint) const;
     // Whether some original triangle lies within `limit` of p (true where there is none); the
     // answer does not depend on `hint`.

@@ -372,14 +372,15 @@ void SmoothingSink::tallyLabels(const Chunk& c) {
   std::int32_t lastLabel = 0;
   LabelSmoothing* last = nullptr;
   for (std::size_t t = 0; t < c.mesh.triangles.size() && t < c.mesh.faceLabels.size(); ++t) {
-    double largest = -1;
-    bool anyHeld = false;
+    double largest = 0;
+    bool here = false, anyHeld = false;
     for (const VertexId v : c.mesh.triangles[t]) {
       if (v < c.mesh.firstVertex || v >= c.end()) continue;
-      largest = std::max(largest, moved[v - c.mesh.firstVertex]);
+      largest = here ? std::max(largest, moved[v - c.mesh.firstVertex]) : moved[v - c.mesh.firstVertex];
+      here = true;
       anyHeld = anyHeld || c.held[v - c.mesh.firstVertex] != 0;
     }
-    if (largest < 0) continue;  // no vertex of this chunk
+    if (!here) continue;  // no vertex of this chunk
     for (const std::int32_t label : c.mesh.faceLabels[t]) {
       if (label == 0) continue;
       if (last == nullptr || label != lastLabel) {
