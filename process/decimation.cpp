@@ -205,6 +205,21 @@ double distanceSquared(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec
   return at({a[0] + ab[0] * v + ac[0] * w, a[1] + ab[1] * v + ac[1] * w, a[2] + ab[2] * v + ac[2] * w});
 }
 
+// Whether the bounding box of triangle abc lies farther than sqrt(bound) from p, tested in floats
+// axis by axis (q: p rounded to floats). Each gap is lessened by `slack`, more than the rounding of
+// p to q and of the subtraction (a few units in the last place of the largest coordinate), so that
+// the answer is true only where the exact test's is.
+bool boxBeyond(const Vec3f& a, const Vec3f& b, const Vec3f& c, const std::array<float, 3>& q, float slack,
+               float bound) {
+  float outside = 0;
+  const auto axis = [&](float u, float v, float w, float x) {
+    const float gap = std::max(std::max(min3(u, v, w) - x, x - max3(u, v, w)) - slack, 0.0f);
+    outside += gap * gap;
+    return outside > bound;
+  };
+  return axis(a.z, b.z, c.z, q[2]) || axis(a.y, b.y, c.y, q[1]) || axis(a.x, b.x, c.x, q[0]);
+}
+
 // The squared distance from p to the box [low, high] (0 inside).
 double boxGapSquared(const Vec3d& p, const Vec3d& low, const Vec3d& high) {
   double sum = 0;
@@ -1239,22 +1254,22 @@ double DecimationSink::OriginalSurface::nearestInCell(std::int64_t x, std::int64
                                                       double best, std::uint32_t& which) const {
   const std::int64_t i = index(x, y, z);
   if (i < 0) return best;
+  // The triangle's box farther than the nearest so far: no point of it is nearer (boxBeyond, with
+  // `best` raised by more than its rounding to a float).
+  const std::array<float, 3> q{static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])};
+  const auto largest = static_cast<float>(std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2]), 1.0}));
+  float bound = static_cast<float>(best * (1 + 1e-5) + 1e-9 * cell * cell);
+  float slack = 4 * std::numeric_limits<float>::epsilon() * (largest + std::sqrt(bound));
   for (std::uint32_t k = cellStart[static_cast<std::size_t>(i)]; k < cellStart[static_cast<std::size_t>(i) + 1]; ++k) {
     const Triangle& t = triangles[cellTriangles[k]];
-    const Vec3d a = toDouble(sink->position(t[0])), b = toDouble(sink->position(t[1])),
-                c = toDouble(sink->position(t[2]));
-    // The triangle's box farther than the nearest so far (with room for rounding): no point of it
-    // is nearer.
-    double gap = 0;
-    for (std::size_t d = 0; d < 3; ++d) {
-      const double g = std::max({min3(a[d], b[d], c[d]) - p[d], p[d] - max3(a[d], b[d], c[d]), 0.0});
-      gap += g * g;
-    }
-    if (gap > best * (1 + 1e-9) + 1e-9 * cell * cell) continue;
-    const double d = distanceSquared(p, a, b, c);
+    const Vec3f &a = sink->position(t[0]), &b = sink->position(t[1]), &c = sink->position(t[2]);
+    if (boxBeyond(a, b, c, q, slack, bound)) continue;
+    const double d = distanceSquared(p, toDouble(a), toDouble(b), toDouble(c));
     if (d < best) {
       best = d;
       which = cellTriangles[k];
+      bound = static_cast<float>(best * (1 + 1e-5) + 1e-9 * cell * cell);
+      slack = 4 * std::numeric_limits<float>::epsilon() * (largest + std::sqrt(bound));
     }
   }
   return best;
@@ -1275,11 +1290,28 @@ double DecimationSink::OriginalSurface::nearestSquared(const Vec3d& p, double be
       lo[a] = std::max<std::int64_t>(0, cellOf(p[a] - r, a));
       hi[a] = std::min(dims[a] - 1, cellOf(p[a] + r, a));
     }
-    for (std::int64_t z = lo[2]; z <= hi[2]; ++z)
-      for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
+    // A nearer triangle's nearest point to p lies in a cell that lists it, no farther from p than
+    // `best`: a cell farther (its box widened by more than the rounding of cellOf) is skipped.
+    const double widen = 1e-6 * cell;
+    const auto gapAlong = [&](std::size_t a, std::int64_t i) {
+      const double from = origin[a] + static_cast<double>(i) * cell - widen;
+      const double to = origin[a] + static_cast<double>(i + 1) * cell + widen;
+      const double g = std::max({from - p[a], p[a] - to, 0.0});
+      return g * g;
+    };
+    for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+      const double gz = gapAlong(2, z);
+      if (gz > best) continue;
+      for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
+        const double gy = gz + gapAlong(1, y);
+        if (gy > best) continue;
         for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
-          if (x != cx || y != cy || z != cz) best = nearestInCell(x, y, z, p, best, which);
+          if ((x != cx || y != cy || z != cz) && gy + gapAlong(0, x) <= best) {
+            best = nearestInCell(x, y, z, p, best, which);
+          }
         }
+      }
+    }
     return best;
   }
   for (std::int64_t ring = 1;; ++ring) {
@@ -1319,9 +1351,7 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::
   if (count == 0) return true;
   const double limit2 = limit * limit;
   // The triangle's bounding box first, in floats: most triangles of a cell are farther than the
-  // limit. Each gap is lessened by more than the rounding of p to a float and of the subtraction
-  // (a few units in the last place of the largest coordinate), so the test refuses only a triangle
-  // that the exact test would.
+  // limit.
   const std::array<float, 3> q{static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])};
   const auto largest = static_cast<float>(std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2]), 1.0}));
   const float slack = 4 * std::numeric_limits<float>::epsilon() * (largest + static_cast<float>(limit));
@@ -1329,13 +1359,7 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::
   const auto near = [&](std::uint32_t k) {
     const Triangle& t = triangles[k];
     const Vec3f &a = sink->position(t[0]), &b = sink->position(t[1]), &c = sink->position(t[2]);
-    float outside = 0;
-    const auto axis = [&](float u, float v, float w, float x) {
-      const float gap = std::max(std::max(min3(u, v, w) - x, x - max3(u, v, w)) - slack, 0.0f);
-      outside += gap * gap;
-      return outside > limit2f;
-    };
-    if (axis(a.x, b.x, c.x, q[0]) || axis(a.y, b.y, c.y, q[1]) || axis(a.z, b.z, c.z, q[2])) return false;
+    if (boxBeyond(a, b, c, q, slack, limit2f)) return false;
     return distanceSquared(p, toDouble(a), toDouble(b), toDouble(c)) <= limit2;
   };
   if (hint < triangles.size() && near(hint)) return true;
@@ -1499,29 +1523,113 @@ bool DecimationSink::triangleWithin(const Triangle& t, const Originals& surface,
   return true;
 }
 
-// The largest distance from the triangle's sample points (centroid and edge midpoints) to the
-// original surface; with `sum` and `count`, their sum and number too.
-double DecimationSink::triangleDistance(const Triangle& t, const Originals& surface, Hint& hint, double* sum,
-                                        std::uint64_t* count) const {
-  const std::array<Vec3d, 4> samples = samplePoints(t);
-  double worst = 0;
-  for (const Vec3d& s : samples) {
-    const double d = surface.distance(s, hint);
-    worst = std::max(worst, d);
-    if (sum != nullptr) *sum += d;
+namespace {
+Triangle sortedCorners(const Triangle& t) {
+  Triangle s = t;
+  if (s[0] > s[1]) std::swap(s[0], s[1]);
+  if (s[1] > s[2]) std::swap(s[1], s[2]);
+  if (s[0] > s[1]) std::swap(s[0], s[1]);
+  return s;
+}
+}  // namespace
+
+bool DecimationSink::Originals::holds(const Triangle& t, const Vec3d& centroid, Hint& hint) const {
+  const Triangle key = sortedCorners(t);
+  // A listed triangle (the corners of one that is not may be gone) with the same corners.
+  const auto same = [&](const OriginalSurface& g, std::uint32_t k) {
+    const Triangle& o = g.triangles[k];
+    if (o[0] != key[0] && o[1] != key[0] && o[2] != key[0]) return false;  // most, cheaply
+    return min3(o[0], o[1], o[2]) >= g.minVertex && sortedCorners(o) == key;
+  };
+  if (hint != kNoHint) {
+    const std::size_t part = hint >> 32;
+    const auto k = static_cast<std::uint32_t>(hint & 0xffffffffu);
+    if (part < parts.size()) {
+      const OriginalSurface& g = *parts[part];
+      constexpr std::uint32_t kAhead = 4;
+      for (std::uint32_t j = k + 1; j <= k + kAhead && j < g.triangles.size(); ++j) {
+        if (same(g, j)) {
+          hint = static_cast<Hint>(part) << 32 | j;
+          return true;
+        }
+      }
+    }
   }
-  if (count != nullptr) *count += 4;
-  return worst;
+  // The centroid lies in the box of such a triangle, so in its part's box, and the part's grid
+  // lists it in the centroid's cell.
+  const auto byLow = [&](double x, const OriginalSurface* g) { return x < g->low[axis]; };
+  const auto end = std::upper_bound(parts.begin(), parts.end(), centroid[axis], byLow);
+  for (auto i = static_cast<std::size_t>(end - parts.begin()); i-- > 0;) {
+    if (reach[i] < centroid[axis]) break;
+    const OriginalSurface& g = *parts[i];
+    if (boxGapSquared(centroid, g.low, g.high) > 0) continue;
+    const std::int64_t cell = g.index(g.cellOf(centroid[0], 0), g.cellOf(centroid[1], 1), g.cellOf(centroid[2], 2));
+    if (cell < 0) continue;
+    const auto c = static_cast<std::size_t>(cell);
+    for (std::uint32_t e = g.cellStart[c]; e < g.cellStart[c + 1]; ++e) {
+      if (same(g, g.cellTriangles[e])) {
+        hint = static_cast<Hint>(i) << 32 | g.cellTriangles[e];
+        return true;
+      }
+    }
+  }
+  return false;
 }
 
-// The one-sided distance from the final triangles to the original surface, for the report.
+// The one-sided distance from the final triangles to the original surface, for the report: at each
+// triangle's centroid and edge midpoints. A triangle that decimation left as it was lies on the
+// original surface, and so do its edges' midpoints: their distance is 0 (the search would find the
+// triangle itself, up to rounding). An edge's midpoint is measured once for the triangles on both
+// sides (within a batch of triangles in their order, which holds most of the pairs); the sum and
+// the largest are taken in the triangles' order.
 void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope) {
   if (triangles.empty()) return;
   const Originals& surface = surfaceFor(originals, scope);
   Hint hint = kNoHint;
-  for (const Triangle& t : triangles) {
-    report_.distanceMax =
-        std::max(report_.distanceMax, triangleDistance(t, surface, hint, &distanceSum_, &report_.samples));
+  constexpr std::size_t kBatch = 8192;
+  struct Use {
+    VertexId a = 0, b = 0;    // the edge's corners, a < b
+    std::uint32_t place = 0;  // 3 * (triangle in the batch) + edge
+    bool held = false;        // on a triangle left as it was
+  };
+  std::vector<Use> uses;
+  std::vector<double> centroid, midpoint;  // distances; -1 for a held triangle's centroid
+  for (std::size_t from = 0; from < triangles.size(); from += kBatch) {
+    const std::size_t n = std::min(kBatch, triangles.size() - from);
+    uses.clear();
+    centroid.assign(n, 0.0);
+    midpoint.assign(3 * n, 0.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Triangle& t = triangles[from + i];
+      const Vec3d a = toDouble(position(t[0])), b = toDouble(position(t[1])), c = toDouble(position(t[2]));
+      const Vec3d middle{(a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3, (a[2] + b[2] + c[2]) / 3};
+      const bool held = surface.holds(t, middle, hint);
+      centroid[i] = held ? 0.0 : surface.distance(middle, hint);
+      for (std::uint32_t k = 0; k < 3; ++k) {
+        const VertexId u = t[k], v = t[(k + 1) % 3];
+        uses.push_back({std::min(u, v), std::max(u, v), static_cast<std::uint32_t>(3 * i + k), held});
+      }
+    }
+    std::sort(uses.begin(), uses.end(), [](const Use& x, const Use& y) {
+      return x.a != y.a ? x.a < y.a : x.b != y.b ? x.b < y.b : x.held > y.held;
+    });
+    for (std::size_t e = 0; e < uses.size();) {
+      std::size_t end = e + 1;
+      while (end < uses.size() && uses[end].a == uses[e].a && uses[end].b == uses[e].b) ++end;
+      double d = 0;  // held sorts first: the edge is an original triangle's
+      if (!uses[e].held) {
+        const Vec3d a = toDouble(position(uses[e].a)), b = toDouble(position(uses[e].b));
+        d = surface.distance({(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2}, hint);
+      }
+      for (; e < end; ++e) midpoint[uses[e].place] = d;
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      for (const double d : {centroid[i], midpoint[3 * i], midpoint[3 * i + 1], midpoint[3 * i + 2]}) {
+        report_.distanceMax = std::max(report_.distanceMax, d);
+        distanceSum_ += d;
+      }
+      report_.samples += 4;
+    }
   }
   scope.surface.reset();  // not held while the region goes on downstream
 }

@@ -203,6 +203,12 @@ class DecimationSink final : public MeshSink {
     // Whether some original triangle lies within `limit` of p (true where there is none); the
     // answer does not depend on `hint`.
     bool within(const Vec3d& p, double limit, Hint& hint) const;
+    // Whether an original triangle has the corners of `t` (in any order): its points then lie on
+    // the original surface. `centroid` is t's; `hint` names a triangle whose successors are tried
+    // first (decimated triangles that were not touched come in their input order), and is set to
+    // the one found. The answer does not depend on it: the cells of every part whose box holds the
+    // centroid are searched otherwise.
+    bool holds(const Triangle& t, const Vec3d& centroid, Hint& hint) const;
   };
 
   // What one simplify call keeps for itself, so that calls can run side by side: its view of the
@@ -301,8 +307,6 @@ class DecimationSink final : public MeshSink {
   };
   // The vertices of triangles that pass through one another (or fold over a corner they share).
   ScratchVector<VertexId> crossingVertices(std::span<const Triangle> triangles, CrossingCache& cache) const;
-  double triangleDistance(const Triangle& t, const Originals& surface, Hint& hint, double* sum,
-                          std::uint64_t* count) const;
   // Whether the triangle's centroid and edge midpoints are within `limit` of the original surface
   // (with `forwardEdges`, only the midpoints of the edges that run from the smaller id).
   bool triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint,

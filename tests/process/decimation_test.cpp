@@ -225,6 +225,23 @@ TEST(Decimation, DegenerateOriginalsLeaveTheReportsDistancesExact) {
   expectWithin(r, 0.5, 1.0);  // the decimation bounds only the first side
 }
 
+// A bound too tight for any collapse on a curved surface: every triangle is left as it was, so every
+// sample point lies on an original triangle and the report's distances are 0 exactly (the search
+// would find each triangle itself, with rounding about its plane).
+TEST(Decimation, TrianglesLeftAsTheyWereMeasureZero) {
+  const Field torus = [](std::int64_t i, std::int64_t j, std::int64_t k) {
+    return static_cast<float>(4.5 - std::hypot(std::hypot(double(i) - 15.2, double(k) - 14.1) - 8.3, double(j) - 8.4));
+  };
+  DecimateOptions o = smallBlocks(0.2);
+  o.maxDistance = 1e-9;
+  const Decimated r = decimate(torus, {31, 18, 30}, Method::kMarchingCubes, o);
+  ASSERT_GT(r.original.triangles.size(), 1000u);
+  ASSERT_EQ(r.decimated.triangles.size(), r.original.triangles.size());
+  EXPECT_EQ(r.report.samples, 4 * r.original.triangles.size());
+  EXPECT_EQ(r.report.distanceMax, 0.0);
+  EXPECT_EQ(r.report.distanceMean, 0.0);
+}
+
 TEST(Decimation, WithoutTheDistanceBoundTheRatioIsMet) {
   for (double ratio : {0.5, 0.2, 0.1}) {
     SCOPED_TRACE(ratio);
