@@ -1291,22 +1291,15 @@ double DecimationSink::OriginalSurface::nearestSquared(const Vec3d& p, double be
       hi[a] = std::min(dims[a] - 1, cellOf(p[a] + r, a));
     }
     // A nearer triangle's nearest point to p lies in a cell that lists it, no farther from p than
-    // `best`: a cell farther (its box widened by more than the rounding of cellOf) is skipped.
-    const double widen = 1e-6 * cell;
-    const auto gapAlong = [&](std::size_t a, std::int64_t i) {
-      const double from = origin[a] + static_cast<double>(i) * cell - widen;
-      const double to = origin[a] + static_cast<double>(i + 1) * cell + widen;
-      const double g = std::max({from - p[a], p[a] - to, 0.0});
-      return g * g;
-    };
+    // `best`: a cell farther is skipped.
     for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-      const double gz = gapAlong(2, z);
+      const double gz = gapSquared(p, 2, z);
       if (gz > best) continue;
       for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
-        const double gy = gz + gapAlong(1, y);
+        const double gy = gz + gapSquared(p, 1, y);
         if (gy > best) continue;
         for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
-          if ((x != cx || y != cy || z != cz) && gy + gapAlong(0, x) <= best) {
+          if ((x != cx || y != cy || z != cz) && gy + gapSquared(p, 0, x) <= best) {
             best = nearestInCell(x, y, z, p, best, which);
           }
         }
@@ -1382,11 +1375,19 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::
   };
   const std::int64_t cx = cellOf(p[0], 0), cy = cellOf(p[1], 1), cz = cellOf(p[2], 2);
   if (search(cx, cy, cz)) return true;
-  for (std::int64_t z = lo[2]; z <= hi[2]; ++z)
-    for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
+  // A triangle within the limit has a point within it in a cell that lists it: cells farther are
+  // skipped.
+  for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+    const double gz = gapSquared(p, 2, z);
+    if (gz > limit2) continue;
+    for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
+      const double gy = gz + gapSquared(p, 1, y);
+      if (gy > limit2) continue;
       for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
-        if ((x != cx || y != cy || z != cz) && search(x, y, z)) return true;
+        if ((x != cx || y != cy || z != cz) && gy + gapSquared(p, 0, x) <= limit2 && search(x, y, z)) return true;
       }
+    }
+  }
   return false;
 }
 

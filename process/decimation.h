@@ -153,6 +153,15 @@ class DecimationSink final : public MeshSink {
       const auto t = static_cast<std::int64_t>(q);
       return t - (q < static_cast<double>(t) ? 1 : 0);
     }
+    // The squared distance from p to the slab of cells i along `axis`, widened by more than the
+    // rounding of cellOf (so that a point that cellOf puts in cell i is within it).
+    double gapSquared(const Vec3d& p, std::size_t axis, std::int64_t i) const {
+      const double widen = 1e-6 * cell;
+      const double from = origin[axis] + static_cast<double>(i) * cell - widen;
+      const double to = origin[axis] + static_cast<double>(i + 1) * cell + widen;
+      const double g = std::max({from - p[axis], p[axis] - to, 0.0});
+      return g * g;
+    }
     // The cell's index, or -1 outside the grid.
     std::int64_t index(std::int64_t x, std::int64_t y, std::int64_t z) const {
       if (x < 0 || y < 0 || z < 0 || x >= dims[0] || y >= dims[1] || z >= dims[2]) return -1;
