@@ -1524,23 +1524,14 @@ bool DecimationSink::triangleWithin(const Triangle& t, const Originals& surface,
   return true;
 }
 
-namespace {
-Triangle sortedCorners(const Triangle& t) {
-  Triangle s = t;
-  if (s[0] > s[1]) std::swap(s[0], s[1]);
-  if (s[1] > s[2]) std::swap(s[1], s[2]);
-  if (s[0] > s[1]) std::swap(s[0], s[1]);
-  return s;
-}
-}  // namespace
-
-bool DecimationSink::Originals::holds(const Triangle& t, const Vec3d& centroid, Hint& hint) const {
-  const Triangle key = sortedCorners(t);
-  // A listed triangle (the corners of one that is not may be gone) with the same corners.
+bool DecimationSink::Originals::holds(std::span<const VertexId> corners, const Vec3d& point, Hint& hint) const {
+  // A listed triangle (the corners of one that is not may be gone) with every one of the corners.
   const auto same = [&](const OriginalSurface& g, std::uint32_t k) {
     const Triangle& o = g.triangles[k];
-    if (o[0] != key[0] && o[1] != key[0] && o[2] != key[0]) return false;  // most, cheaply
-    return min3(o[0], o[1], o[2]) >= g.minVertex && sortedCorners(o) == key;
+    for (const VertexId v : corners) {
+      if (o[0] != v && o[1] != v && o[2] != v) return false;
+    }
+    return min3(o[0], o[1], o[2]) >= g.minVertex;
   };
   if (hint != kNoHint) {
     const std::size_t part = hint >> 32;
@@ -1556,15 +1547,15 @@ bool DecimationSink::Originals::holds(const Triangle& t, const Vec3d& centroid, 
       }
     }
   }
-  // The centroid lies in the box of such a triangle, so in its part's box, and the part's grid
-  // lists it in the centroid's cell.
+  // The point lies in the box of such a triangle, so in its part's box, and the part's grid lists
+  // it in the point's cell.
   const auto byLow = [&](double x, const OriginalSurface* g) { return x < g->low[axis]; };
-  const auto end = std::upper_bound(parts.begin(), parts.end(), centroid[axis], byLow);
+  const auto end = std::upper_bound(parts.begin(), parts.end(), point[axis], byLow);
   for (auto i = static_cast<std::size_t>(end - parts.begin()); i-- > 0;) {
-    if (reach[i] < centroid[axis]) break;
+    if (reach[i] < point[axis]) break;
     const OriginalSurface& g = *parts[i];
-    if (boxGapSquared(centroid, g.low, g.high) > 0) continue;
-    const std::int64_t cell = g.index(g.cellOf(centroid[0], 0), g.cellOf(centroid[1], 1), g.cellOf(centroid[2], 2));
+    if (boxGapSquared(point, g.low, g.high) > 0) continue;
+    const std::int64_t cell = g.index(g.cellOf(point[0], 0), g.cellOf(point[1], 1), g.cellOf(point[2], 2));
     if (cell < 0) continue;
     const auto c = static_cast<std::size_t>(cell);
     for (std::uint32_t e = g.cellStart[c]; e < g.cellStart[c + 1]; ++e) {
@@ -1579,8 +1570,8 @@ bool DecimationSink::Originals::holds(const Triangle& t, const Vec3d& centroid, 
 
 // The one-sided distance from the final triangles to the original surface, for the report: at each
 // triangle's centroid and edge midpoints. A triangle that decimation left as it was lies on the
-// original surface, and so do its edges' midpoints: their distance is 0 (the search would find the
-// triangle itself, up to rounding). An edge's midpoint is measured once for the triangles on both
+// original surface, and so do its edges and every edge of an original triangle: their samples'
+// distance is 0 (the search would find the triangle itself, up to rounding). An edge's midpoint is measured once for the triangles on both
 // sides (within a batch of triangles in their order, which holds most of the pairs); the sum and
 // the largest are taken in the triangles' order.
 void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope) {
@@ -1620,7 +1611,9 @@ void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange ori
       double d = 0;  // held sorts first: the edge is an original triangle's
       if (!uses[e].held) {
         const Vec3d a = toDouble(position(uses[e].a)), b = toDouble(position(uses[e].b));
-        d = surface.distance({(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2}, hint);
+        const Vec3d middle{(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2};
+        const std::array<VertexId, 2> ends{uses[e].a, uses[e].b};
+        if (!surface.holds(ends, middle, hint)) d = surface.distance(middle, hint);
       }
       for (; e < end; ++e) midpoint[uses[e].place] = d;
     }

@@ -212,12 +212,13 @@ class DecimationSink final : public MeshSink {
     // Whether some original triangle lies within `limit` of p (true where there is none); the
     // answer does not depend on `hint`.
     bool within(const Vec3d& p, double limit, Hint& hint) const;
-    // Whether an original triangle has the corners of `t` (in any order): its points then lie on
-    // the original surface. `centroid` is t's; `hint` names a triangle whose successors are tried
-    // first (decimated triangles that were not touched come in their input order), and is set to
-    // the one found. The answer does not depend on it: the cells of every part whose box holds the
-    // centroid are searched otherwise.
-    bool holds(const Triangle& t, const Vec3d& centroid, Hint& hint) const;
+    // Whether an original triangle has every one of `corners` (a triangle's or an edge's) among
+    // its own: the points between them then lie on the original surface. `point` lies between
+    // them (a centroid, a midpoint); `hint` names a triangle whose successors are tried first
+    // (decimated triangles that were not touched come in their input order), and is set to the one
+    // found. The answer does not depend on it: the point's cell in every part whose box holds the
+    // point is searched otherwise.
+    bool holds(std::span<const VertexId> corners, const Vec3d& point, Hint& hint) const;
   };
 
   // What one simplify call keeps for itself, so that calls can run side by side: its view of the
