@@ -1555,7 +1555,10 @@ bool DecimationSink::Originals::holds(std::span<const VertexId> corners, const V
     if (reach[i] < point[axis]) break;
     const OriginalSurface& g = *parts[i];
     if (boxGapSquared(point, g.low, g.high) > 0) continue;
-    const std::int64_t cell = g.index(g.cellOf(point[0], 0), g.cellOf(point[1], 1), g.cellOf(point[2], 2));
+    // Clamped as the triangles' cells are: at the box's high end, cellOf can give one past the
+    // last cell (the grid's size comes from a division, cellOf from a multiplication).
+    const auto at = [&](std::size_t d) { return std::clamp(g.cellOf(point[d], d), std::int64_t{0}, g.dims[d] - 1); };
+    const std::int64_t cell = g.index(at(0), at(1), at(2));
     if (cell < 0) continue;
     const auto c = static_cast<std::size_t>(cell);
     for (std::uint32_t e = g.cellStart[c]; e < g.cellStart[c + 1]; ++e) {
@@ -1571,9 +1574,9 @@ bool DecimationSink::Originals::holds(std::span<const VertexId> corners, const V
 // The one-sided distance from the final triangles to the original surface, for the report: at each
 // triangle's centroid and edge midpoints. A triangle that decimation left as it was lies on the
 // original surface, and so do its edges and every edge of an original triangle: their samples'
-// distance is 0 (the search would find the triangle itself, up to rounding). An edge's midpoint is measured once for the triangles on both
-// sides (within a batch of triangles in their order, which holds most of the pairs); the sum and
-// the largest are taken in the triangles' order.
+// distance is 0 (the search would find the triangle itself, up to rounding). An edge's midpoint is
+// measured once for the triangles on both sides (within a batch of triangles in their order, which
+// holds most of the pairs); the sum and the largest are taken in the triangles' order.
 void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope) {
   if (triangles.empty()) return;
   const Originals& surface = surfaceFor(originals, scope);
@@ -1585,7 +1588,7 @@ void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange ori
     bool held = false;        // on a triangle left as it was
   };
   std::vector<Use> uses;
-  std::vector<double> centroid, midpoint;  // distances; -1 for a held triangle's centroid
+  std::vector<double> centroid, midpoint;  // distances (0 for held ones)
   for (std::size_t from = 0; from < triangles.size(); from += kBatch) {
     const std::size_t n = std::min(kBatch, triangles.size() - from);
     uses.clear();
