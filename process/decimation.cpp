@@ -1253,7 +1253,7 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(std::size_t chun
 double DecimationSink::OriginalSurface::nearestInCell(std::int64_t x, std::int64_t y, std::int64_t z, const Vec3d& p,
                                                       double best, std::uint32_t& which) const {
   const std::int64_t i = index(x, y, z);
-  if (i < 0) return best;
+  if (i < 0 || cellStart[static_cast<std::size_t>(i)] == cellStart[static_cast<std::size_t>(i) + 1]) return best;
   // The triangle's box farther than the nearest so far: no point of it is nearer (boxBeyond, with
   // `best` raised by more than its rounding to a float).
   const std::array<float, 3> q{static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])};
@@ -1284,27 +1284,12 @@ double DecimationSink::OriginalSurface::nearestSquared(const Vec3d& p, double be
   const std::int64_t cx = cellOf(p[0], 0), cy = cellOf(p[1], 1), cz = cellOf(p[2], 2);
   best = nearestInCell(cx, cy, cz, p, best, which);
   if (best < INFINITY) {
-    const double r = std::sqrt(best);
-    std::int64_t lo[3], hi[3];
-    for (std::size_t a = 0; a < 3; ++a) {
-      lo[a] = std::max<std::int64_t>(0, cellOf(p[a] - r, a));
-      hi[a] = std::min(dims[a] - 1, cellOf(p[a] + r, a));
-    }
     // A nearer triangle's nearest point to p lies in a cell that lists it, no farther from p than
     // `best`: a cell farther is skipped.
-    for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-      const double gz = gapSquared(p, 2, z);
-      if (gz > best) continue;
-      for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
-        const double gy = gz + gapSquared(p, 1, y);
-        if (gy > best) continue;
-        for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
-          if ((x != cx || y != cy || z != cz) && gy + gapSquared(p, 0, x) <= best) {
-            best = nearestInCell(x, y, z, p, best, which);
-          }
-        }
-      }
-    }
+    visitNear(p, {cx, cy, cz}, std::sqrt(best), best, [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+      best = nearestInCell(x, y, z, p, best, which);
+      return false;
+    });
     return best;
   }
   for (std::int64_t ring = 1;; ++ring) {
@@ -1356,11 +1341,6 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::
     return distanceSquared(p, toDouble(a), toDouble(b), toDouble(c)) <= limit2;
   };
   if (hint < triangles.size() && near(hint)) return true;
-  std::int64_t lo[3], hi[3];
-  for (std::size_t a = 0; a < 3; ++a) {
-    lo[a] = std::max<std::int64_t>(0, cellOf(p[a] - limit, a));
-    hi[a] = std::min(dims[a] - 1, cellOf(p[a] + limit, a));
-  }
   const auto search = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
     const std::int64_t i = index(x, y, z);
     if (i < 0) return false;
@@ -1377,18 +1357,7 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::
   if (search(cx, cy, cz)) return true;
   // A triangle within the limit has a point within it in a cell that lists it: cells farther are
   // skipped.
-  for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-    const double gz = gapSquared(p, 2, z);
-    if (gz > limit2) continue;
-    for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
-      const double gy = gz + gapSquared(p, 1, y);
-      if (gy > limit2) continue;
-      for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
-        if ((x != cx || y != cy || z != cz) && gy + gapSquared(p, 0, x) <= limit2 && search(x, y, z)) return true;
-      }
-    }
-  }
-  return false;
+  return visitNear(p, {cx, cy, cz}, limit, limit2, search);
 }
 
 // Whether some original triangle lies within `limit` of p: the hinted grid's hinted triangle, then
@@ -1468,10 +1437,7 @@ double DecimationSink::Originals::distance(const Vec3d& p, Hint& hint) const {
   if (hint != kNoHint) {
     const std::size_t part = hint >> 32;
     const auto k = static_cast<std::uint32_t>(hint & 0xffffffffu);
-    // A listed triangle (its corners from the grid's least vertex on: the others' may be gone).
-    if (part < parts.size() && k < parts[part]->triangles.size() &&
-        min3(parts[part]->triangles[k][0], parts[part]->triangles[k][1], parts[part]->triangles[k][2]) >=
-            parts[part]->minVertex) {
+    if (part < parts.size() && parts[part]->listed(k)) {
       const Triangle& t = parts[part]->triangles[k];
       const DecimationSink& sink = *parts[part]->sink;
       // Not NaN (a triangle with two corners on one point can give it): the search ignores those.
@@ -1525,13 +1491,13 @@ bool DecimationSink::triangleWithin(const Triangle& t, const Originals& surface,
 }
 
 bool DecimationSink::Originals::holds(std::span<const VertexId> corners, const Vec3d& point, Hint& hint) const {
-  // A listed triangle (the corners of one that is not may be gone) with every one of the corners.
+  // A listed triangle with every one of the corners.
   const auto same = [&](const OriginalSurface& g, std::uint32_t k) {
     const Triangle& o = g.triangles[k];
     for (const VertexId v : corners) {
       if (o[0] != v && o[1] != v && o[2] != v) return false;
     }
-    return min3(o[0], o[1], o[2]) >= g.minVertex;
+    return g.listed(k);
   };
   if (hint != kNoHint) {
     const std::size_t part = hint >> 32;

@@ -162,6 +162,36 @@ class DecimationSink final : public MeshSink {
       const double g = std::max({from - p[axis], p[axis] - to, 0.0});
       return g * g;
     }
+    // Visits the cells of the box about p that reaches `reach` along each axis, but for p's own
+    // cell `own`, whose squared distance from p is at most `bound` (read again for each cell: the
+    // visits may lessen it), until `visit(x, y, z)` returns true; whether one did.
+    template <class Visit>
+    bool visitNear(const Vec3d& p, const std::array<std::int64_t, 3>& own, double reach, const double& bound,
+                   Visit&& visit) const {
+      std::array<std::int64_t, 3> lo{}, hi{};
+      for (std::size_t a = 0; a < 3; ++a) {
+        lo[a] = std::max<std::int64_t>(0, cellOf(p[a] - reach, a));
+        hi[a] = std::min(dims[a] - 1, cellOf(p[a] + reach, a));
+      }
+      for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+        const double gz = gapSquared(p, 2, z);
+        if (gz > bound) continue;
+        for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
+          const double gy = gz + gapSquared(p, 1, y);
+          if (gy > bound) continue;
+          for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
+            if (std::array<std::int64_t, 3>{x, y, z} != own && gy + gapSquared(p, 0, x) <= bound && visit(x, y, z)) {
+              return true;
+            }
+          }
+        }
+      }
+      return false;
+    }
+    // Whether triangle k is listed (its corners from the least vertex on: the others' may be gone).
+    bool listed(std::size_t k) const {
+      return k < triangles.size() && std::min({triangles[k][0], triangles[k][1], triangles[k][2]}) >= minVertex;
+    }
     // The cell's index, or -1 outside the grid.
     std::int64_t index(std::int64_t x, std::int64_t y, std::int64_t z) const {
       if (x < 0 || y < 0 || z < 0 || x >= dims[0] || y >= dims[1] || z >= dims[2]) return -1;
