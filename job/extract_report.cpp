@@ -33,7 +33,10 @@ Json decimationJson(const ExtractReport::Decimation& dec) {
             {"regions_repaired", d.repairedRegions},
             {"triangles_frozen", d.frozenTriangles},
             {"regions_kept_whole", d.keptRegions},
-            {"simplify_calls", d.attempts}};
+            {"simplify_calls", d.attempts},
+            {"calls_broken_shape", d.brokenShape},
+            {"calls_beyond_bound", d.beyondBound},
+            {"calls_crossing", d.crossing}};
   if (d.measured) {  // the one-sided distance to the original surface, when it was measured
     j.update(Json{{"distance_mean", d.distanceMean},
                   {"distance_max", d.distanceMax},

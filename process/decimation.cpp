@@ -364,6 +364,9 @@ void DecimationSink::count(const Scope& scope) {
   report_.frozenTriangles += scope.frozenTriangles;
   report_.keptRegions += scope.keptRegions;
   report_.attempts += scope.attempts;
+  report_.brokenShape += scope.brokenShape;
+  report_.beyondBound += scope.beyondBound;
+  report_.crossing += scope.crossing;
 }
 
 // The chunk (index in the stream) that holds vertex v.
@@ -795,6 +798,14 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
       }
     }
   }
+  // The pinned vertices that this batch uses, by their local ids.
+  std::vector<std::uint8_t> locked;
+  if (!pinned.empty()) {
+    locked.assign(ids.size(), 0);
+    for (const VertexId v : pinned) {
+      if (v >= low && v - low < local.size() && local[v - low] != ~0u) locked[local[v - low]] = 1;
+    }
+  }
   for (VertexId v : ids) local[v - low] = ~0u;
   if (release != nullptr) *release = Faces{};  // `triangles` and `labels` are gone from here on
   ScratchVector<float> xyz(ids.size() * 3);
@@ -816,12 +827,7 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
     limits.record = steps.record;
   }
   limits.replay = replay;
-  if (!pinned.empty()) {
-    limits.locked.resize(ids.size());
-    for (std::size_t i = 0; i < ids.size(); ++i) {
-      limits.locked[i] = std::binary_search(pinned.begin(), pinned.end(), ids[i]) ? 1 : 0;
-    }
-  }
+  limits.locked = std::move(locked);
   const double bound = options_.maxError > 0 ? options_.maxError : 0.5 * options_.maxDistance;
   limits.maxError = bound > 0 ? bound * options_.voxelSize : INFINITY;
   // A collapse that moves the surface at all is measured against the original surface before it is
@@ -874,6 +880,49 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
   }
   return out;
 }
+
+namespace {
+
+// Marks the frozen triangles with an edge between two corners of the input (the triangles not
+// frozen) whose other triangle is frozen too; returns how many. Such an edge is in no input triangle,
+// so the simplifier's link condition cannot see it, and a collapse could make it again outside the
+// frozen ones (four triangles on it): they go to the simplifier as context, every corner fixed, so
+// that no collapse changes them, and are taken out of what comes back. An edge listed twice below
+// has both its triangles frozen (a label complex's line has three triangles, and may get context
+// that it does not need).
+std::size_t frozenContext(std::span<const Triangle> triangles, const ScratchVector<bool>& frozen, VertexId first,
+                          std::size_t span, ScratchVector<std::uint8_t>& inContext) {
+  ScratchVector<std::uint8_t> inInput(span, 0);
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    if (frozen[t]) continue;
+    for (const VertexId v : triangles[t]) inInput[v - first] = 1;
+  }
+  ScratchVector<std::pair<std::uint64_t, std::uint32_t>> edges;  // (edge, frozen triangle)
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    if (!frozen[t]) continue;
+    const Triangle& tri = triangles[t];
+    for (std::size_t k = 0; k < 3; ++k) {
+      const VertexId a = tri[k], b = tri[(k + 1) % 3];
+      if (inInput[a - first] == 0 || inInput[b - first] == 0) continue;
+      edges.push_back(
+          {static_cast<std::uint64_t>(std::min(a, b)) << 32 | std::max(a, b), static_cast<std::uint32_t>(t)});
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < edges.size();) {
+    std::size_t j = i + 1;
+    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+    for (std::size_t k = i; k < j && j - i > 1; ++k) {
+      count += inContext[edges[k].second] == 0 ? 1 : 0;
+      inContext[edges[k].second] = 1;
+    }
+    i = j;
+  }
+  return count;
+}
+
+}  // namespace
 
 // Simplifies a region so that it stays as closed and manifold as it was, and near the original
 // surface. The simplifier's own tests should leave nothing to find; the check stays as a net.
@@ -945,26 +994,41 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   LazyScratchVector<SimplifyStep> log;
   CrossingCache crossingCache;
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
+    // The frozen triangles that go in too, as context (frozenContext).
+    ScratchVector<std::uint8_t> inContext(triangles.size(), 0);
+    const std::size_t contextCount = frozenCount > 0 ? frozenContext(triangles, frozen, first, span, inContext) : 0;
     // Every array at its size (growing one would copy it and leave slack).
     Faces input, result;
-    input.triangles.reserve(triangles.size() - frozenCount);
-    input.labels.reserve(faces.labels.empty() ? 0 : triangles.size() - frozenCount);
+    const std::size_t inputSize = triangles.size() - frozenCount + contextCount;
+    input.triangles.reserve(inputSize);
+    input.labels.reserve(faces.labels.empty() ? 0 : inputSize);
     for (std::size_t t = 0; t < triangles.size(); ++t) {
       if (!frozen[t]) input.add(faces, t);
     }
+    ScratchVector<Triangle> context;
+    context.reserve(contextCount);
+    for (std::size_t t = 0; t < triangles.size() && contextCount > 0; ++t) {
+      if (inContext[t] == 0) continue;
+      context.push_back(triangles[t]);
+      input.triangles.push_back(triangles[t]);  // not input.add: one call site keeps that inlined
+      if (!faces.labels.empty()) input.labels.push_back(faces.labels[t]);
+    }
     // Frozen triangles count towards the target: the rest is simplified a little further.
-    const std::size_t share = target > frozenCount ? target - frozenCount : 0;
+    const std::size_t share = (target > frozenCount ? target - frozenCount : 0) + contextCount;
     const Originals* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
-    // In a label complex, a vertex with a frozen triangle stays: its triangles in the input can
-    // look like a closed fan where three labels meet (a scalar surface shows it a border edge).
+    // The context's corners stay. In a label complex, so does every vertex with a frozen triangle:
+    // its triangles in the input can look like a closed fan where three labels meet (a scalar
+    // surface shows it a border edge).
     ScratchVector<VertexId> pinned;
     if (complex_) {
       for (std::size_t t = 0; t < triangles.size(); ++t) {
         if (frozen[t]) pinned.insert(pinned.end(), triangles[t].begin(), triangles[t].end());
       }
-      std::sort(pinned.begin(), pinned.end());
-      pinned.erase(std::unique(pinned.begin(), pinned.end()), pinned.end());
+    } else {
+      for (const Triangle& t : context) pinned.insert(pinned.end(), t.begin(), t.end());
     }
+    std::sort(pinned.begin(), pinned.end());
+    pinned.erase(std::unique(pinned.begin(), pinned.end()), pinned.end());
     ScratchVector<std::uint8_t> unchecked;
     // The first try's collapses, replayed by each repair: the frozen patch changes only what it
     // reaches, so the rest is made as before without choosing it again.
@@ -974,7 +1038,24 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     } else {
       steps.replay = log;
     }
-    const Faces simplified = collapse(std::move(input), share, original, pinned, steps, unchecked);
+    Faces simplified = collapse(std::move(input), share, original, pinned, steps, unchecked);
+    if (!context.empty()) {
+      // The context came back as it went in (no corner of it moves): each kept triangle that is one
+      // of its triangles, corner for corner, is taken out, with its flag (a surface has no triangle
+      // twice).
+      std::sort(context.begin(), context.end());
+      std::size_t kept = 0;
+      for (std::size_t t = 0; t < simplified.size(); ++t) {
+        if (std::binary_search(context.begin(), context.end(), simplified.triangles[t])) continue;
+        simplified.triangles[kept] = simplified.triangles[t];
+        if (!simplified.labels.empty()) simplified.labels[kept] = simplified.labels[t];
+        unchecked[kept] = unchecked[t];
+        ++kept;
+      }
+      simplified.triangles.resize(kept);
+      if (!simplified.labels.empty()) simplified.labels.resize(kept);
+      unchecked.resize(kept);
+    }
     result.triangles.reserve(frozenCount + simplified.size());
     result.labels.reserve(faces.labels.empty() ? 0 : frozenCount + simplified.size());
     for (std::size_t t = 0; t < triangles.size(); ++t) {
@@ -1061,6 +1142,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // run once each way, so an edge's midpoint is measured only where it runs from the smaller id:
     // its other triangle measures it there if that one changed unchecked, and is within the bound
     // whole if not. A result that is no such surface has bad edges already.
+    const std::size_t misshapen = bad.size();
     if (original != nullptr) {
       Hint hint = kNoHint;
       for (std::size_t t = 0; t < simplified.size(); ++t) {
@@ -1071,11 +1153,15 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     }
     // A label complex's sheets lie close together (a label one voxel thick): a collapse within the
     // bound can push one through another.
+    const std::size_t beyond = bad.size() - misshapen;
     if (complex_) {
       const ScratchVector<VertexId> crossing = crossingVertices(out, crossingCache);
       bad.insert(bad.end(), crossing.begin(), crossing.end());
+      scope.crossing += crossing.empty() ? 0 : 1;
     }
     const bool shaped = complex_ ? oddKept == otherOdd : before.odd.empty();
+    scope.brokenShape += misshapen > 0 || border != before.border.size() || !shaped ? 1 : 0;
+    scope.beyondBound += beyond > 0 ? 1 : 0;
     if (bad.empty() && border == before.border.size() && shaped) {
       if (attempt > 0) ++scope.repairedRegions;
       scope.attempts += static_cast<std::uint64_t>(attempt) + 1;

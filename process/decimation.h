@@ -99,6 +99,12 @@ struct DecimationReport {
   std::uint64_t keptRegions = 0;
   /// Simplifier runs over the blocks and regions (a repair simplifies again).
   std::uint64_t attempts = 0;
+  /// Of those runs, the ones whose result the check found broken: with an edge or a pinch that
+  /// the input did not have (which the simplifier's own tests should leave none of), with a
+  /// triangle beyond the distance bound, with one label's sheet through another's (a complex).
+  std::uint64_t brokenShape = 0;
+  std::uint64_t beyondBound = 0;
+  std::uint64_t crossing = 0;
   /// One-sided distance from the decimated surface to the original one, in output units, over
   /// sample points of every output triangle (its centroid and edge midpoints).
   double distanceMean = 0;
@@ -257,6 +263,7 @@ class DecimationSink final : public MeshSink {
     std::optional<Originals> surface;
     ChunkRange surfaceRange;
     std::uint64_t repairedRegions = 0, frozenTriangles = 0, keptRegions = 0, attempts = 0;
+    std::uint64_t brokenShape = 0, beyondBound = 0, crossing = 0;  // DecimationReport's
     bool block = false;  // a block's simplification (which keeps kBlockSlack times the ratio)
   };
   // Triangles and, in a label complex, each one's sides (MeshChunk::faceLabels; empty otherwise),
