@@ -668,9 +668,9 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // than options_.batchTriangles, each with its share of the target (less what earlier batches kept
 // beyond theirs): components share no vertex, so a batch's collapses are those it would make among
 // the others, and only the stopping point moves.
-DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTriangles, const Originals* original,
-                                               const ScratchVector<VertexId>& pinned, const Steps& steps,
-                                               ScratchVector<std::uint8_t>& unchecked) const {
+DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTriangles, std::size_t context,
+                                               const Originals* original, const ScratchVector<VertexId>& pinned,
+                                               const Steps& steps, ScratchVector<std::uint8_t>& unchecked) const {
   unchecked.clear();
   if (faces.triangles.empty()) return {};
   // The arrays below span the triangles' ids, not the sink's whole window of vertices.
@@ -680,9 +680,10 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
   // batch resetting the entries it set.
   ScratchVector<unsigned> local(span, ~0u);
   if (faces.size() <= options_.batchTriangles) {
-    return collapseBatch(faces.triangles, faces.labels, targetTriangles, original, pinned, local, low, &faces, steps,
-                         unchecked);
+    return collapseBatch(faces.triangles, faces.labels, targetTriangles + context, original, pinned, local, low, &faces,
+                         steps, unchecked);
   }
+  const std::size_t firstContext = faces.size() - context;
   const ScratchVector<Triangle>& triangles = faces.triangles;
   // Components: union-find over the vertices (ids relative to low), the smaller root winning.
   ScratchVector<std::uint32_t> parent(span);
@@ -720,28 +721,39 @@ DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTr
   ScratchVector<LabelPair> groupedLabels(faces.labels.size());
   for (std::size_t k = 0; k < groupedLabels.size(); ++k) groupedLabels[k] = faces.labels[order[k].second];
   faces = Faces{};
-  ScratchVector<std::size_t> starts{0};  // each batch's first triangle in `grouped`
+  ScratchVector<std::size_t> starts{0};     // each batch's first triangle in `grouped`
+  ScratchVector<std::size_t> contextIn{0};  // and its context triangles
   for (std::size_t i = 0; i < order.size();) {
     std::size_t j = i;
     while (j < order.size() && order[j].first == order[i].first) ++j;
-    if (i > starts.back() && j - starts.back() > options_.batchTriangles) starts.push_back(i);
+    if (i > starts.back() && j - starts.back() > options_.batchTriangles) {
+      starts.push_back(i);
+      contextIn.push_back(0);
+    }
+    for (std::size_t k = i; k < j; ++k) contextIn.back() += order[k].second >= firstContext ? 1 : 0;
     i = j;
   }
   decltype(order)().swap(order);
   starts.push_back(grouped.size());
   Faces out;
+  // The target is shared by the triangles other than the context, which every batch keeps on top.
+  const std::size_t plain = grouped.size() - context;
+  std::size_t plainSoFar = 0, plainKept = 0;
   for (std::size_t b = 0; b + 1 < starts.size(); ++b) {
     // The target's share up to here, rounded, less what earlier batches kept: a batch that its
     // error bound stopped short leaves the later ones to go further.
-    const auto upTo = static_cast<std::size_t>(
-        std::llround(static_cast<double>(targetTriangles) * static_cast<double>(starts[b + 1]) /
-                     static_cast<double>(grouped.size())));
+    plainSoFar += starts[b + 1] - starts[b] - contextIn[b];
+    const auto upTo =
+        static_cast<std::size_t>(std::llround(static_cast<double>(targetTriangles) * static_cast<double>(plainSoFar) /
+                                              static_cast<double>(std::max<std::size_t>(plain, 1))));
     const std::span<const Triangle> batch(grouped.data() + starts[b], starts[b + 1] - starts[b]);
     const std::span<const LabelPair> batchLabels =
         groupedLabels.empty() ? std::span<const LabelPair>()
                               : std::span<const LabelPair>(groupedLabels.data() + starts[b], starts[b + 1] - starts[b]);
-    out.append(collapseBatch(batch, batchLabels, upTo > out.size() ? upTo - out.size() : 0, original, pinned, local,
-                             low, nullptr, steps, unchecked));
+    const Faces kept = collapseBatch(batch, batchLabels, (upTo > plainKept ? upTo - plainKept : 0) + contextIn[b],
+                                     original, pinned, local, low, nullptr, steps, unchecked);
+    plainKept += kept.size() > contextIn[b] ? kept.size() - contextIn[b] : 0;
+    out.append(kept);
   }
   return out;
 }
@@ -1014,7 +1026,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       if (!faces.labels.empty()) input.labels.push_back(faces.labels[t]);
     }
     // Frozen triangles count towards the target: the rest is simplified a little further.
-    const std::size_t share = (target > frozenCount ? target - frozenCount : 0) + contextCount;
+    const std::size_t share = target > frozenCount ? target - frozenCount : 0;
     const Originals* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
     // The context's corners stay. In a label complex, so does every vertex with a frozen triangle:
     // its triangles in the input can look like a closed fan where three labels meet (a scalar
@@ -1038,7 +1050,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     } else {
       steps.replay = log;
     }
-    Faces simplified = collapse(std::move(input), share, original, pinned, steps, unchecked);
+    Faces simplified = collapse(std::move(input), share, contextCount, original, pinned, steps, unchecked);
     if (!context.empty()) {
       // The context came back as it went in (no corner of it moves): each kept triangle that is one
       // of its triangles, corner for corner, is taken out, with its flag (a surface has no triangle
@@ -1160,11 +1172,11 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       scope.crossing += crossing.empty() ? 0 : 1;
     }
     const bool shaped = complex_ ? oddKept == otherOdd : before.odd.empty();
+    ++scope.attempts;
     scope.brokenShape += misshapen > 0 || border != before.border.size() || !shaped ? 1 : 0;
     scope.beyondBound += beyond > 0 ? 1 : 0;
     if (bad.empty() && border == before.border.size() && shaped) {
       if (attempt > 0) ++scope.repairedRegions;
-      scope.attempts += static_cast<std::uint64_t>(attempt) + 1;
       scope.frozenTriangles += frozenCount - sharedRing;
       return result;
     }

@@ -325,7 +325,7 @@ class DecimationSink final : public MeshSink {
   };
   // The simplifier on a try's triangles (in batches of whole components when there are many);
   // `unchecked` gets a flag per kept triangle (collapseBatch).
-  Faces collapse(Faces faces, std::size_t targetTriangles, const Originals* original,
+  Faces collapse(Faces faces, std::size_t targetTriangles, std::size_t context, const Originals* original,
                  const ScratchVector<VertexId>& pinned, const Steps& steps,
                  ScratchVector<std::uint8_t>& unchecked) const;
   Faces collapseBatch(std::span<const Triangle> triangles, std::span<const LabelPair> labels,

@@ -262,6 +262,13 @@ TEST(Decimation, FrozenEdgesAreNeverMadeAgain) {
   EXPECT_EQ(r.stats.boundaryEdges, 0u);
   EXPECT_EQ(r.stats.nonManifoldEdges, 0u);
   EXPECT_EQ(r.stats.inconsistentEdges, 0u);
+  // In batches of components (each batch keeps its context on top of its share of the target): the
+  // same, and about as many triangles kept.
+  o.batchTriangles = 300;
+  const Decimated batched = decimate(foam, {40, 40, 40}, Method::kMarchingCubes, o);
+  EXPECT_EQ(batched.report.brokenShape, 0u);
+  EXPECT_EQ(batched.stats.nonManifoldEdges, 0u);
+  EXPECT_NEAR(double(batched.decimated.triangles.size()) / double(r.decimated.triangles.size()), 1.0, 0.02);
 }
 
 TEST(Decimation, WithoutTheDistanceBoundTheRatioIsMet) {
