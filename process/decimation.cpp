@@ -667,7 +667,9 @@ void DecimationSink::trim(std::size_t firstChunk) {
 // The simplifier on `triangles`, in batches of whole connected components when there are more
 // than options_.batchTriangles, each with its share of the target (less what earlier batches kept
 // beyond theirs): components share no vertex, so a batch's collapses are those it would make among
-// the others, and only the stopping point moves.
+// the others, and only the stopping point moves. The last `context` triangles are context (their
+// corners pinned, so kept as they are): the target is for the others, and each batch keeps its
+// context on top of its share.
 DecimationSink::Faces DecimationSink::collapse(Faces faces, std::size_t targetTriangles, std::size_t context,
                                                const Originals* original, const ScratchVector<VertexId>& pinned,
                                                const Steps& steps, ScratchVector<std::uint8_t>& unchecked) const {
