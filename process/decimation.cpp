@@ -1425,7 +1425,7 @@ std::array<DecimationSink::Vec3d, 4> DecimationSink::samplePoints(const Triangle
 
 // Whether some original triangle lies within `limit` of p: the hinted triangle, then the cells that
 // the ball around p touches, p's own first, stopping at the first triangle near enough.
-bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::uint32_t& hint) const {
+bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::uint32_t& hint, Cells cells) const {
   if (count == 0) return true;
   const double limit2 = limit * limit;
   // The triangle's bounding box first, in floats: most triangles of a cell are farther than the
@@ -1440,7 +1440,7 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::
     if (boxBeyond(a, b, c, q, slack, limit2f)) return false;
     return distanceSquared(p, toDouble(a), toDouble(b), toDouble(c)) <= limit2;
   };
-  if (hint < triangles.size() && near(hint)) return true;
+  if (cells != Cells::kAround && hint < triangles.size() && near(hint)) return true;
   const auto search = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
     const std::int64_t i = index(x, y, z);
     if (i < 0) return false;
@@ -1454,50 +1454,52 @@ bool DecimationSink::OriginalSurface::within(const Vec3d& p, double limit, std::
     return false;
   };
   const std::int64_t cx = cellOf(p[0], 0), cy = cellOf(p[1], 1), cz = cellOf(p[2], 2);
-  if (search(cx, cy, cz)) return true;
+  if (cells != Cells::kAround && search(cx, cy, cz)) return true;
   // A triangle within the limit has a point within it in a cell that lists it: cells farther are
   // skipped.
-  return visitNear(p, {cx, cy, cz}, limit, limit2, search);
+  return cells != Cells::kOwn && visitNear(p, {cx, cy, cz}, limit, limit2, search);
 }
 
 // Whether some original triangle lies within `limit` of p: the hinted grid's hinted triangle, then
 // each grid whose box is within `limit` of p.
 bool DecimationSink::Originals::within(const Vec3d& p, double limit, Hint& hint) const {
   if (parts.empty()) return true;
-  std::size_t searched = parts.size();  // the hinted part, searched whole
+  using Cells = OriginalSurface::Cells;
+  // The hinted grid's hinted triangle and p's own cell first.
+  std::size_t hinted = parts.size();
+  std::uint32_t k = ~0u;
   if (hint != kNoHint) {
     const std::size_t part = hint >> 32;
-    auto k = static_cast<std::uint32_t>(hint & 0xffffffffu);
+    k = static_cast<std::uint32_t>(hint & 0xffffffffu);
     if (part < parts.size() && k < parts[part]->triangles.size()) {
-      // The grid's own search tries its hint first.
-      if (parts[part]->within(p, limit, k)) {
+      hinted = part;
+      if (parts[part]->within(p, limit, k, Cells::kOwn)) {
         hint = static_cast<Hint>(part) << 32 | k;
         return true;
       }
-      searched = part;
     }
   }
   const double limit2 = limit * limit;
-  // The parts whose boxes begin below p + limit along the axis, from the last down, until none
-  // before reaches p - limit; those whose boxes come within the limit, nearest first.
+  const auto search = [&](std::size_t i, Cells cells) {
+    std::uint32_t which = i == hinted ? k : ~0u;
+    if (!parts[i]->within(p, limit, which, cells)) return false;
+    hint = static_cast<Hint>(i) << 32 | which;
+    return true;
+  };
+  // The other grids whose boxes begin below p + limit along the axis, from the last down, until
+  // none before reaches p - limit; those whose boxes come within the limit, nearest first.
   const double from = p[axis] - limit, to = p[axis] + limit;
   const auto end = std::upper_bound(parts.begin(), parts.end(), to,
                                     [&](double x, const OriginalSurface* g) { return x < g->low[axis]; });
   std::array<std::pair<double, std::size_t>, 8> near{};
   std::size_t found = 0;
-  const auto search = [&](std::size_t i) {
-    std::uint32_t k = ~0u;
-    if (!parts[i]->within(p, limit, k)) return false;
-    hint = static_cast<Hint>(i) << 32 | k;
-    return true;
-  };
   for (auto i = static_cast<std::size_t>(end - parts.begin()); i-- > 0;) {
     if (reach[i] < from) break;
     const double gap = boxGapSquared(p, parts[i]->low, parts[i]->high);
-    if (gap > limit2 || i == searched) continue;
+    if (gap > limit2 || i == hinted) continue;
     if (found == near.size()) {
       // Many boxes about p (chunks that are not slabs across the axis): each in turn.
-      if (search(i)) return true;
+      if (search(i, Cells::kAll)) return true;
       continue;
     }
     near[found++] = {gap, i};
@@ -1508,8 +1510,14 @@ bool DecimationSink::Originals::within(const Vec3d& p, double limit, Hint& hint)
     for (; m > 0 && x < near[m - 1]; --m) near[m] = near[m - 1];
     near[m] = x;
   }
+  // Each grid's own cell before any grid's cells around it: a point near a slab's face most often
+  // has its triangle in the next slab's grid, in its own cell there.
   for (std::size_t n = 0; n < found; ++n) {
-    if (search(near[n].second)) return true;
+    if (search(near[n].second, Cells::kOwn)) return true;
+  }
+  if (hinted < parts.size() && search(hinted, Cells::kAround)) return true;
+  for (std::size_t n = 0; n < found; ++n) {
+    if (search(near[n].second, Cells::kAround)) return true;
   }
   return false;
 }

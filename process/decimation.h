@@ -215,8 +215,10 @@ class DecimationSink final : public MeshSink {
     double nearestSquared(const Vec3d& p, double best, std::uint32_t& which) const;
     // Whether some original triangle lies within `limit` of p. `hint` names a triangle to try first
     // (the last one found, as the points asked about in turn lie close together) and is set to the
-    // one found; the answer does not depend on it.
-    bool within(const Vec3d& p, double limit, std::uint32_t& hint) const;
+    // one found; the answer does not depend on it. In `cells`: every cell, only the hinted triangle
+    // and p's own cell, or only the cells around it.
+    enum class Cells { kAll, kOwn, kAround };
+    bool within(const Vec3d& p, double limit, std::uint32_t& hint, Cells cells = Cells::kAll) const;
   };
 
   // Where the last point was found near the original surface: a grid (its place in the parts) and
