@@ -1009,7 +1009,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   CrossingCache crossingCache;
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
     // The frozen triangles that go in too, as context (frozenContext).
-    ScratchVector<std::uint8_t> inContext(triangles.size(), 0);
+    ScratchVector<std::uint8_t> inContext(frozenCount > 0 ? triangles.size() : 0, 0);
     const std::size_t contextCount = frozenCount > 0 ? frozenContext(triangles, frozen, first, span, inContext) : 0;
     // Every array at its size (growing one would copy it and leave slack).
     Faces input, result;

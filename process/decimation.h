@@ -97,11 +97,14 @@ struct DecimationReport {
   std::uint64_t repairedRegions = 0;
   std::uint64_t frozenTriangles = 0;
   std::uint64_t keptRegions = 0;
-  /// Simplifier runs over the blocks and regions (a repair simplifies again).
+  /// Simplifier runs over the blocks and regions (a repair simplifies again; a region kept whole
+  /// counts its tries too).
   std::uint64_t attempts = 0;
-  /// Of those runs, the ones whose result the check found broken: with an edge or a pinch that
-  /// the input did not have (which the simplifier's own tests should leave none of), with a
-  /// triangle beyond the distance bound, with one label's sheet through another's (a complex).
+  /// Of those runs, the ones whose result the check found broken: with its edges changed where
+  /// they should not be (an edge or a pinch that the input did not have, a border or a complex's
+  /// junction edge lost, or an input that was no surface to begin with; the simplifier's own tests
+  /// leave none on a surface), with a triangle beyond the distance bound, with one label's sheet
+  /// through another's (a complex).
   std::uint64_t brokenShape = 0;
   std::uint64_t beyondBound = 0;
   std::uint64_t crossing = 0;
