@@ -26,15 +26,17 @@ namespace detail {
 inline bool oneCycle(std::span<const VertexId> next, std::span<const VertexId> prev) {
   const auto n = static_cast<std::uint32_t>(next.size());
   if (n < 3 || prev.size() != n) return false;
+  // Each step goes to the first triangle whose prev is the current next. The walk must come back to
+  // triangle 0 at step n and not before, so it has visited every triangle once: then no next has a
+  // second match (were prev[j2] == prev[j1] with j1 < j2 both matches of some next, the step into j2
+  // would have found j1 first), and each edge is in exactly two triangles.
   std::uint32_t at = 0;
   for (std::uint32_t step = 1; step <= n; ++step) {
     const VertexId x = next[at];
-    std::uint32_t found = n, matches = 0;
-    for (std::uint32_t j = 0; j < n; ++j) {
-      if (prev[j] == x) found = j, ++matches;
-    }
-    if (matches != 1) return false;
-    at = found;
+    std::uint32_t j = 0;
+    while (j < n && prev[j] != x) ++j;
+    if (j == n) return false;
+    at = j;
     if (at == 0) return step == n;
   }
   return false;

@@ -299,10 +299,12 @@ class Simplifier {
         std::memmove(&idx_[3 * kept], &idx_[3 * t], 3 * sizeof(std::uint32_t));
         if (!origin_.empty()) origin_[kept] = origin_[t];
         if (!unchecked_.empty()) unchecked_[kept] = unchecked_[t];
+        if (!corners_.empty()) std::memmove(&corners_[3 * kept], &corners_[3 * t], 3 * sizeof(std::uint32_t));
       }
       ++kept;
     }
     count_ = 3 * kept;
+    if (!corners_.empty()) corners_.resize(count_);
   }
 
   // One pass: the candidates by error, each made where nothing around it has changed. Returns
@@ -313,23 +315,20 @@ class Simplifier {
     // Each edge once, and two a line vertex: about 3/2 a triangle. Reserved, not grown, so that the
     // array has no untouched tail (a huge page of it would be resident: core/scratch.h).
     keys_.reserve(3 * triangles / 2 + 2 * lineEnds_.size() + 64);
+    // Each corner's candidate as the last pass found it stands while neither end has changed since
+    // (a collapse changes only its `to`'s quadric, and rewrites only triangles at `to`, marking both
+    // ends with its pass): about a third of them change a pass.
+    const bool fresh = pass == 1 || corners_.size() != count_;
+    if (fresh) corners_.resize(count_);
     for (std::size_t t = 0; t < triangles; ++t) {
       for (std::size_t k = 0; k < 3; ++k) {
         const std::uint32_t a = idx_[3 * t + k], b = idx_[3 * t + (k + 1) % 3];
-        // Each edge between two triangles once (where it runs from the smaller id); a border
-        // edge's ends do not move.
-        if (a > b || (free_[a] != kDisk && free_[b] != kDisk)) continue;
-        const Vec3 ab = sub(at(b), at(a));
-        const double abError = free_[a] == kDisk ? quadrics_[a].error(ab) : INFINITY;
-        const double baError = free_[b] == kDisk ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
-        const double e = std::min(abError, baError);
-        if (!(e <= limit)) continue;
-        const auto error = static_cast<float>(e);
-        std::uint32_t bits = 0;
-        std::memcpy(&bits, &error, sizeof bits);
+        std::uint32_t& candidate = corners_[3 * t + k];
+        if (fresh || mark_[a] == pass - 1 || mark_[b] == pass - 1) candidate = edgeCandidate(a, b, limit);
+        if (candidate == kNoCandidate) continue;
         // The candidate: its corner (which holds the edge's first end) and 1 when the second end
         // moves.
-        keys_.push_back(static_cast<std::uint64_t>(bits) << 32 | (3 * t + k) << 1 | (abError <= baError ? 0u : 1u));
+        keys_.push_back(static_cast<std::uint64_t>(candidate & 0x7fffffffu) << 32 | (3 * t + k) << 1 | candidate >> 31);
       }
     }
     // A line vertex's collapses onto its neighbours on the line, each named by a corner of a
@@ -386,6 +385,23 @@ class Simplifier {
       if (collapse(from, to, pass, error)) ++made;
     }
     return made;
+  }
+
+  // The edge from a to b as a candidate: the bits of its error (a float that is not negative) with
+  // the top bit set when b moves onto a, or kNoCandidate. Each edge between two triangles once
+  // (where it runs from the smaller id); a border edge's ends do not move.
+  static constexpr std::uint32_t kNoCandidate = 0xffffffffu;
+  std::uint32_t edgeCandidate(std::uint32_t a, std::uint32_t b, double limit) const {
+    if (a > b || (free_[a] != kDisk && free_[b] != kDisk)) return kNoCandidate;
+    const Vec3 ab = sub(at(b), at(a));
+    const double abError = free_[a] == kDisk ? quadrics_[a].error(ab) : INFINITY;
+    const double baError = free_[b] == kDisk ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
+    const double e = std::min(abError, baError);
+    if (!(e <= limit)) return kNoCandidate;
+    const auto error = static_cast<float>(e);
+    std::uint32_t bits = 0;
+    std::memcpy(&bits, &error, sizeof bits);
+    return bits | (abError <= baError ? 0u : 0x80000000u);
   }
 
   // The keys in order of error (their upper 32 bits, the bits of a float that is not negative),
@@ -526,6 +542,7 @@ class Simplifier {
   LazyScratchVector<SimplifyStep>* record_ = nullptr;
   ScratchVector<std::uint32_t> first_, fill_, around_;
   LazyScratchVector<std::uint64_t> keys_, spare_;  // reserved for every edge, used for fewer
+  ScratchVector<std::uint32_t> corners_;           // each corner's candidate (edgeCandidate) by the last pass
   const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;
   double checkAbove_ = INFINITY;
   double sampleLimit_ = INFINITY;

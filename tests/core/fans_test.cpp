@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <random>
@@ -64,6 +65,79 @@ bool bruteClosed(const std::vector<Triangle>& triangles, VertexId v) {
     if (uses.first != 1 || uses.second != 1) return false;
   }
   return bruteFans(triangles, v) == 1;
+}
+
+// oneCycle against its definition, on every pair of (next, prev) arrays of 3 and 4 triangles over
+// n + 1 vertex names, and on random ones of 5 to 8: one closed fan wound one way is every name used
+// as often as a next as a prev, at most once each, and the triangles joined into one through those
+// uses (triangle i to the j whose prev is i's next).
+TEST(Fans, OneCycleMatchesItsDefinition) {
+  const auto brute = [](const std::vector<VertexId>& next, const std::vector<VertexId>& prev) {
+    const std::size_t n = next.size();
+    std::map<VertexId, std::pair<int, int>> uses;
+    for (std::size_t i = 0; i < n; ++i) ++uses[next[i]].first, ++uses[prev[i]].second;
+    for (const auto& [name, count] : uses) {
+      if (count.first != 1 || count.second != 1) return false;
+    }
+    std::vector<std::size_t> group(n);
+    for (std::size_t i = 0; i < n; ++i) group[i] = i;
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t j = 0; j < n; ++j) {
+          if (next[i] == prev[j] && group[i] != group[j]) {
+            group[i] = group[j] = std::min(group[i], group[j]);
+            changed = true;
+          }
+        }
+      }
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      if (group[i] != 0) return false;
+    }
+    return true;
+  };
+  std::size_t closed = 0, tried = 0;
+  const auto one = [&](const std::vector<VertexId>& next, const std::vector<VertexId>& prev) {
+    const bool want = brute(next, prev);
+    ASSERT_EQ(detail::oneCycle(next, prev), want)
+        << ::testing::PrintToString(next) << " " << ::testing::PrintToString(prev);
+    closed += want ? 1 : 0;
+    ++tried;
+  };
+  for (std::size_t n = 3; n <= 4; ++n) {
+    const std::size_t names = n + 1;
+    std::size_t all = 1;
+    for (std::size_t k = 0; k < 2 * n; ++k) all *= names;
+    std::vector<VertexId> next(n), prev(n);
+    for (std::size_t code = 0; code < all; ++code) {
+      std::size_t c = code;
+      for (std::size_t k = 0; k < n; ++k, c /= names) next[k] = static_cast<VertexId>(c % names);
+      for (std::size_t k = 0; k < n; ++k, c /= names) prev[k] = static_cast<VertexId>(c % names);
+      one(next, prev);
+      if (HasFatalFailure()) return;
+    }
+  }
+  // The cycles of n names, each (next, prev) = (c[i + 1], c[i]) in some order of its triangles,
+  // then one name changed to another (or a new one).
+  std::mt19937 random(11);
+  for (int round = 0; round < 20000; ++round) {
+    const std::size_t n = 5 + static_cast<std::size_t>(random() % 4);
+    std::vector<VertexId> cycle(n), order(n);
+    for (std::size_t i = 0; i < n; ++i) cycle[i] = static_cast<VertexId>(i), order[i] = static_cast<VertexId>(i);
+    std::shuffle(cycle.begin(), cycle.end(), random);
+    std::shuffle(order.begin(), order.end(), random);
+    std::vector<VertexId> next(n), prev(n);
+    for (std::size_t i = 0; i < n; ++i) next[order[i]] = cycle[(i + 1) % n], prev[order[i]] = cycle[i];
+    if (round % 2 == 1) {
+      std::vector<VertexId>& side = random() % 2 ? next : prev;
+      side[random() % n] = static_cast<VertexId>(random() % (n + 1));
+    }
+    one(next, prev);
+    if (HasFatalFailure()) return;
+  }
+  EXPECT_GT(closed, 10000u);  // the unspoiled cycles, and some of the exhaustive arrays
+  EXPECT_EQ(tried, 4096u + 390625u + 20000u);
 }
 
 // Bipyramids (apexes with 3 to 20 triangles, every vertex one closed fan), then each spoiled once:
