@@ -15,10 +15,21 @@
 namespace isoslab::format {
 namespace {
 
+// A scalar's type in the data: a signed or unsigned integer or a float, and its size in bytes.
+struct Scalar {
+  enum Kind : std::uint8_t { kSigned, kUnsigned, kFloat } kind = kSigned;
+  std::uint8_t size = 0;  // 0: unknown
+};
+
 struct Property {
   std::string name;
   std::string type;       // scalar type, or the item type of a list
   std::string countType;  // set for lists
+  // Resolved once from the strings above, for the data: the types, where the value goes (x, y, z,
+  // nx, ny, nz as 0 to 5; -1: nowhere) and whether a list holds a face's vertex indices.
+  Scalar scalar, count;
+  int role = -1;
+  bool indices = false;
 };
 
 struct Element {
@@ -32,28 +43,36 @@ struct Header {
   std::vector<Element> elements;
 };
 
-std::size_t typeSize(const std::string& t) {
-  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
-  if (t == "double" || t == "float64") return 8;
-  return 0;
+Scalar scalarType(const std::string& t) {
+  if (t == "char" || t == "int8") return {Scalar::kSigned, 1};
+  if (t == "uchar" || t == "uint8") return {Scalar::kUnsigned, 1};
+  if (t == "short" || t == "int16") return {Scalar::kSigned, 2};
+  if (t == "ushort" || t == "uint16") return {Scalar::kUnsigned, 2};
+  if (t == "int" || t == "int32") return {Scalar::kSigned, 4};
+  if (t == "uint" || t == "uint32") return {Scalar::kUnsigned, 4};
+  if (t == "float" || t == "float32") return {Scalar::kFloat, 4};
+  if (t == "double" || t == "float64") return {Scalar::kFloat, 8};
+  return {};
 }
 
-double decode(const char* p, const std::string& t) {
+double decode(const char* p, Scalar t) {
   auto get = [p]<typename T>(T) {
     T v;
     std::memcpy(&v, p, sizeof v);
     return static_cast<double>(v);
   };
-  if (t == "char" || t == "int8") return get(std::int8_t{});
-  if (t == "uchar" || t == "uint8") return get(std::uint8_t{});
-  if (t == "short" || t == "int16") return get(std::int16_t{});
-  if (t == "ushort" || t == "uint16") return get(std::uint16_t{});
-  if (t == "int" || t == "int32") return get(std::int32_t{});
-  if (t == "uint" || t == "uint32") return get(std::uint32_t{});
-  if (t == "float" || t == "float32") return get(float{});
-  return get(double{});
+  switch (t.size) {
+    case 1:
+      return t.kind == Scalar::kSigned ? get(std::int8_t{}) : get(std::uint8_t{});
+    case 2:
+      return t.kind == Scalar::kSigned ? get(std::int16_t{}) : get(std::uint16_t{});
+    case 4:
+      return t.kind == Scalar::kFloat    ? get(float{})
+             : t.kind == Scalar::kSigned ? get(std::int32_t{})
+                                         : get(std::uint32_t{});
+    default:
+      return get(double{});
+  }
 }
 
 class Input {
@@ -82,7 +101,8 @@ class Input {
   std::size_t pos_ = 0;
 };
 
-Property parseProperty(std::istringstream& s, const std::string& line, const std::string& path) {
+Property parseProperty(std::istringstream& s, const std::string& element, const std::string& line,
+                       const std::string& path) {
   Property p;
   std::string t;
   s >> t;
@@ -92,8 +112,16 @@ Property parseProperty(std::istringstream& s, const std::string& line, const std
     p.type = t;
     s >> p.name;
   }
-  if (typeSize(p.type) == 0 || (!p.countType.empty() && typeSize(p.countType) == 0)) {
+  p.scalar = scalarType(p.type);
+  if (!p.countType.empty()) p.count = scalarType(p.countType);
+  if (p.scalar.size == 0 || (!p.countType.empty() && p.count.size == 0)) {
     throw Error(fmt::format("{}: unknown PLY property type in '{}'", path, line));
+  }
+  static const char* kNames[6] = {"x", "y", "z", "nx", "ny", "nz"};
+  if (p.countType.empty()) {
+    for (int k = 0; k < 6; ++k) p.role = p.name == kNames[k] ? k : p.role;
+  } else {
+    p.indices = element == "face" && (p.name == "vertex_indices" || p.name == "vertex_index");
   }
   return p;
 }
@@ -143,7 +171,7 @@ Header parseHeader(Input& in, const std::string& path, MeshMetadata& meta) {
       header.elements.push_back(e);
     } else if (word == "property") {
       if (header.elements.empty()) throw Error(fmt::format("{}: a PLY property precedes every element", path));
-      header.elements.back().properties.push_back(parseProperty(s, l, path));
+      header.elements.back().properties.push_back(parseProperty(s, header.elements.back().name, l, path));
     }
   }
   if (format != "binary_little_endian" && format != "ascii") {
@@ -164,7 +192,7 @@ void checkCounts(const Header& header, std::uint64_t have, const std::string& pa
     }
     std::uint64_t least = 0;
     for (const Property& p : e.properties)
-      least += header.ascii ? 2 : (p.countType.empty() ? typeSize(p.type) : typeSize(p.countType));
+      least += header.ascii ? 2 : (p.countType.empty() ? p.scalar.size : p.count.size);
     if (header.ascii) --least;
     if (e.count > (have - std::min(have, need)) / least) {
       throw Error(fmt::format("{}: PLY element '{}' claims {} items, more than its {} data bytes hold", path, e.name,
@@ -179,24 +207,35 @@ class Body {
  public:
   Body(Input& in, bool ascii, const std::string& path)
       : in_(in), ascii_(ascii), path_(path), text_(ascii ? in.rest() : std::string()) {
-    textSize_ = ascii ? text_.str().size() : 0;
+    textSize_ = text_.size();
   }
 
-  double scalar(const std::string& type) {
-    if (!ascii_) return decode(in_.take(typeSize(type)), type);
-    std::string word;
-    if (!(text_ >> word)) throw Error(fmt::format("{}: the PLY data is truncated", path_));
-    char* end = nullptr;
-    const double v = std::strtod(word.c_str(), &end);
-    if (end != word.c_str() + word.size()) {
-      throw Error(fmt::format("{}: the PLY data holds '{}', not a number", path_, word.substr(0, 40)));
+  double scalar(Scalar type) {
+    if (!ascii_) return decode(in_.take(type.size), type);
+    // The next word (a run of characters that are not white space), read whole as a number.
+    const auto space = [](char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; };
+    while (at_ < textSize_ && space(text_[at_])) ++at_;
+    if (at_ == textSize_) throw Error(fmt::format("{}: the PLY data is truncated", path_));
+    std::size_t end = at_;
+    while (end < textSize_ && !space(text_[end])) ++end;  // a NUL, too, is part of the word
+    const char* word = text_.c_str() + at_;
+    char* stop = nullptr;
+    const double v = std::strtod(word, &stop);
+    const std::size_t length = end - at_;
+    at_ = end;
+    if (stop != word + length) {
+      std::string shown(word, std::min<std::size_t>(length, 40));
+      for (char& c : shown) c = c >= 0x20 && c < 0x7f ? c : '?';  // one printable line
+      throw Error(fmt::format("{}: the PLY data holds '{}', not a number", path_, shown));
     }
     return v;
   }
 
-  // A list property: its items when they are a face's vertex indices, else read and dropped.
-  std::vector<std::uint64_t> list(const Property& p, bool indices) {
-    const double claimed = scalar(p.countType);
+  // A list property: its items into `items` when they are a face's vertex indices (p.indices),
+  // else read and dropped.
+  void list(const Property& p, std::vector<std::uint64_t>& items) {
+    items.clear();
+    const double claimed = scalar(p.count);
     if (!(claimed >= 0 && claimed <= static_cast<double>(ascii_ ? textSize_ : in_.remaining()))) {
       throw Error(fmt::format("{}: a PLY list claims {} items, more than the file holds", path_, claimed));
     }
@@ -204,53 +243,52 @@ class Body {
       throw Error(fmt::format("{}: a PLY list claims {} items, not a whole number", path_, claimed));
     }
     const auto count = static_cast<std::uint64_t>(claimed);
-    std::vector<std::uint64_t> items;
     for (std::uint64_t k = 0; k < count; ++k) {
-      const double v = scalar(p.type);
+      const double v = scalar(p.scalar);
       // A vertex index is a whole number from 0; a cast would truncate 1.5 and wrap -1.
-      if (indices && !(v >= 0 && v == std::floor(v) && v < 18446744073709551616.0)) {
+      if (p.indices && !(v >= 0 && v == std::floor(v) && v < 18446744073709551616.0)) {
         throw Error(fmt::format("{}: a PLY face has the vertex index {}, not a whole number from 0", path_, v));
       }
-      if (indices) items.push_back(static_cast<std::uint64_t>(v));
+      if (p.indices) items.push_back(static_cast<std::uint64_t>(v));
     }
-    return items;
   }
 
  private:
   Input& in_;
   bool ascii_;
   const std::string& path_;
-  std::istringstream text_;
-  std::size_t textSize_ = 0;
+  std::string text_;  // ASCII: the data after the header
+  std::size_t textSize_ = 0, at_ = 0;
 };
 
-// One item of element `e`: a vertex's position and normal, or a face's polygon, into `mesh`.
-void readItem(const Element& e, Body& body, IndexedMesh& mesh, const std::string& path) {
-  static const char* kNames[6] = {"x", "y", "z", "nx", "ny", "nz"};
-  double xyz[6] = {0, 0, 0, 0, 0, 0};
-  bool hasNormal = false;
-  std::vector<std::uint64_t> poly;
-  for (const Property& p : e.properties) {
-    if (!p.countType.empty()) {
-      const bool indices = e.name == "face" && (p.name == "vertex_indices" || p.name == "vertex_index");
-      std::vector<std::uint64_t> items = body.list(p, indices);
-      if (indices) poly = std::move(items);
-      continue;
-    }
-    const double v = body.scalar(p.type);
-    for (int k = 0; k < 6; ++k) {
-      if (p.name == kNames[k]) {
-        xyz[k] = v;
-        if (k >= 3) hasNormal = true;
+// The items of element `e`: each vertex's position and normal, or each face's polygon, into `mesh`.
+void readElement(const Element& e, Body& body, IndexedMesh& mesh, const std::string& path) {
+  const bool vertex = e.name == "vertex", face = e.name == "face";
+  std::vector<std::uint64_t> poly, items;
+  for (std::uint64_t n = 0; n < e.count; ++n) {
+    throwIfInterruptedEvery(n);
+    double xyz[6] = {0, 0, 0, 0, 0, 0};
+    bool hasNormal = false;
+    poly.clear();
+    for (const Property& p : e.properties) {
+      if (!p.countType.empty()) {
+        body.list(p, items);
+        if (p.indices) poly.swap(items);
+        continue;
+      }
+      const double v = body.scalar(p.scalar);
+      if (p.role >= 0) {
+        xyz[p.role] = v;
+        if (p.role >= 3) hasNormal = true;
       }
     }
-  }
-  if (e.name == "vertex") {
-    mesh.positions.push_back({static_cast<float>(xyz[0]), static_cast<float>(xyz[1]), static_cast<float>(xyz[2])});
-    if (hasNormal)
-      mesh.normals.push_back({static_cast<float>(xyz[3]), static_cast<float>(xyz[4]), static_cast<float>(xyz[5])});
-  } else if (e.name == "face") {
-    addPolygon(mesh, poly, path);
+    if (vertex) {
+      mesh.positions.push_back({static_cast<float>(xyz[0]), static_cast<float>(xyz[1]), static_cast<float>(xyz[2])});
+      if (hasNormal)
+        mesh.normals.push_back({static_cast<float>(xyz[3]), static_cast<float>(xyz[4]), static_cast<float>(xyz[5])});
+    } else if (face) {
+      addPolygon(mesh, poly, path);
+    }
   }
 }
 
@@ -262,12 +300,7 @@ IndexedMesh readPly(const std::string& path, std::string data, MeshMetadata& met
   checkCounts(header, in.remaining(), path);
   IndexedMesh mesh;
   Body body(in, header.ascii, path);
-  for (const Element& e : header.elements) {
-    for (std::uint64_t n = 0; n < e.count; ++n) {
-      throwIfInterruptedEvery(n);
-      readItem(e, body, mesh, path);
-    }
-  }
+  for (const Element& e : header.elements) readElement(e, body, mesh, path);
   if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) {
     throw Error(fmt::format("{}: the PLY file has {} normals for {} vertices", path, mesh.normals.size(),
                             mesh.positions.size()));

@@ -1564,6 +1564,49 @@ const Case kCases[] = {
        return d + "/m.ply";
      },
      "decode {in} -o {dir}/out.stl", 1, "'4' follows the element count"},
+    // Class 5: ASCII PLY data that is not what the header says.
+    {"PlyAsciiWordNotANumber",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii", "element vertex 3\nproperty float x\nproperty float y\n"
+                                              "property float z\n") +
+                               "0 0 0\n1 1.5abc 0\n0 1 0\n");
+       return d + "/m.ply";
+     },
+     "decode {in} -o {dir}/out.obj", 1, "the PLY data holds '1.5abc', not a number"},
+    {"PlyAsciiNulInAWord",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii", "element vertex 3\nproperty float x\nproperty float y\n"
+                                              "property float z\n") +
+                               std::string("0 0 0\n1 2\0\0017 0\n0 1 0\n", 20));
+       return d + "/m.ply";
+     },
+     "metrics {in}", 1, "the PLY data holds '2??7', not a number"},
+    {"PlyAsciiFewerWordsThanItems",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii", "element vertex 3\nproperty float x\nproperty float y\n"
+                                              "property float z\n") +
+                               "0 0 0\n1 0 0\n                    \n");
+       return d + "/m.ply";
+     },
+     "decode {in} -o {dir}/out.stl", 1, "the PLY data is truncated"},
+    {"PlyAsciiListOfAFraction",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii", "element vertex 3\nproperty float x\nproperty float y\n"
+                                              "property float z\nelement face 1\n"
+                                              "property list uchar int vertex_indices\n") +
+                               "0 0 0\n1 0 0\n0 1 0\n2.5 0 1 2\n");
+       return d + "/m.ply";
+     },
+     "decode {in} -o {dir}/out.stl", 1, "a PLY list claims 2.5 items, not a whole number"},
+    {"PlyAsciiNegativeIndex",
+     [](const std::string& d) {
+       write(d + "/m.ply", plyHeader("ascii", "element vertex 3\nproperty float x\nproperty float y\n"
+                                              "property float z\nelement face 1\n"
+                                              "property list uchar int vertex_indices\n") +
+                               "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n");
+       return d + "/m.ply";
+     },
+     "render {in} -o {dir}/v.png", 1, "a PLY face has the vertex index -1, not a whole number from 0"},
     // --- DICOM Segmentations whose frames do not match their geometry (io/dicom_seg.cpp) ------------
     {"DicomSegFrameOffTheLattice",
      [](const std::string& d) {

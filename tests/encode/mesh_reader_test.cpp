@@ -129,6 +129,69 @@ TEST(MeshReader, ReadsWhatDracosEncodersWrite) {
   }
 }
 
+// An ASCII PLY with the sphere's vertices (odd spacing, a colour and a skipped list among their
+// properties), its triangles as faces (a pair of them as one quad), and an element of another name
+// between them: ours and Draco's readings agree, and ours equals the mesh written, to the printed
+// digits.
+TEST(MeshReader, AsciiPlyAgreesWithDraco) {
+  const std::string dir = testing::tempDir();
+  const testing::Extraction x = testing::extract("phantom:sphere?n=24&r=8", Method::kTetra6, 920, true);
+  const IndexedMesh& mesh = x.mesh;
+  ASSERT_GT(mesh.triangles.size(), 100u);
+  // The first two triangles that share an edge, as one quad (a, b, c, d) fanned back into them.
+  std::size_t quad = mesh.triangles.size();
+  std::array<VertexId, 4> corners{};
+  for (std::size_t k = 0; k < 3 && quad == mesh.triangles.size(); ++k) {
+    const Triangle& t = mesh.triangles[0];
+    for (std::size_t u = 1; u < mesh.triangles.size() && quad == mesh.triangles.size(); ++u) {
+      const Triangle& o = mesh.triangles[u];
+      for (std::size_t j = 0; j < 3; ++j) {
+        // o has the edge t[k+1] -> t[k], its third corner after it: (t[k], t[k+1], t[k+2]) and
+        // (t[k], o's third, t[k+1])... fanned from t[k+1]: (t[k+1], t[k+2], t[k]) and (t[k+1], t[k], y).
+        if (o[j] == t[(k + 1) % 3] && o[(j + 1) % 3] == t[k]) {
+          corners = {t[(k + 1) % 3], t[(k + 2) % 3], t[k], o[(j + 2) % 3]};
+          quad = u;
+        }
+      }
+    }
+  }
+  ASSERT_NE(quad, mesh.triangles.size());
+  const std::string path = dir + "/a.ply";
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << "ply\r\nformat ascii 1.0\ncomment written by a test\nelement vertex " << mesh.positions.size()
+        << "\nproperty float x\nproperty float y\nproperty double quality\nproperty uchar red\nproperty list uchar int "
+           "junk\n"
+        << "property float z\nelement camera 2\nproperty float view\n"
+        << "element face " << mesh.triangles.size() - 1 << "\nproperty list uchar uint vertex_indices\n"
+        << "end_header\n";
+    char line[256];
+    for (const Vec3f& p : mesh.positions) {
+      std::snprintf(line, sizeof line, "%.9g \t %.9g 0.25 200 2 -1 +7   %.9g\r\n", p.x, p.y, p.z);
+      out << line;
+    }
+    out << "1.5\n-2e3\n";
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+      if (t == 0) out << "4 " << corners[0] << " " << corners[1] << " " << corners[2] << " " << corners[3] << "\n";
+      if (t == 0 || t == quad) continue;
+      out << "3 " << mesh.triangles[t][0] << " " << mesh.triangles[t][1] << " " << mesh.triangles[t][2] << "\n";
+    }
+  }
+  const IndexedMesh ours = readMesh(path);
+  ASSERT_EQ(ours.positions.size(), mesh.positions.size());
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+    ASSERT_EQ(ours.positions[v].x, mesh.positions[v].x) << v;
+    ASSERT_EQ(ours.positions[v].y, mesh.positions[v].y) << v;
+    ASSERT_EQ(ours.positions[v].z, mesh.positions[v].z) << v;
+  }
+  EXPECT_TRUE(ours.normals.empty());
+  EXPECT_EQ(canonicalSorted(ours.triangles), canonicalSorted(mesh.triangles));
+  const auto theirs = dracoRead(path);
+  ASSERT_NE(theirs, nullptr);
+  EXPECT_EQ(theirs->num_faces(), ours.triangles.size());
+  EXPECT_EQ(canonicalSorted(inOurIds(*theirs, ours, 0)), canonicalSorted(ours.triangles));
+}
+
 // tinyobjloader keeps the file's vertex order, so the comparison is index by index.
 TEST(MeshReader, AgreesWithTinyobjloaderOnIsoslabsObj) {
   const std::string dir = testing::tempDir();
