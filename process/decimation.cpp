@@ -64,9 +64,9 @@ std::pair<VertexId, VertexId> idRange(std::span<const Triangle> triangles) {
 // how many run from the smaller id to the larger. Linear: the uses are bucketed by their smaller id
 // (a counting sort over the ids' range), then each vertex's few uses are sorted by the larger id.
 // The edges are visited from the buckets, as often as asked, and never stored.
-class EdgeTally {
+class EdgeBuckets {
  public:
-  explicit EdgeTally(std::span<const Triangle> triangles) {
+  explicit EdgeBuckets(std::span<const Triangle> triangles) {
     if (triangles.empty()) return;
     const auto [low, high] = idRange(triangles);
     low_ = low;
@@ -143,7 +143,7 @@ struct Shape {
 // no more (a new edge there is a chord), and the whole list was the largest array of a region's check.
 Shape shapeOf(std::span<const Triangle> triangles) {
   Shape s;
-  const EdgeTally edges(triangles);
+  const EdgeBuckets edges(triangles);
   edges.visit([&](std::uint64_t key, EdgeUse e) {
     if (e.uses == 1) s.border.push_back(key);
     if (e.uses > 2) ++s.nonManifold;
@@ -1108,7 +1108,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // The edges the result should not have; a label complex's odd edges as they were.
     ScratchVector<VertexId> bad;
     std::size_t border = 0, oddKept = 0;
-    EdgeTally(openTriangles).visit([&](std::uint64_t key, EdgeUse e) {
+    EdgeBuckets(openTriangles).visit([&](std::uint64_t key, EdgeUse e) {
       const auto a = static_cast<VertexId>(key >> 32);
       const auto b = static_cast<VertexId>(key & 0xffffffffu);
       if (!open(a) || !open(b)) return;  // not every triangle on it was tallied
