@@ -190,7 +190,7 @@ class Simplifier {
     record_ = limits.record;
     const double limit = takeLimits(limits);
 
-    for (std::uint32_t pass = 1; live_ > limits.targetTriangles; ++pass) {
+    for (std::uint32_t pass = 1; live_ > limits.targetTriangles && pass < 0xffff; ++pass) {
       // A pass that makes only a sliver of the collapses still wanted is the last: what is left are
       // candidates that the tests refuse, tried again every pass for a handful more (a noisy
       // surface that its bound stops short of the target spent half its passes so).
@@ -285,10 +285,12 @@ class Simplifier {
     for (std::size_t i = 0; i < 3 * triangles; ++i) ++first_[idx_[i] + 1];
     for (std::size_t v = 0; v < vertices_; ++v) first_[v + 1] += first_[v];
     around_.resize(3 * triangles);
-    fill_.assign(first_.begin(), first_.end() - 1);
+    // Each vertex's start advances as its list fills, to the next vertex's start: shifted back after.
     for (std::size_t t = 0; t < triangles; ++t) {
-      for (std::size_t k = 0; k < 3; ++k) around_[fill_[idx_[3 * t + k]]++] = static_cast<std::uint32_t>(t);
+      for (std::size_t k = 0; k < 3; ++k) around_[first_[idx_[3 * t + k]]++] = static_cast<std::uint32_t>(t);
     }
+    for (std::size_t v = vertices_; v > 0; --v) first_[v] = first_[v - 1];
+    first_[0] = 0;
   }
 
   void compact() {
@@ -299,12 +301,10 @@ class Simplifier {
         std::memmove(&idx_[3 * kept], &idx_[3 * t], 3 * sizeof(std::uint32_t));
         if (!origin_.empty()) origin_[kept] = origin_[t];
         if (!unchecked_.empty()) unchecked_[kept] = unchecked_[t];
-        if (!corners_.empty()) std::memmove(&corners_[3 * kept], &corners_[3 * t], 3 * sizeof(std::uint32_t));
       }
       ++kept;
     }
     count_ = 3 * kept;
-    if (!corners_.empty()) corners_.resize(count_);
   }
 
   // One pass: the candidates by error, each made where nothing around it has changed. Returns
@@ -315,20 +315,23 @@ class Simplifier {
     // Each edge once, and two a line vertex: about 3/2 a triangle. Reserved, not grown, so that the
     // array has no untouched tail (a huge page of it would be resident: core/scratch.h).
     keys_.reserve(3 * triangles / 2 + 2 * lineEnds_.size() + 64);
-    // Each corner's candidate as the last pass found it stands while neither end has changed since
-    // (a collapse changes only its `to`'s quadric, and rewrites only triangles at `to`, marking both
-    // ends with its pass): about a third of them change a pass.
-    const bool fresh = pass == 1 || corners_.size() != count_;
-    if (fresh) corners_.resize(count_);
     for (std::size_t t = 0; t < triangles; ++t) {
       for (std::size_t k = 0; k < 3; ++k) {
         const std::uint32_t a = idx_[3 * t + k], b = idx_[3 * t + (k + 1) % 3];
-        std::uint32_t& candidate = corners_[3 * t + k];
-        if (fresh || mark_[a] == pass - 1 || mark_[b] == pass - 1) candidate = edgeCandidate(a, b, limit);
-        if (candidate == kNoCandidate) continue;
+        // Each edge between two triangles once (where it runs from the smaller id); a border
+        // edge's ends do not move.
+        if (a > b || (free_[a] != kDisk && free_[b] != kDisk)) continue;
+        const Vec3 ab = sub(at(b), at(a));
+        const double abError = free_[a] == kDisk ? quadrics_[a].error(ab) : INFINITY;
+        const double baError = free_[b] == kDisk ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
+        const double e = std::min(abError, baError);
+        if (!(e <= limit)) continue;
+        const auto error = static_cast<float>(e);
+        std::uint32_t bits = 0;
+        std::memcpy(&bits, &error, sizeof bits);
         // The candidate: its corner (which holds the edge's first end) and 1 when the second end
         // moves.
-        keys_.push_back(static_cast<std::uint64_t>(candidate & 0x7fffffffu) << 32 | (3 * t + k) << 1 | candidate >> 31);
+        keys_.push_back(static_cast<std::uint64_t>(bits) << 32 | (3 * t + k) << 1 | (abError <= baError ? 0u : 1u));
       }
     }
     // A line vertex's collapses onto its neighbours on the line, each named by a corner of a
@@ -387,23 +390,6 @@ class Simplifier {
     return made;
   }
 
-  // The edge from a to b as a candidate: the bits of its error (a float that is not negative) with
-  // the top bit set when b moves onto a, or kNoCandidate. Each edge between two triangles once
-  // (where it runs from the smaller id); a border edge's ends do not move.
-  static constexpr std::uint32_t kNoCandidate = 0xffffffffu;
-  std::uint32_t edgeCandidate(std::uint32_t a, std::uint32_t b, double limit) const {
-    if (a > b || (free_[a] != kDisk && free_[b] != kDisk)) return kNoCandidate;
-    const Vec3 ab = sub(at(b), at(a));
-    const double abError = free_[a] == kDisk ? quadrics_[a].error(ab) : INFINITY;
-    const double baError = free_[b] == kDisk ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
-    const double e = std::min(abError, baError);
-    if (!(e <= limit)) return kNoCandidate;
-    const auto error = static_cast<float>(e);
-    std::uint32_t bits = 0;
-    std::memcpy(&bits, &error, sizeof bits);
-    return bits | (abError <= baError ? 0u : 0x80000000u);
-  }
-
   // The keys in order of error (their upper 32 bits, the bits of a float that is not negative),
   // each error's keys in order of candidate (their lower bits, which they arrive in): a stable
   // radix sort of the upper bits, 11, 11 and 10 at a time.
@@ -426,8 +412,12 @@ class Simplifier {
     // theirs may have lost a neighbour to a collapse, which rewrote it in place, or died). The link
     // condition: the ends share only the two vertices opposite the edge. `to`'s neighbours are
     // stamped; each of `from`'s that has the stamp is shared, and is stamped again when counted.
+    if (stamp_ > 0xffff - 2) {  // the stamps are 16 bits: start again from a cleared array
+      std::fill(seen_.begin(), seen_.end(), std::uint16_t{0});
+      stamp_ = 0;
+    }
     stamp_ += 2;
-    const std::uint32_t inTo = stamp_ - 1, counted = stamp_;
+    const auto inTo = static_cast<std::uint16_t>(stamp_ - 1), counted = static_cast<std::uint16_t>(stamp_);
     for (std::uint32_t i = first_[to]; i < first_[to + 1]; ++i) {
       const std::uint32_t* t = &idx_[3 * around_[i]];
       if (t[0] == kDead) continue;
@@ -514,7 +504,7 @@ class Simplifier {
     }
     // `to` has gained triangles that its list lacks, and its quadric has changed: it waits for the
     // next pass, as does `from`, which is gone.
-    mark_[from] = mark_[to] = pass;
+    mark_[from] = mark_[to] = static_cast<std::uint16_t>(pass);
     if (record_ != nullptr) record_->push_back({from, to});
     return true;
   }
@@ -537,12 +527,12 @@ class Simplifier {
   ScratchVector<std::uint8_t> free_;
   std::vector<std::array<std::uint32_t, 3>> lineEnds_;
   ScratchVector<std::uint32_t> lineAt_;  // each vertex's entry in lineEnds_ (kDead: none)
-  ScratchVector<std::uint32_t> mark_, seen_;
+  // Per vertex: the last pass that changed it (passes stop before 2^16), and the link test's stamps.
+  ScratchVector<std::uint16_t> mark_, seen_;
   ScratchVector<std::uint8_t> dirty_;  // replaying: 1 where the recorded run's fan may differ
   LazyScratchVector<SimplifyStep>* record_ = nullptr;
-  ScratchVector<std::uint32_t> first_, fill_, around_;
+  ScratchVector<std::uint32_t> first_, around_;
   LazyScratchVector<std::uint64_t> keys_, spare_;  // reserved for every edge, used for fewer
-  ScratchVector<std::uint32_t> corners_;           // each corner's candidate (edgeCandidate) by the last pass
   const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;
   double checkAbove_ = INFINITY;
   double sampleLimit_ = INFINITY;
