@@ -166,6 +166,7 @@ class Simplifier {
     const bool alongLines = limits.alongLines;
     std::vector<std::array<std::uint32_t, 2>> pairs;
     for (std::uint32_t v = 0; v < vertexCount; ++v) {
+      if (v < locked.size() && locked[v] != 0) continue;  // stays, whatever its triangles
       pairs.clear();
       for (std::uint32_t i = first_[v]; i < first_[v + 1]; ++i) {
         const std::uint32_t* t = &idx_[3 * around_[i]];
@@ -174,7 +175,6 @@ class Simplifier {
       }
       std::array<std::uint32_t, 2> ends{};
       free_[v] = isDisk(pairs) ? kDisk : alongLines && isLine(pairs, ends) ? kLine : kStays;
-      if (v < locked.size() && locked[v] != 0) free_[v] = kStays;
       if (free_[v] == kLine) lineEnds_.push_back({v, ends[0], ends[1]});
     }
     if (!lineEnds_.empty()) {
