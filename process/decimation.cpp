@@ -60,69 +60,60 @@ std::pair<VertexId, VertexId> idRange(std::span<const Triangle> triangles) {
   return {low, high};
 }
 
-// Every edge of the triangles, in order of key (smaller id << 32 | larger id), with its uses and
-// how many run from the smaller id to the larger. Linear: the uses are bucketed by their smaller id
-// (a counting sort over the ids' range), then each vertex's few uses are sorted by the larger id.
-// The edges are visited from the buckets, as often as asked, and never stored.
-class EdgeBuckets {
- public:
-  explicit EdgeBuckets(std::span<const Triangle> triangles) {
-    if (triangles.empty()) return;
-    const auto [low, high] = idRange(triangles);
-    low_ = low;
-    offsets_.assign(static_cast<std::size_t>(high - low_) + 2, 0);
-    // An edge from a vertex to itself (a triangle that repeats an id) is no edge.
-    for (const Triangle& t : triangles) {
-      for (std::size_t k = 0; k < 3; ++k) {
-        if (t[k] != t[(k + 1) % 3]) ++offsets_[std::min(t[k], t[(k + 1) % 3]) - low_ + 1];
-      }
-    }
-    for (std::size_t k = 1; k < offsets_.size(); ++k) offsets_[k] += offsets_[k - 1];
-    // Per use: the larger id, and 1 when it runs from the smaller id to the larger.
-    uses_.resize(offsets_.back());
-    ScratchVector<std::uint32_t> fill(offsets_.begin(), offsets_.end() - 1);
-    for (const Triangle& t : triangles) {
-      for (std::size_t k = 0; k < 3; ++k) {
-        const VertexId a = t[k], b = t[(k + 1) % 3];
-        if (a != b) uses_[fill[std::min(a, b) - low_]++] = {std::max(a, b), a < b ? 1u : 0u};
-      }
-    }
-    // Each vertex's uses sorted by the larger id (few: an insertion sort).
-    for (std::size_t v = 0; v + 1 < offsets_.size(); ++v) {
-      const std::uint32_t first = offsets_[v], last = offsets_[v + 1];
-      for (std::uint32_t k = first + 1; k < last; ++k) {
-        const auto u = uses_[k];
-        std::uint32_t m = k;
-        for (; m > first && u.first < uses_[m - 1].first; --m) uses_[m] = uses_[m - 1];
-        uses_[m] = u;
-      }
+// Every edge of the triangles, sorted by key (smaller id << 32 | larger id): its uses and how many
+// run from the smaller id to the larger. Linear: the uses are bucketed by their smaller id (a
+// counting sort over the ids' range), then each vertex's few uses are sorted by the larger id.
+ScratchVector<std::pair<std::uint64_t, EdgeUse>> tallyEdges(std::span<const Triangle> triangles) {
+  ScratchVector<std::pair<std::uint64_t, EdgeUse>> edges;
+  if (triangles.empty()) return edges;
+  const auto [low, high] = idRange(triangles);
+  ScratchVector<std::uint32_t> offsets(static_cast<std::size_t>(high - low) + 2, 0);
+  // An edge from a vertex to itself (a triangle that repeats an id) is no edge.
+  for (const Triangle& t : triangles) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (t[k] != t[(k + 1) % 3]) ++offsets[std::min(t[k], t[(k + 1) % 3]) - low + 1];
     }
   }
-
-  // Calls visit(key, EdgeUse) for each edge, in order of key.
-  template <class Visit>
-  void visit(Visit&& visit) const {
-    for (std::size_t v = 0; v + 1 < offsets_.size(); ++v) {
-      const std::uint32_t last = offsets_[v + 1];
-      const std::uint64_t lo = low_ + static_cast<VertexId>(v);
-      for (std::uint32_t k = offsets_[v]; k < last;) {
-        std::uint32_t end = k;
-        EdgeUse e{0, 0};
-        for (; end < last && uses_[end].first == uses_[k].first; ++end) {
-          ++e.uses;
-          e.forward += uses_[end].second;
-        }
-        visit((lo << 32) | uses_[k].first, e);
-        k = end;
-      }
+  for (std::size_t k = 1; k < offsets.size(); ++k) offsets[k] += offsets[k - 1];
+  // Per use: the larger id, and 1 when it runs from the smaller id to the larger.
+  ScratchVector<std::pair<VertexId, std::uint32_t>> uses(offsets.back());
+  ScratchVector<std::uint32_t> fill(offsets.begin(), offsets.end() - 1);
+  for (const Triangle& t : triangles) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const VertexId a = t[k], b = t[(k + 1) % 3];
+      if (a != b) uses[fill[std::min(a, b) - low]++] = {std::max(a, b), a < b ? 1u : 0u};
     }
   }
-
- private:
-  VertexId low_ = 0;
-  ScratchVector<std::uint32_t> offsets_;
-  ScratchVector<std::pair<VertexId, std::uint32_t>> uses_;
-};
+  // Each vertex's uses sorted by the larger id (few: an insertion sort), and the distinct edges
+  // counted, so that the list is made at its size.
+  std::size_t distinct = 0;
+  for (std::size_t v = 0; v + 1 < offsets.size(); ++v) {
+    const std::uint32_t first = offsets[v], last = offsets[v + 1];
+    for (std::uint32_t k = first + 1; k < last; ++k) {
+      const auto u = uses[k];
+      std::uint32_t m = k;
+      for (; m > first && u.first < uses[m - 1].first; --m) uses[m] = uses[m - 1];
+      uses[m] = u;
+    }
+    for (std::uint32_t k = first; k < last; ++k) distinct += (k == first || uses[k].first != uses[k - 1].first) ? 1 : 0;
+  }
+  edges.reserve(distinct);
+  for (std::size_t v = 0; v + 1 < offsets.size(); ++v) {
+    const std::uint32_t first = offsets[v], last = offsets[v + 1];
+    const std::uint64_t lo = low + static_cast<VertexId>(v);
+    for (std::uint32_t k = first; k < last;) {
+      std::uint32_t end = k;
+      EdgeUse e{0, 0};
+      for (; end < last && uses[end].first == uses[k].first; ++end) {
+        ++e.uses;
+        e.forward += uses[end].second;
+      }
+      edges.push_back({(lo << 32) | uses[k].first, e});
+      k = end;
+    }
+  }
+  return edges;
+}
 
 struct Shape {
   ScratchVector<std::uint64_t> border;  // edges used once, sorted
@@ -143,13 +134,13 @@ struct Shape {
 // no more (a new edge there is a chord), and the whole list was the largest array of a region's check.
 Shape shapeOf(std::span<const Triangle> triangles) {
   Shape s;
-  const EdgeBuckets edges(triangles);
-  edges.visit([&](std::uint64_t key, EdgeUse e) {
+  const auto edges = tallyEdges(triangles);
+  for (const auto& [key, e] : edges) {
     if (e.uses == 1) s.border.push_back(key);
     if (e.uses > 2) ++s.nonManifold;
     if (e.uses == 2 && e.forward != 1) ++s.inconsistent;
     if (e.uses > 2 || (e.uses == 2 && e.forward != 1)) s.odd.push_back({key, e});
-  });
+  }
   if (!s.border.empty()) {
     // A border key's first end is the smaller, and the keys are sorted by it.
     s.borderLow = static_cast<VertexId>(s.border.front() >> 32);
@@ -161,12 +152,11 @@ Shape shapeOf(std::span<const Triangle> triangles) {
       s.borderFlags[static_cast<VertexId>(key & 0xffffffffu) - s.borderLow] = 1;
     }
   }
-  if (s.border.empty()) return s;
-  edges.visit([&](std::uint64_t key, EdgeUse) {
+  for (const auto& [key, e] : edges) {
     if (s.onBorder(static_cast<VertexId>(key >> 32)) && s.onBorder(static_cast<VertexId>(key & 0xffffffffu))) {
       s.amongBorder.push_back(key);
     }
-  });
+  }
   return s;
 }
 
@@ -1108,10 +1098,10 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // The edges the result should not have; a label complex's odd edges as they were.
     ScratchVector<VertexId> bad;
     std::size_t border = 0, oddKept = 0;
-    EdgeBuckets(openTriangles).visit([&](std::uint64_t key, EdgeUse e) {
+    for (const auto& [key, e] : tallyEdges(openTriangles)) {
       const auto a = static_cast<VertexId>(key >> 32);
       const auto b = static_cast<VertexId>(key & 0xffffffffu);
-      if (!open(a) || !open(b)) return;  // not every triangle on it was tallied
+      if (!open(a) || !open(b)) continue;  // not every triangle on it was tallied
       border += e.uses == 1 ? 1 : 0;
       bool odd = e.uses > 2 || (e.uses == 2 && e.forward != 1);
       if (odd && complex_) {
@@ -1135,7 +1125,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
         bad.push_back(static_cast<VertexId>(key >> 32));
         bad.push_back(static_cast<VertexId>(key & 0xffffffffu));
       }
-    });
+    }
     // Pinched vertices: more fans than before, and more than one.
     {
       ScratchVector<VertexId> several, unknown;
