@@ -98,12 +98,26 @@ SimplifyLimits toTarget(std::size_t triangles) {
   return limits;
 }
 
-// A torus (genus 1) from marching cubes.
-Flat torus() {
-  return extracted({40, 40, 20}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
+// A torus (genus 1) from marching cubes, of radii `ring` and `tube`, centred in the grid.
+Flat torus(std::array<std::int64_t, 3> dims = {40, 40, 20}, double ring = 11.0, double tube = 4.0) {
+  const double cx = 0.5 * double(dims[0] - 1), cy = 0.5 * double(dims[1] - 1) - 0.2,
+               cz = 0.5 * double(dims[2] - 1) + 0.1;
+  return extracted(dims, [=](std::int64_t i, std::int64_t j, std::int64_t k) {
     const double x = double(i), y = double(j), z = double(k);
-    return static_cast<float>(4.0 - std::hypot(std::hypot(x - 19.5, y - 19.3) - 11.0, z - 9.6));
+    return static_cast<float>(tube - std::hypot(std::hypot(x - cx, y - cy) - ring, z - cz));
   });
+}
+
+// m, a closed surface of Euler characteristic `euler`, simplified towards `target`: at least 95%
+// of its triangles go, and it stays closed and oriented with that characteristic.
+void expectSimplifiedClosed(Flat& m, std::size_t target, long euler) {
+  const Shape before = shapeOf(m, m.indices.size());
+  ASSERT_EQ(before.border, 0u);
+  ASSERT_EQ(before.euler(), euler);
+  const std::size_t kept = simplifyTriangles(m.indices, m.xyz.data(), m.vertices(), toTarget(target));
+  const Shape after = shapeOf(m, kept);
+  EXPECT_LT(after.triangles, before.triangles / 20);
+  expectClosedSurface(after, euler);
 }
 
 TEST(Simplifier, ATorusStaysAClosedOrientedTorusAtTheTarget) {
@@ -127,18 +141,9 @@ TEST(Simplifier, ATorusStaysAClosedOrientedTorusAtTheTarget) {
 // start again several times) stays a closed oriented torus. Asked for 300 triangles, it keeps about
 // 3,600 (its tests refuse the rest), so the test asks for 95% of them gone.
 TEST(Simplifier, ALargeTorusStaysATorusThroughManyTries) {
-  Flat m = extracted({200, 200, 64}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
-    const double x = double(i), y = double(j), z = double(k);
-    return static_cast<float>(20.0 - std::hypot(std::hypot(x - 99.5, y - 99.3) - 62.0, z - 31.6));
-  });
-  const Shape before = shapeOf(m, m.indices.size());
-  ASSERT_GT(before.triangles, 140000u);
-  ASSERT_EQ(before.border, 0u);
-  ASSERT_EQ(before.euler(), 0);
-  const std::size_t kept = simplifyTriangles(m.indices, m.xyz.data(), m.vertices(), toTarget(300));
-  const Shape after = shapeOf(m, kept);
-  EXPECT_LT(after.triangles, before.triangles / 20);
-  expectClosedSurface(after, 0);
+  Flat m = torus({200, 200, 64}, 62.0, 20.0);
+  ASSERT_GT(m.indices.size() / 3, 140000u);
+  expectSimplifiedClosed(m, 300, 0);
 }
 
 // Two sheets a voxel apart (a thin closed slab): collapses that would join them at an edge are the
@@ -149,13 +154,7 @@ TEST(Simplifier, TwoSheetsCloseTogetherAreNeverJoined) {
     const double slab = 0.6 - std::abs(z - 3.5 - 0.1 * std::sin(0.4 * x) * std::cos(0.3 * y));
     return static_cast<float>(std::min({slab, 12.0 - std::abs(x - 14.5), 12.0 - std::abs(y - 14.5)}));
   });
-  const Shape before = shapeOf(m, m.indices.size());
-  ASSERT_EQ(before.border, 0u);
-  ASSERT_EQ(before.euler(), 2);
-  const std::size_t kept = simplifyTriangles(m.indices, m.xyz.data(), m.vertices(), toTarget(4));
-  const Shape after = shapeOf(m, kept);
-  EXPECT_LT(after.triangles, before.triangles / 20);
-  expectClosedSurface(after, 2);
+  expectSimplifiedClosed(m, 4, 2);
 }
 
 // An open surface keeps its border: every border edge of the input, run the same way, and no new
