@@ -223,6 +223,7 @@ class Simplifier {
           buildAdjacency();
         }
         pass = steps[i++].to;
+        if (pass >= 0xffff) break;  // not a log that run() made (its passes stop before 2^16 - 1)
         continue;
       }
       for (; i < steps.size() && !steps[i].isPass(); ++i) {

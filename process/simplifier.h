@@ -63,10 +63,10 @@ struct SimplifyLimits {
   /// When set, each collapse made is appended to it, in order, each pass after its mark (a lazy
   /// buffer: reserve it for the most that may come, and only what is written is resident).
   LazyScratchVector<SimplifyStep>* record = nullptr;
-  /// When not empty (a log as `record` makes, its pass marks in increasing order), the simplifier
-  /// makes these collapses again, pass by pass and in order, instead of choosing its own, and stops
-  /// after them: each only where the tests pass on
-  /// the mesh as it is then, with the errors and the check as above. A repair replays a run's
+  /// When not empty (a log as `record` makes, its pass marks in increasing order and below 2^16 - 1:
+  /// the replay stops at a mark beyond), the simplifier makes these collapses again, pass by pass
+  /// and in order, instead of choosing its own, and stops after them: each only where the tests
+  /// pass on the mesh as it is then, with the errors and the check as above. A repair replays a run's
   /// collapses on its input less a frozen patch, so the run's choices stand wherever the patch does
   /// not reach. A collapse whose moving vertex has the triangles and the quadric that it had in the
   /// recorded run makes the same triangles: `check`, which passed them then, is not asked again.

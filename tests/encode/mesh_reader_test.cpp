@@ -192,6 +192,58 @@ TEST(MeshReader, AsciiPlyAgreesWithDraco) {
   EXPECT_EQ(canonicalSorted(inOurIds(*theirs, ours, 0)), canonicalSorted(ours.triangles));
 }
 
+// A binary PLY whose positions and normals use every scalar type but float (signed values where the
+// type has them), with skipped properties and lists between them, 16-bit face lists and a trailing
+// element of another name: each value reads back exactly.
+TEST(MeshReader, BinaryPlyReadsEveryScalarType) {
+  const std::string dir = testing::tempDir();
+  std::string body;
+  const auto put = [&body](auto v) { body.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  const double xs[4] = {-1.25, 2.5, 0.0, 1e-3};
+  const std::int16_t ys[4] = {-300, 7, 0, 32767};
+  const std::uint16_t zs[4] = {65535, 1, 0, 40000};
+  const std::int8_t nx[4] = {-128, 127, 0, -1};
+  const std::uint32_t ny[4] = {4000000000u, 1, 0, 12345};
+  const std::int32_t nz[4] = {-2000000000, 5, 0, -7};
+  for (int v = 0; v < 4; ++v) {
+    put(xs[v]);
+    put(std::uint8_t{200});  // red, skipped
+    put(ys[v]);
+    put(std::uint16_t{2}), put(1.5f), put(-2.5f);  // a list of two floats, skipped
+    put(zs[v]);
+    put(nx[v]), put(ny[v]), put(nz[v]);
+  }
+  const std::uint16_t faces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  for (const auto& f : faces) {
+    put(std::uint16_t{3});
+    for (const std::uint16_t i : f) put(i);
+  }
+  put(std::int32_t{-9});  // the element "edge", skipped
+  const std::string header =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float64 x\nproperty uchar red\n"
+      "property short y\nproperty list uint16 float32 junk\nproperty ushort z\nproperty int8 nx\n"
+      "property uint ny\nproperty int32 nz\nelement face 4\nproperty list ushort uint16 vertex_indices\n"
+      "element edge 1\nproperty int a\nend_header\n";
+  const std::string path = dir + "/b.ply";
+  std::ofstream(path, std::ios::binary) << header << body;
+  const IndexedMesh mesh = readMesh(path);
+  ASSERT_EQ(mesh.positions.size(), 4u);
+  ASSERT_EQ(mesh.normals.size(), 4u);
+  for (std::size_t v = 0; v < 4; ++v) {
+    SCOPED_TRACE(v);
+    EXPECT_EQ(mesh.positions[v].x, static_cast<float>(xs[v]));
+    EXPECT_EQ(mesh.positions[v].y, static_cast<float>(ys[v]));
+    EXPECT_EQ(mesh.positions[v].z, static_cast<float>(zs[v]));
+    EXPECT_EQ(mesh.normals[v].x, static_cast<float>(nx[v]));
+    EXPECT_EQ(mesh.normals[v].y, static_cast<float>(ny[v]));
+    EXPECT_EQ(mesh.normals[v].z, static_cast<float>(nz[v]));
+  }
+  ASSERT_EQ(mesh.triangles.size(), 4u);
+  for (std::size_t t = 0; t < 4; ++t) {
+    EXPECT_EQ(mesh.triangles[t], (Triangle{faces[t][0], faces[t][1], faces[t][2]})) << t;
+  }
+}
+
 // tinyobjloader keeps the file's vertex order, so the comparison is index by index.
 TEST(MeshReader, AgreesWithTinyobjloaderOnIsoslabsObj) {
   const std::string dir = testing::tempDir();

@@ -137,7 +137,7 @@ TEST(Simplifier, ATorusStaysAClosedOrientedTorusAtTheTarget) {
   }
 }
 
-// A torus large enough that one call makes over 70,000 collapses (the link test's 16-bit stamps
+// A torus large enough that one call makes about 69,000 collapses (the link test's 16-bit stamps
 // start again several times) stays a closed oriented torus. Asked for 300 triangles, it keeps about
 // 3,600 (its tests refuse the rest), so the test asks for 95% of them gone.
 TEST(Simplifier, ALargeTorusStaysATorusThroughManyTries) {
@@ -288,6 +288,19 @@ TEST(Simplifier, AReplayMakesTheRecordedCollapsesAgainAwayFromWhatIsLeftOut) {
     same += before.count({patched.indices[i], patched.indices[i + 1], patched.indices[i + 2]});
   }
   EXPECT_GT(same, after.triangles * 9 / 10);
+
+  // A log whose second pass is numbered 2^16 - 1 (no run makes one) is replayed up to that mark:
+  // the first pass's collapses alone.
+  std::vector<SimplifyStep> cut(steps.begin(), steps.end());
+  const auto second = std::find_if(cut.begin() + 1, cut.end(), [](const SimplifyStep& s) { return s.isPass(); });
+  ASSERT_NE(second, cut.end());
+  const auto firstPass = static_cast<std::size_t>(second - cut.begin()) - 1;
+  second->to = 0xffff;
+  limits.replay = cut;
+  Flat partial = m;
+  const std::size_t keptPartial = simplifyTriangles(partial.indices, partial.xyz.data(), partial.vertices(), limits);
+  EXPECT_EQ(keptPartial / 3, all - 2 * firstPass);
+  expectClosedSurface(shapeOf(partial, keptPartial), 0);
 }
 
 }  // namespace
