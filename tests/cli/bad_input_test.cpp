@@ -1607,6 +1607,25 @@ const Case kCases[] = {
        return d + "/m.ply";
      },
      "render {in} -o {dir}/v.png", 1, "a PLY face has the vertex index -1, not a whole number from 0"},
+    // Class 6: PLY files cut short (found by cutting the fuzz seeds one byte at a time).
+    {"PlyHeaderCutShort",
+     [](const std::string& d) {
+       write(d + "/m.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nprop");
+       return d + "/m.ply";
+     },
+     "decode {in} -o {dir}/out.obj", 1, "the PLY header is not terminated"},
+    {"PlyBinaryFaceListCutShort",
+     [](const std::string& d) {
+       // Three vertices whole, then a face that claims three int indices and holds one.
+       std::string data(36, '\0');
+       data += std::string("\x03\x00\x00\x00\x00", 5);
+       write(d + "/m.ply", plyHeader("binary_little_endian", "element vertex 3\nproperty float x\nproperty float y\n"
+                                                             "property float z\nelement face 1\n"
+                                                             "property list uchar int vertex_indices\n") +
+                               data);
+       return d + "/m.ply";
+     },
+     "metrics {in}", 1, "the file is truncated"},
     // --- DICOM Segmentations whose frames do not match their geometry (io/dicom_seg.cpp) ------------
     {"DicomSegFrameOffTheLattice",
      [](const std::string& d) {
