@@ -92,7 +92,17 @@ class Input {
     if (!l.empty() && l.back() == '\r') l.pop_back();
     return l;
   }
-  std::string rest() const { return data_.substr(pos_); }
+  // ASCII data: the next word (a run of characters that are not white space; a NUL is one of
+  // them), as a pointer into the data, which a NUL ends, and its length; null after the last word.
+  const char* word(std::size_t& length) {
+    const auto space = [](char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; };
+    while (pos_ < data_.size() && space(data_[pos_])) ++pos_;
+    if (pos_ == data_.size()) return nullptr;
+    const std::size_t start = pos_;
+    while (pos_ < data_.size() && !space(data_[pos_])) ++pos_;
+    length = pos_ - start;
+    return data_.c_str() + start;
+  }
   std::size_t remaining() const { return data_.size() - pos_; }
 
  private:
@@ -206,23 +216,16 @@ void checkCounts(const Header& header, std::uint64_t have, const std::string& pa
 class Body {
  public:
   Body(Input& in, bool ascii, const std::string& path)
-      : in_(in), ascii_(ascii), path_(path), text_(ascii ? in.rest() : std::string()) {
-    textSize_ = text_.size();
-  }
+      : in_(in), ascii_(ascii), path_(path), textSize_(ascii ? in.remaining() : 0) {}
 
   double scalar(Scalar type) {
     if (!ascii_) return decode(in_.take(type.size), type);
-    // The next word (a run of characters that are not white space), read whole as a number.
-    const auto space = [](char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; };
-    while (at_ < textSize_ && space(text_[at_])) ++at_;
-    if (at_ == textSize_) throw Error(fmt::format("{}: the PLY data is truncated", path_));
-    std::size_t end = at_;
-    while (end < textSize_ && !space(text_[end])) ++end;  // a NUL, too, is part of the word
-    const char* word = text_.c_str() + at_;
+    // The next word, read whole as a number.
+    std::size_t length = 0;
+    const char* word = in_.word(length);
+    if (word == nullptr) throw Error(fmt::format("{}: the PLY data is truncated", path_));
     char* stop = nullptr;
     const double v = std::strtod(word, &stop);
-    const std::size_t length = end - at_;
-    at_ = end;
     if (stop != word + length) {
       std::string shown(word, std::min<std::size_t>(length, 40));
       for (char& c : shown) c = c >= 0x20 && c < 0x7f ? c : '?';  // one printable line
@@ -257,8 +260,7 @@ class Body {
   Input& in_;
   bool ascii_;
   const std::string& path_;
-  std::string text_;  // ASCII: the data after the header
-  std::size_t textSize_ = 0, at_ = 0;
+  std::size_t textSize_ = 0;  // ASCII: the bytes after the header
 };
 
 // The items of element `e`: each vertex's position and normal, or each face's polygon, into `mesh`.
