@@ -46,6 +46,23 @@ std::string alternatives(const std::vector<std::string>& names) {
   return text;
 }
 
+std::string optionTakenAsValue(const CLI::App& command) {
+  for (const CLI::Option* option : command.get_options()) {
+    if (option->get_type_size() == 0) continue;  // a flag
+    for (const std::string& value : option->results()) {
+      // "--threads=2" names --threads; "-" (standard output) and "-400" name nothing.
+      const std::string name = value.substr(0, value.find('='));
+      if (name.size() > 1 && name[0] == '-' && command.get_option_no_throw(name) != nullptr) {
+        return fmt::format("{} needs a value, not the option {}", option->get_name(), name);
+      }
+    }
+  }
+  for (const CLI::App* sub : command.get_subcommands()) {
+    if (std::string message = optionTakenAsValue(*sub); !message.empty()) return message;
+  }
+  return "";
+}
+
 CLI::Validator oneOf(const std::string& what, const std::vector<std::string>& names) {
   return CLI::Validator(
       [what, names](std::string& value) -> std::string {

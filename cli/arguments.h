@@ -61,6 +61,11 @@ CLI::Validator sphereList();
 /// The sphere of a --sphere text that sphereList() accepted.
 Sphere parseSphere(const std::string& text);
 
+/// An option of `command` (or of a subcommand it parsed) that took one of the command's own option
+/// names as its value (`--report --quiet`: CLI11 takes the next word whatever it is), as
+/// "--report needs a value, not the option --quiet"; "" when none did.
+std::string optionTakenAsValue(const CLI::App& command);
+
 /// Library text with the settings it names (core/error.h: `channel`, `raw_dims`, ...) spelled as
 /// this program's options (--channel, --raw-dims). Other text, backticks included, is kept.
 std::string withFlags(const std::string& text);

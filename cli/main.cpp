@@ -299,7 +299,16 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     const auto parsed = app.get_subcommands();
     const std::string help = parsed.empty() ? "isoslab --help" : "isoslab " + parsed.back()->get_name() + " --help";
-    printError(fmt::format("{} (see {})", e.what(), help));
+    // An option that took the next option as its value is the cause of what follows from it
+    // (`--report --sphere 1,1,1,1`: "1,1,1,1 was not expected").
+    const std::string taken = cli::optionTakenAsValue(app);
+    printError(fmt::format("{} (see {})", taken.empty() ? std::string(e.what()) : taken, help));
+    return 2;
+  }
+  if (const std::string taken = cli::optionTakenAsValue(app); !taken.empty()) {
+    const auto parsed = app.get_subcommands();
+    const std::string help = parsed.empty() ? "isoslab --help" : "isoslab " + parsed.back()->get_name() + " --help";
+    printError(fmt::format("{} (see {})", taken, help));
     return 2;
   }
 

@@ -38,6 +38,11 @@ std::unique_ptr<SliceSource> openUnchecked(const std::vector<std::string>& input
     }
   }
   if (inputs.size() == 1 && PhantomSource::isPhantom(input)) return PhantomSource::open(input);
+  for (const std::string& in : inputs) {
+    if (PhantomSource::isPhantom(in)) {
+      throw Error(fmt::format("{}: a phantom is a volume by itself: give it as the only input", in));
+    }
+  }
   if (options.raw) {
     if (inputs.size() > 1) throw Error(fmt::format("{}: raw input takes one file, pattern or folder", inputs[1]));
     return RawReader::open(input, *options.raw);

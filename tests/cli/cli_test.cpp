@@ -282,6 +282,9 @@ TEST(Cli, BadInputGivesOneLineANonZeroExitAndNoOutput) {
       {"extract " + dir + "/missing.raw --raw-dims 8,8,8 --iso 1" + out,
        dir + "/missing.raw: cannot open: No such file or directory"},
       {"extract " + dir + "/missing.raw --iso 1" + out, dir + "/missing.raw: cannot open: No such file or directory"},
+      // A second word after a phantom (`--report --threads 1` leaves the 1 as an input).
+      {"extract 'phantom:sphere?n=16' 1" + out,
+       "phantom:sphere?n=16: a phantom is a volume by itself: give it as the only input"},
       {"extract " + dir + "/short.raw --iso 1" + out,
        dir + "/short.raw: unrecognised input format; for raw data give --raw-dims X,Y[,Z] and --raw-type"},
       {"extract 'phantom:sphere?n=16' -o " + dir + "/no/such/folder/out.ply",
@@ -329,6 +332,14 @@ TEST(Cli, UsageErrorsExitWithTwoAndOneLine) {
       {"extract " + raw + " --iso abc" + out, "--iso: 'abc' is not a number, auto, bone or skin"},
       {"phantom 'sphere?n=8' -o " + dir + "/p.raw", "sphere?n=8: not a phantom spec (phantom:NAME?key=value&...)"},
       {"extrct 'phantom:sphere?n=16'" + out, "unknown command 'extrct'; did you mean 'extract'?"},
+      // CLI11 takes the next word as a value whatever it is: a report named --quiet, say.
+      {"extract 'phantom:sphere?n=16' --report --quiet" + out,
+       "--report needs a value, not the option --quiet (see isoslab extract --help)"},
+      {"extract 'phantom:sphere?n=16' -o --threads=2",
+       "--output needs a value, not the option --threads (see isoslab "
+       "extract --help)"},
+      {"metrics " + dir + "/v.raw --report --sphere 1,2,3,4",
+       "--report needs a value, not the option --sphere (see isoslab metrics --help)"},
       {"inf x", "unknown command 'inf'; did you mean 'info'?"},
       {"frobnicate",
        "unknown command 'frobnicate' (use extract, metrics, compare, decode, render, view, batch, info or phantom)"},
