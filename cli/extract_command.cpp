@@ -125,7 +125,8 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
                    "(shorter runs, then fewer extraction threads, when it runs short), half for .glb encoders on "
                    "threads of their own (about 100 MiB "
                    "each at the default --chunk-triangles; none fits under 200, and chunks then encode in turn); "
-                   "--decimate takes a second block at a time while it fits in half (about 256 bytes a triangle)")
+                   "--decimate takes a second block at a time while it fits in half (about 256 bytes a triangle), and "
+                   "queues four for two rounds while a fourth block's chunks fit there too (64 bytes a triangle)")
       ->check(integerIn(16, 1 << 20))
       ->capture_default_str();
   // The cost model's smallest volume for threads; a hidden hook for the tests, which check the

@@ -341,10 +341,10 @@ TEST(Decimation, WithoutTheMeasureTheOutputIsTheSame) {
   EXPECT_EQ(b.report.distanceMax, 0.0);
 }
 
-// With threads, blocks are taken three at a time and simplified two side by side (then their
-// regions, as their blocks are done): the same triangles, the same vertices and the same report as
-// one block at a time, whether or not the budget lets blocks queue up, and on the threads of the
-// extraction too.
+// With threads, blocks are taken four (or three) at a time and simplified two side by side (then
+// their regions, as their blocks are done): the same triangles, the same vertices and the same
+// report as one block at a time, whether or not the budget lets blocks queue up, and on the threads
+// of the extraction too.
 TEST(Decimation, BlocksSideBySideGiveTheSameOutputAndReport) {
   DecimateOptions near = smallBlocks(0.25);
   near.blockSlabs = 3;  // many blocks: pairs, and an odd one at the end
@@ -359,10 +359,15 @@ TEST(Decimation, BlocksSideBySideGiveTheSameOutputAndReport) {
     DecimateOptions two = one;
     two.threads = 2;
     DecimateOptions tight = two;
-    tight.pairBytes = 3000 * kPairBytesPerTriangle;  // some blocks pair up, larger ones go alone
+    // The blocks here have 500 to 1,560 triangles: with this budget the largest go alone, the
+    // middling ones in threes (no room for a fourth), the small ones in fours.
+    tight.pairBytes = 1200 * kPairBytesPerTriangle;
+    DecimateOptions snug = two;
+    snug.pairBytes = 1600 * kPairBytesPerTriangle;  // threes and fours
     const Decimated a = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, one);
     ASSERT_GT(a.report.blocks, 5u);
-    for (const auto& [options, threads] : {std::pair{two, 1}, std::pair{two, 3}, std::pair{tight, 2}}) {
+    for (const auto& [options, threads] :
+         {std::pair{two, 1}, std::pair{two, 3}, std::pair{tight, 2}, std::pair{snug, 2}}) {
       const Decimated b = decimate(lumpyScene(), {44, 32, 44}, Method::kMarchingCubes, options, threads);
       EXPECT_TRUE(a.decimated.positions == b.decimated.positions);
       EXPECT_TRUE(a.decimated.triangles == b.decimated.triangles);
