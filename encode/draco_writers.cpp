@@ -289,10 +289,10 @@ void GlbDracoWriter::close(const MeshChunk& last) {
 // same vertex is left unmarked (0), and decoders weld it by position; anywhere else, a shared vertex
 // gets its key (global id + 2) in both chunks and every other vertex there gets 1, "never weld".
 // Only the waiting chunk's last slab can lie within a quantization step of the current chunk's
-// first slab, so only those vertices are compared. Then hands the waiting chunk to the encoder.
+// first slab, so only those vertices are compared.
 // size-exception: the seam's three cases (one unmarked vertex each side, keyed, never weld) are
 // decided together per position group; split, each part would rebuild the groups.
-void GlbDracoWriter::resolveSeam() {
+void GlbDracoWriter::keySeam() {
   struct Group {
     std::vector<VertexId> there;  // in the waiting chunk
     std::vector<VertexId> here;   // in the current chunk
@@ -381,10 +381,16 @@ void GlbDracoWriter::resolveSeam() {
       ++keyedVertices_;
     }
   }
+}
+
+// The seam's keys, then the waiting chunk encoded: keySeam()'s maps are gone by then, and the
+// encoder's working memory (the peak of a long run at one thread) comes on top of less.
+void GlbDracoWriter::resolveSeam() {
+  keySeam();
   ++seams_;
+  pendingTop_.clear();
   flush(std::move(*pending_));
   pending_.reset();
-  pendingTop_.clear();
 }
 
 // The last chunks' split vertices, as resolveSeam() keys the others: keys of the parity of the seam
