@@ -48,7 +48,9 @@ std::string alternatives(const std::vector<std::string>& names) {
 
 std::string optionTakenAsValue(const CLI::App& command) {
   for (const CLI::Option* option : command.get_options()) {
-    if (option->get_type_size() == 0) continue;  // a flag
+    // Flags take no value; positionals get words with dashes only after `--`, where they are meant
+    // (batch passes the words after `--` on to extract).
+    if (option->get_type_size() == 0 || !option->nonpositional()) continue;
     for (const std::string& value : option->results()) {
       // "--threads=2" names --threads; "-" (standard output) and "-400" name nothing.
       const std::string name = value.substr(0, value.find('='));

@@ -126,7 +126,7 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
                    "threads of their own (about 100 MiB "
                    "each at the default --chunk-triangles; none fits under 200, and chunks then encode in turn); "
                    "--decimate takes a second block at a time while it fits in half (about 256 bytes a triangle), and "
-                   "queues four for two rounds while a fourth block's chunks fit there too (64 bytes a triangle)")
+                   "queues four for two rounds while a fourth block's chunks would fit there too (64 bytes a triangle)")
       ->check(integerIn(16, 1 << 20))
       ->capture_default_str();
   // The cost model's smallest volume for threads; a hidden hook for the tests, which check the

@@ -294,7 +294,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ValidationError& e) {
-    printError(e.what());  // the message lists the choices
+    // The message lists the choices, unless the value was the next option (`--threads --quiet`).
+    const std::string taken = cli::optionTakenAsValue(app);
+    printError(taken.empty() ? std::string(e.what()) : taken);
     return 2;
   } catch (const CLI::ParseError& e) {
     const auto parsed = app.get_subcommands();

@@ -338,8 +338,9 @@ void DecimationSink::consume(const MeshChunk& chunk) {
     // More blocks are taken only with a thread for a second one and memory for the first one's
     // pair: kSideBySide of them and one more, for the first thread that is free (blocks of the
     // same size can take twice as long as one another).
-    // A fourth block is waited for when its chunks fit there too (each thread then has two blocks:
-    // with three, one thread ran the third alone while the other had only regions left).
+    // A fourth block is waited for when its chunks would fit there too, judged by the largest block
+    // queued (each thread then has two blocks: with three, one thread ran the third alone while the
+    // other had only regions left).
     std::size_t firstTriangles = 0, largest = 0;
     for (const Block& b : queued_) {
       std::size_t n = 0;

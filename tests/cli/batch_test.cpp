@@ -37,7 +37,9 @@ TEST(Batch, ManyInputsOneMeshAndReportEachAndASummary) {
   std::ofstream(dir + "/list.txt") << "# inputs\nphantom:head?n=24,20,16&noise=60\n\n"
                                    << missing << "\n  phantom:sphere?n=20  \nphantom:head?n=24,20,16&noise=60\n";
   const auto r =
-      runCli(fmt::format("batch {0}/list.txt --out {0}/out --jobs 2 --format ply -- --iso 0 --method mt6", dir));
+      // --quiet is batch's option too: after `--` it is extract's.
+      runCli(
+          fmt::format("batch {0}/list.txt --out {0}/out --jobs 2 --format ply -- --iso 0 --method mt6 --quiet", dir));
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_EQ(r.err, fmt::format("isoslab: batch: 1 of 4 inputs failed ({}/out/batch.json)\n", dir));
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 2 + 4) << r.out;

@@ -282,7 +282,7 @@ TEST(Cli, BadInputGivesOneLineANonZeroExitAndNoOutput) {
       {"extract " + dir + "/missing.raw --raw-dims 8,8,8 --iso 1" + out,
        dir + "/missing.raw: cannot open: No such file or directory"},
       {"extract " + dir + "/missing.raw --iso 1" + out, dir + "/missing.raw: cannot open: No such file or directory"},
-      // A second word after a phantom (`--report --threads 1` leaves the 1 as an input).
+      // A second word after a phantom: a phantom is never one of a list.
       {"extract 'phantom:sphere?n=16' 1" + out,
        "phantom:sphere?n=16: a phantom is a volume by itself: give it as the only input"},
       {"extract " + dir + "/short.raw --iso 1" + out,
@@ -340,6 +340,7 @@ TEST(Cli, UsageErrorsExitWithTwoAndOneLine) {
        "extract --help)"},
       {"metrics " + dir + "/v.raw --report --sphere 1,2,3,4",
        "--report needs a value, not the option --sphere (see isoslab metrics --help)"},
+      {"extract 'phantom:sphere?n=16' --threads --quiet" + out, "--threads needs a value, not the option --quiet"},
       {"inf x", "unknown command 'inf'; did you mean 'info'?"},
       {"frobnicate",
        "unknown command 'frobnicate' (use extract, metrics, compare, decode, render, view, batch, info or phantom)"},
