@@ -72,10 +72,10 @@ struct DecimateOptions {
   bool measure = true;
   /// Threads for the blocks and regions: with two or more, blocks are taken three at a time, while
   /// the first block's triangles times kPairBytesPerTriangle fit in `pairBytes` (a second block and
-  /// its working set), four at a time while a fourth block's chunks would fit there too (64 bytes a
-  /// triangle of the largest block queued: two blocks for each thread), and two threads simplify them and their regions
-  /// (each takes the next block, else the next region whose block is done). The output is the same for every thread
-  /// count and budget.
+  /// its working set), or four at a time while a fourth block's chunks would fit there too (64
+  /// bytes a triangle of the largest block queued: two blocks for each thread), and two threads
+  /// simplify them and their regions (each takes the next block, else the next region whose block
+  /// is done). The output is the same for every thread count and budget.
   int threads = 1;
   std::size_t pairBytes = std::size_t{128} << 20;
 };
