@@ -285,6 +285,11 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  // Where a usage error points: the help of the command parsed last.
+  const auto helpCommand = [&app] {
+    const auto parsed = app.get_subcommands();
+    return parsed.empty() ? std::string("isoslab --help") : "isoslab " + parsed.back()->get_name() + " --help";
+  };
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -299,18 +304,14 @@ int main(int argc, char** argv) {
     printError(taken.empty() ? std::string(e.what()) : taken);
     return 2;
   } catch (const CLI::ParseError& e) {
-    const auto parsed = app.get_subcommands();
-    const std::string help = parsed.empty() ? "isoslab --help" : "isoslab " + parsed.back()->get_name() + " --help";
     // An option that took the next option as its value is the cause of what follows from it
     // (`--report --sphere 1,1,1,1`: "1,1,1,1 was not expected").
     const std::string taken = cli::optionTakenAsValue(app);
-    printError(fmt::format("{} (see {})", taken.empty() ? std::string(e.what()) : taken, help));
+    printError(fmt::format("{} (see {})", taken.empty() ? std::string(e.what()) : taken, helpCommand()));
     return 2;
   }
   if (const std::string taken = cli::optionTakenAsValue(app); !taken.empty()) {
-    const auto parsed = app.get_subcommands();
-    const std::string help = parsed.empty() ? "isoslab --help" : "isoslab " + parsed.back()->get_name() + " --help";
-    printError(fmt::format("{} (see {})", taken, help));
+    printError(fmt::format("{} (see {})", taken, helpCommand()));
     return 2;
   }
 

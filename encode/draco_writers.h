@@ -75,9 +75,9 @@ class GlbDracoWriter final : public MeshFileSink {
   static Encoded encode(IndexedMesh mesh, const DracoSettings& settings, const std::string& path);
   VertexId localVertex(VertexId id);
   void close(const MeshChunk& last);
-  // Keys the seam between the waiting chunk and the current one (seam keys of both), then encodes
-  // the waiting chunk.
+  // Keys the seam between the waiting chunk and the current one, then encodes the waiting chunk.
   void resolveSeam();
+  // The seam keys of both chunks (its working maps are freed before the encoding).
   void keySeam();
   void keySplitVertices(IndexedMesh& mesh, std::uint64_t seam);
   void flush(IndexedMesh mesh);

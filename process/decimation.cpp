@@ -337,17 +337,13 @@ void DecimationSink::consume(const MeshChunk& chunk) {
     queueBlock();
     // More blocks are taken only with a thread for a second one and memory for the first one's
     // pair: kSideBySide of them and one more, for the first thread that is free (blocks of the
-    // same size can take twice as long as one another).
-    // A fourth block is waited for when its chunks would fit there too, judged by the largest block
-    // queued (each thread then has two blocks: with three, one thread ran the third alone while the
-    // other had only regions left).
-    std::size_t firstTriangles = 0, largest = 0;
-    for (const Block& b : queued_) {
-      std::size_t n = 0;
-      for (std::size_t c = b.start; c < b.end; ++c) n += chunkTriangles_[c - chunkBase_].size();
-      if (&b == &queued_.front()) firstTriangles = n;
-      largest = std::max(largest, n);
-    }
+    // same size can take twice as long as one another), or a fourth when its chunks would fit there
+    // too, judged by the largest block queued (each thread then has two blocks: with three, one
+    // thread ran the third alone while the other had only regions left).
+    const auto triangles = [this](const Block& b) { return static_cast<std::size_t>(originalIn(b.start, b.end)); };
+    const std::size_t firstTriangles = triangles(queued_.front());
+    std::size_t largest = 0;
+    for (const Block& b : queued_) largest = std::max(largest, triangles(b));
     const std::size_t pairBytes = firstTriangles * kPairBytesPerTriangle;
     const bool pair = options_.threads > 1 && pairBytes <= options_.pairBytes;
     const bool twoRounds = pair && pairBytes + largest * kQueuedBytesPerTriangle <= options_.pairBytes;
