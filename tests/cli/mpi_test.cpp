@@ -3,7 +3,10 @@
 // CI, hence --allow-run-as-root; -q keeps mpirun's own banners off stderr, so that stderr is
 // isoslab's alone. ASan's leak check is off for the ranks: Open MPI keeps memory until exit.
 // orte_abort_on_non_zero_status 0 lets every rank end by itself (mpirun otherwise kills the rest
-// when the first exits non-zero), so that each rank's exit status can be checked.
+// when the first exits non-zero), so that each rank's exit status can be checked. Each mpirun keeps
+// its session directory under the test's own temporary directory (orte_tmpdir_base): ctest runs
+// these tests side by side, and one mpirun removing the shared /tmp/ompi.* tree while another
+// creates its own there failed a CI run ("ORTE_ERROR_LOG ... session_dir.c", exit 1).
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -34,10 +37,11 @@ struct RanksResult {
 RanksResult runRanks(int ranks, const std::string& args, bool eachRank = true) {
   const std::string dir = testing::tempDir();
   const std::string cmd = fmt::format(
-      "ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 timeout 300 {} -q --allow-run-as-root --oversubscribe {} -np {} "
+      "ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 OMPI_MCA_orte_tmpdir_base={} timeout 300 {} -q "
+      "--allow-run-as-root --oversubscribe {} -np {} "
       "sh -c '\"$0\" \"$@\"; rc=$?; echo $rc > {}/rc.$OMPI_COMM_WORLD_RANK; exit $rc' {} {} 2>{}/stderr </dev/null "
       ">/dev/null",
-      ISOSLAB_MPIEXEC, eachRank ? "--mca orte_abort_on_non_zero_status 0" : "", ranks, dir, ISOSLAB_CLI_PATH, args,
+      dir, ISOSLAB_MPIEXEC, eachRank ? "--mca orte_abort_on_non_zero_status 0" : "", ranks, dir, ISOSLAB_CLI_PATH, args,
       dir);
   const int status = std::system(cmd.c_str());
   RanksResult r;
