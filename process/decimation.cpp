@@ -595,13 +595,13 @@ void DecimationSink::processQueued(bool last) {
   for (std::vector<Work>* group : {&blocks, &regions}) {
     for (const Work& w : *group) count(w.scope);
   }
-  // The regions measured, then the grids freed: none is held while the regions go on downstream
-  // (the next region's are made again, half a block's).
-  if (options_.measure) {
-    for (Work& w : regions) measure(w.output.triangles, w.range, w.scope);
-  }
+  // The grids freed (none is held while the regions go on downstream: the next region's are made
+  // again, half a block's), then the regions measured.
   for (Work& w : regions) w.scope.surface.reset();
   for (std::unique_ptr<OriginalSurface>& grid : chunkGrids_) grid.reset();
+  if (options_.measure) {
+    for (Work& w : regions) measure(w.output.triangles, w.range);
+  }
   for (Work& w : regions) {
     emit(w.output, w.slab);
     w = Work{};
@@ -1254,9 +1254,13 @@ DecimationSink::ChunkRange DecimationSink::rangeAround(std::span<const Triangle>
 // triangles use, read in order), then each triangle's cells counted and noted, then the lists
 // filled from the notes.
 DecimationSink::OriginalSurface DecimationSink::originalSurface(std::size_t chunk) const {
+  return gridOver(chunkTriangles_[chunk - chunkBase_], 2.0 * options_.voxelSize, 2.0);
+}
+
+DecimationSink::OriginalSurface DecimationSink::gridOver(std::span<const Triangle> all, double firstCell,
+                                                         double cellsPerTriangle) const {
   OriginalSurface surface;
   surface.sink = this;
-  const std::vector<Triangle>& all = chunkTriangles_[chunk - chunkBase_];
   surface.triangles = all;
   std::size_t count = 0;
   VertexId lowest = kNone, highest = 0;
@@ -1277,8 +1281,8 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(std::size_t chun
   surface.low = low;
   surface.high = high;
   surface.minVertex = lowest;
-  surface.cell = 2.0 * options_.voxelSize;
-  const double most = 2.0 * static_cast<double>(count) + 64.0;
+  surface.cell = firstCell;
+  const double most = cellsPerTriangle * static_cast<double>(count) + 64.0;
   for (;;) {
     double cells = 1;
     for (std::size_t d = 0; d < 3; ++d) {
@@ -1660,9 +1664,26 @@ bool DecimationSink::Originals::holds(std::span<const VertexId> corners, const V
 // distance is 0 (the search would find the triangle itself, up to rounding). An edge's midpoint is
 // measured once for the triangles on both sides (within a batch of triangles in their order, which
 // holds most of the pairs); the sum and the largest are taken in the triangles' order.
-void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope) {
+//
+// The original triangles are in one grid of their own, not the chunks' grids of the checks: the
+// chunks are slabs about a voxel thick, so that a point near a slab's face was searched for in two
+// or three grids, each of p's cells there in full.
+void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange originals) {
   if (triangles.empty()) return;
-  const Originals& surface = surfaceFor(originals, scope);
+  ScratchVector<Triangle> all;
+  for (std::size_t c = std::max(chunkBase_, originals.first); c < std::min(chunks_, originals.end); ++c) {
+    for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
+      // As in surfaceFor: a range starts a chunk above its block's base, whose vertices the window holds.
+      if (t[0] < base_ || t[1] < base_ || t[2] < base_) {
+        throw std::logic_error("decimation: a measured range lacks triangles below the window");
+      }
+      all.push_back(t);
+    }
+  }
+  const OriginalSurface grid = gridOver(all, options_.voxelSize, 4.0);
+  Originals surface;
+  if (grid.count > 0) surface.parts.push_back(&grid);
+  surface.index();
   Hint hint = kNoHint;
   constexpr std::size_t kBatch = 8192;
   struct Use {
@@ -1711,7 +1732,6 @@ void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange ori
       report_.samples += 4;
     }
   }
-  scope.surface.reset();  // not held while the region goes on downstream
 }
 
 // Sends a final region on as one chunk: its vertices that no earlier chunk sent, in the order the

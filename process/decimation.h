@@ -340,10 +340,13 @@ class DecimationSink final : public MeshSink {
                       ScratchVector<std::uint8_t>& unchecked) const;
   // Sends a final region on (measured before, when asked: measure()).
   void emit(const Faces& faces, std::int64_t slab);
-  void measure(std::span<const Triangle> triangles, ChunkRange originals, Scope& scope);
+  void measure(std::span<const Triangle> triangles, ChunkRange originals);
   // The chunks whose original triangles measure `triangles`, within chunks [firstChunk, end).
   ChunkRange rangeAround(std::span<const Triangle> triangles, std::size_t firstChunk, std::size_t end) const;
   OriginalSurface originalSurface(std::size_t chunk) const;
+  // A grid of `all`'s triangles on vertices from base_ on: cells `firstCell` wide, doubled until
+  // there are at most about `cellsPerTriangle` cells a triangle.
+  OriginalSurface gridOver(std::span<const Triangle> all, double firstCell, double cellsPerTriangle) const;
   // Builds the grids of the chunks in the ranges that have none, on up to `threads` threads (each
   // chunk's grid is its own).
   void buildGrids(const std::vector<ChunkRange>& ranges, int threads);
