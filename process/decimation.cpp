@@ -532,8 +532,8 @@ void DecimationSink::processQueued(bool last) {
   const std::size_t atOnce = std::min(n, kSideBySide);
   for (std::size_t k = 0; k < atOnce; ++k) makeBlock(queued_[k], blocks[k]);
   report_.blocks += n;
-  // The grids for the blocks' checks (a measure alone needs only the regions'): those of the
-  // blocks that start at once here, side by side; a later block's when it starts.
+  // The grids for the blocks' checks: those of the blocks that start at once here, side by side; a
+  // later block's when it starts.
   const bool checked = options_.maxDistance > 0;
   if (checked) {
     std::vector<ChunkRange> ranges;
@@ -631,7 +631,7 @@ const DecimationSink::Originals& DecimationSink::surfaceFor(ChunkRange range, Sc
 }
 
 void DecimationSink::buildGrids(const std::vector<ChunkRange>& ranges, int threads) {
-  if (!(options_.maxDistance > 0) && !options_.measure) return;  // no check and no measure: no grid
+  if (!(options_.maxDistance > 0)) return;  // no check: no grid (the measure builds its own)
   std::vector<std::size_t> missing;
   for (const ChunkRange& range : ranges) {
     for (std::size_t c = std::max(chunkBase_, range.first); c < std::min(chunks_, range.end); ++c) {
@@ -1157,8 +1157,8 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
         if (fansAfter[id - first] > std::max(1u, it->second)) bad.push_back(id);
       }
     }
-    // Triangles that moved the surface too far, against the grid of the original triangles, which
-    // the distance measure of the try that succeeds reuses. Only those that a collapse changed
+    // Triangles that moved the surface too far, against the grids of the original triangles. Only
+    // those that a collapse changed
     // unchecked: the others are unchanged (an original triangle in a block; in a region, a block's
     // triangle that its own check passed) or were measured as the collapses made them.
     // On a surface (not a label complex, whose lines have three triangles an edge), each edge is
@@ -1247,15 +1247,16 @@ DecimationSink::ChunkRange DecimationSink::rangeAround(std::span<const Triangle>
   return {std::max(firstChunk, first > 0 ? first - 1 : 0), std::min(end, chunkOfVertex(highest) + 2)};
 }
 
-// A chunk's original triangles (those on vertices from base_ on) in a dense grid over their
-// bounding box, for distances to the original surface: cells two voxels wide, or wider where the
-// box would hold more than about two cells a triangle (the answers do not depend on the cell size,
-// only the time). A counting sort with no search: the box (over the span of vertex ids that the
-// triangles use, read in order), then each triangle's cells counted and noted, then the lists
-// filled from the notes.
+// A chunk's grid, for the checks: cells two voxels wide, or wider where the box would hold more than
+// about two cells a triangle.
 DecimationSink::OriginalSurface DecimationSink::originalSurface(std::size_t chunk) const {
   return gridOver(chunkTriangles_[chunk - chunkBase_], 2.0 * options_.voxelSize, 2.0);
 }
+
+// Original triangles (those on vertices from base_ on) in a dense grid over their bounding box, for
+// distances to the original surface (the answers do not depend on the cell size, only the time). A
+// counting sort with no search: the box (over the span of vertex ids that the triangles use, read
+// in order), then each triangle's cells counted and noted, then the lists filled from the notes.
 
 DecimationSink::OriginalSurface DecimationSink::gridOver(std::span<const Triangle> all, double firstCell,
                                                          double cellsPerTriangle) const {
@@ -1313,7 +1314,7 @@ DecimationSink::OriginalSurface DecimationSink::gridOver(std::span<const Triangl
   // along some axis, found again from its corners).
   constexpr std::uint8_t kWide = 255;
   struct Note {
-    std::uint32_t triangle = 0;  // its place in the chunk
+    std::uint32_t triangle = 0;  // its place in `all`
     std::uint32_t cell = 0;
     std::array<std::uint8_t, 3> more{};
   };
@@ -1670,8 +1671,13 @@ bool DecimationSink::Originals::holds(std::span<const VertexId> corners, const V
 // or three grids, each of p's cells there in full.
 void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange originals) {
   if (triangles.empty()) return;
+  const std::size_t firstChunk = std::max(chunkBase_, originals.first);
+  const std::size_t endChunk = std::min(chunks_, originals.end);
+  std::size_t size = 0;
+  for (std::size_t c = firstChunk; c < endChunk; ++c) size += chunkTriangles_[c - chunkBase_].size();
   ScratchVector<Triangle> all;
-  for (std::size_t c = std::max(chunkBase_, originals.first); c < std::min(chunks_, originals.end); ++c) {
+  all.reserve(size);
+  for (std::size_t c = firstChunk; c < endChunk; ++c) {
     for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
       // As in surfaceFor: a range starts a chunk above its block's base, whose vertices the window holds.
       if (t[0] < base_ || t[1] < base_ || t[2] < base_) {
@@ -1684,7 +1690,13 @@ void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange ori
   Originals surface;
   if (grid.count > 0) surface.parts.push_back(&grid);
   surface.index();
+  // The first search bounded too (every later one is, by the triangle that the last one found): by
+  // an original triangle on the first triangle's first corner, or any listed one.
   Hint hint = kNoHint;
+  if (grid.count > 0) {
+    const std::array<VertexId, 1> corner{triangles.front()[0]};
+    if (!surface.holds(corner, toDouble(position(corner[0])), hint)) hint = 0;
+  }
   constexpr std::size_t kBatch = 8192;
   struct Use {
     VertexId a = 0, b = 0;    // the edge's corners, a < b

@@ -146,8 +146,9 @@ class DecimationSink final : public MeshSink {
     // A box around every triangle; the least vertex id that a triangle uses.
     Vec3d low{}, high{};
     VertexId minVertex = 0;
-    // The chunk's original triangles (the sink's, which outlive the grid), read through the sink's
-    // positions; the cells list those on vertices from the sink's base_ on, `count` of them.
+    // The original triangles (a chunk's, which outlive the grid, or the measure's copy of a range's),
+    // read through the sink's positions; the cells list those on vertices from the sink's base_ on,
+    // `count` of them.
     const DecimationSink* sink = nullptr;
     std::span<const Triangle> triangles;
     std::size_t count = 0;
@@ -229,9 +230,10 @@ class DecimationSink final : public MeshSink {
   // a triangle of it, tried first for the next point (kNoHint: none).
   using Hint = std::uint64_t;
   static constexpr Hint kNoHint = ~Hint{0};
-  // The original surface of a range of chunks: each chunk's grid, built the first time that a block
-  // or region needs it and kept until the regions go downstream, so that a block, its tries and
-  // the regions across its seams share them.
+  // The original surface of a range of chunks: for the checks, each chunk's grid, built the first
+  // time that a block or region needs it and kept until the regions go downstream, so that a block,
+  // its tries and the regions across its seams share them; for the report's measure, one grid of the
+  // whole range (measure()).
   struct Originals {
     using Vec3d = OriginalSurface::Vec3d;
     // The chunks' grids that hold triangles, in order of their boxes' low end along `axis` (the
@@ -351,8 +353,7 @@ class DecimationSink final : public MeshSink {
   // chunk's grid is its own).
   void buildGrids(const std::vector<ChunkRange>& ranges, int threads);
   // The original surface of `range` (its grids built), kept in the scope for the next caller with
-  // the same range: the tries, the simplifier's checks and the distance measure of the output share
-  // it.
+  // the same range: the tries and the simplifier's checks share it.
   const Originals& surfaceFor(ChunkRange range, Scope& scope) const;
   // What a region's crossing search found in its last try: the triangles it tested (sorted) and
   // the pairs that cross. A pair of triangles that were both in that try, once each, crosses now
