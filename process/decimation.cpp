@@ -1257,7 +1257,6 @@ DecimationSink::OriginalSurface DecimationSink::originalSurface(std::size_t chun
 // distances to the original surface (the answers do not depend on the cell size, only the time). A
 // counting sort with no search: the box (over the span of vertex ids that the triangles use, read
 // in order), then each triangle's cells counted and noted, then the lists filled from the notes.
-
 DecimationSink::OriginalSurface DecimationSink::gridOver(std::span<const Triangle> all, double firstCell,
                                                          double cellsPerTriangle) const {
   OriginalSurface surface;
