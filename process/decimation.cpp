@@ -1158,13 +1158,12 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       }
     }
     // Triangles that moved the surface too far, against the grids of the original triangles. Only
-    // those that a collapse changed
-    // unchecked: the others are unchanged (an original triangle in a block; in a region, a block's
-    // triangle that its own check passed) or were measured as the collapses made them.
-    // On a surface (not a label complex, whose lines have three triangles an edge), each edge is
-    // run once each way, so an edge's midpoint is measured only where it runs from the smaller id:
-    // its other triangle measures it there if that one changed unchecked, and is within the bound
-    // whole if not. A result that is no such surface has bad edges already.
+    // those that a collapse changed unchecked: the others are unchanged (an original triangle in a
+    // block; in a region, a block's triangle that its own check passed) or were measured as the
+    // collapses made them. On a surface (not a label complex, whose lines have three triangles an
+    // edge), each edge is run once each way, so an edge's midpoint is measured only where it runs
+    // from the smaller id: its other triangle measures it there if that one changed unchecked, and
+    // is within the bound whole if not. A result that is no such surface has bad edges already.
     const std::size_t misshapen = bad.size();
     if (original != nullptr) {
       Hint hint = kNoHint;
@@ -1672,10 +1671,8 @@ void DecimationSink::measure(std::span<const Triangle> triangles, ChunkRange ori
   if (triangles.empty()) return;
   const std::size_t firstChunk = std::max(chunkBase_, originals.first);
   const std::size_t endChunk = std::min(chunks_, originals.end);
-  std::size_t size = 0;
-  for (std::size_t c = firstChunk; c < endChunk; ++c) size += chunkTriangles_[c - chunkBase_].size();
   ScratchVector<Triangle> all;
-  all.reserve(size);
+  all.reserve(static_cast<std::size_t>(originalIn(firstChunk, endChunk)));
   for (std::size_t c = firstChunk; c < endChunk; ++c) {
     for (const Triangle& t : chunkTriangles_[c - chunkBase_]) {
       // As in surfaceFor: a range starts a chunk above its block's base, whose vertices the window holds.
