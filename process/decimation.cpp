@@ -793,10 +793,15 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
       indices[3 * t + k] = l;
     }
   }
+  for (const VertexId v : steps.outline) {
+    unsigned& l = local[v - low];
+    if (l == ~0u) l = used++;
+  }
   ScratchVector<VertexId> ids(used);
   for (std::size_t t = 0; t < triangles.size(); ++t) {
     for (std::size_t k = 0; k < 3; ++k) ids[indices[3 * t + k]] = triangles[t][k];
   }
+  for (const VertexId v : steps.outline) ids[local[v - low]] = v;
   // The recorded collapses among this batch's vertices, in local ids and in order of pass (a batch
   // may hold components that the recorded try gave to different batches, each numbering its own
   // passes: each pass is gathered from all of them).
@@ -813,18 +818,20 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
           pass = s.to;
           continue;
         }
-        if (pass != p || s.from < low || s.to < low || s.from - low >= local.size() || s.to - low >= local.size()) {
+        const VertexId target = s.target();
+        if (pass != p || s.from < low || target < low || s.from - low >= local.size() || target - low >= local.size()) {
           continue;
         }
-        const unsigned from = local[s.from - low], to = local[s.to - low];
-        if (from != ~0u && to != ~0u) replay.push_back({from, to});
+        const unsigned from = local[s.from - low], to = local[target - low];
+        if (from != ~0u && to != ~0u) replay.push_back({from, to | (s.to & SimplifyStep::kRename)});
       }
     }
   }
   // The pinned vertices that this batch uses, by their local ids.
   std::vector<std::uint8_t> locked;
-  if (!pinned.empty()) {
+  if (!pinned.empty() || !steps.outline.empty()) {
     locked.assign(ids.size(), 0);
+    for (const VertexId v : steps.outline) locked[local[v - low]] = SimplifyLimits::kRenamedOnly;
     for (const VertexId v : pinned) {
       if (v >= low && v - low < local.size() && local[v - low] != ~0u) locked[local[v - low]] = 1;
     }
@@ -947,6 +954,128 @@ std::size_t frozenContext(std::span<const Triangle> triangles, const ScratchVect
 
 }  // namespace
 
+// A repair's try (issue 36's local repairs): only the neighbourhood of the bad spots is simplified
+// again. `previous` is the last try's simplified triangles (the frozen ones apart) and `root[v -
+// first]` the vertex that stands for v in it (v itself, or the vertex that the collapses moved it
+// onto; ids relative to `first`); a logged collapse whose `from` stands for itself was not made.
+// The zone: the vertices of `previous` on the newly frozen triangles `fresh` and their neighbours
+// there, with every vertex that each stands for. Its triangles in `previous` go. In their place the
+// region's triangles on a zone vertex (less the frozen ones) get the first try's collapses among
+// the zone's vertices again, tested as a replay tests them (SimplifyLimits::replay), in order with
+// the collapses made outside the zone that took part in them, which are only renames there
+// (SimplifyStep::kRename). So every step sees the triangles around the zone as that try had them,
+// the zone's vertices have all their triangles (the frozen ones as context, every corner fixed),
+// and outside the zone nothing changes: what the last try's checks passed there stands (its flags
+// are 0).
+DecimationSink::Faces DecimationSink::repairNear(const Faces& faces, const ScratchVector<bool>& frozen,
+                                                 std::span<const std::uint32_t> fresh, const Faces& previous,
+                                                 ScratchVector<std::uint32_t>& root, VertexId first,
+                                                 std::span<const SimplifyStep> log, const Originals* original,
+                                                 ScratchVector<std::uint8_t>& unchecked) const {
+  const ScratchVector<Triangle>& triangles = faces.triangles;
+  const std::size_t span = root.size();
+  // The zone, by the vertices that stand for it in `previous`: 1 for those on the new frozen
+  // triangles, 2 for their neighbours (marked apart, so that the scan does not go on from them).
+  // 3 marks the vertices outside that stand for a corner of the input (below).
+  ScratchVector<std::uint8_t> zone(span, 0);
+  for (const std::uint32_t t : fresh) {
+    for (const VertexId v : triangles[t]) zone[root[v - first]] = 1;
+  }
+  for (const Triangle& t : previous.triangles) {
+    if (zone[t[0] - first] != 1 && zone[t[1] - first] != 1 && zone[t[2] - first] != 1) continue;
+    for (const VertexId v : t) zone[v - first] = zone[v - first] == 1 ? 1 : 2;
+  }
+  const auto inZone = [&](VertexId v) { return zone[root[v - first]] == 1 || zone[root[v - first]] == 2; };
+  // The region's triangles on the zone as they are, and its frozen ones there as context.
+  Faces input;
+  ScratchVector<Triangle> context;
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    const Triangle& tri = triangles[t];
+    if (!inZone(tri[0]) && !inZone(tri[1]) && !inZone(tri[2])) continue;
+    if (frozen[t]) {
+      context.push_back(tri);
+      continue;
+    }
+    input.add(faces, t);
+    for (const VertexId v : tri) {
+      if (!inZone(v)) zone[root[v - first]] = 3;
+    }
+  }
+  const std::size_t plain = input.size();
+  for (std::size_t t = 0; t < triangles.size() && plain > 0 && !context.empty(); ++t) {
+    const Triangle& tri = triangles[t];
+    if (frozen[t] && (inZone(tri[0]) || inZone(tri[1]) || inZone(tri[2]))) input.add(faces, t);
+  }
+  if (plain == 0) context.clear();
+  ScratchVector<VertexId> pinned;
+  for (const Triangle& t : context) pinned.insert(pinned.end(), t.begin(), t.end());
+  std::sort(pinned.begin(), pinned.end());
+  pinned.erase(std::unique(pinned.begin(), pinned.end()), pinned.end());
+  // The steps: the first try's collapses within the zone, and the renames of the collapses made
+  // outside it among the vertices that its corners outside stand with.
+  LazyScratchVector<SimplifyStep> replay, made;
+  replay.reserve(log.size());
+  ScratchVector<VertexId> outline;
+  for (const SimplifyStep& s : log) {
+    if (s.isPass()) {
+      replay.push_back(s);
+    } else if (inZone(s.from)) {
+      if (inZone(s.to)) replay.push_back(s);
+    } else if (zone[root[s.from - first]] == 3 && root[s.from - first] != s.from - first) {
+      replay.push_back({s.from, s.to | SimplifyStep::kRename});
+      outline.push_back(s.from);
+      outline.push_back(s.to);
+    }
+  }
+  for (std::size_t t = 0; t < plain; ++t) {
+    for (const VertexId v : input.triangles[t]) {
+      if (!inZone(v)) outline.push_back(v);
+    }
+  }
+  std::sort(outline.begin(), outline.end());
+  outline.erase(std::unique(outline.begin(), outline.end()), outline.end());
+  // What stays of `previous`.
+  Faces out;
+  for (std::size_t t = 0; t < previous.size(); ++t) {
+    const Triangle& tri = previous.triangles[t];
+    if (!inZone(tri[0]) && !inZone(tri[1]) && !inZone(tri[2])) out.add(previous, t);
+  }
+  // Which vertices were in the zone, before `root` changes below.
+  ScratchVector<std::uint32_t> members;
+  for (std::uint32_t v = 0; v < span; ++v) {
+    if (zone[root[v]] == 1 || zone[root[v]] == 2) members.push_back(v);
+  }
+  decltype(zone)().swap(zone);
+  // No target: a replay makes what its steps say, and with no step nothing is made.
+  Steps steps;
+  steps.replay = replay;
+  steps.record = &made;
+  steps.outline = outline;
+  ScratchVector<std::uint8_t> flags;
+  ScratchVector<unsigned> local(span, ~0u);
+  const std::size_t contextCount = context.size();
+  Faces simplified = collapseBatch(input.triangles, input.labels, plain + contextCount, original, pinned, local, first,
+                                   nullptr, steps, flags);
+  std::sort(context.begin(), context.end());
+  unchecked.assign(out.size(), 0);
+  for (std::size_t t = 0; t < simplified.size(); ++t) {
+    if (std::binary_search(context.begin(), context.end(), simplified.triangles[t])) continue;
+    out.add(simplified, t);
+    unchecked.push_back(flags[t]);
+  }
+  // The zone's vertices stand for themselves again, or for what the collapses made of them.
+  for (const std::uint32_t v : members) root[v] = v;
+  for (const SimplifyStep& s : made) {
+    if (!s.isPass()) root[s.from - first] = s.to - first;
+  }
+  for (const std::uint32_t v : members) {
+    std::uint32_t r = root[v];
+    while (root[r] != r) r = root[r];
+    root[v] = r;
+  }
+  return out;
+}
+
 // Simplifies a region so that it stays as closed and manifold as it was, and near the original
 // surface. The simplifier's own tests should leave nothing to find; the check stays as a net.
 // Where the result has an edge that the region did not (used more than twice, wound twice the same
@@ -1016,68 +1145,79 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   const double limit = options_.maxDistance * options_.voxelSize;
   LazyScratchVector<SimplifyStep> log;
   CrossingCache crossingCache;
+  // For the repairs (repairNear): the last try's simplified triangles, the vertex that stands for
+  // each vertex in them (ids relative to `first`; empty while the repairs start over) and the
+  // triangles frozen since.
+  Faces previous;
+  ScratchVector<std::uint32_t> root;
+  ScratchVector<std::uint32_t> fresh;
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
-    // The frozen triangles that go in too, as context (frozenContext).
-    ScratchVector<std::uint8_t> inContext(frozenCount > 0 ? triangles.size() : 0, 0);
-    const std::size_t contextCount = frozenCount > 0 ? frozenContext(triangles, frozen, first, span, inContext) : 0;
-    // Every array at its size (growing one would copy it and leave slack).
-    Faces input, result;
-    const std::size_t inputSize = triangles.size() - frozenCount + contextCount;
-    input.triangles.reserve(inputSize);
-    input.labels.reserve(faces.labels.empty() ? 0 : inputSize);
-    for (std::size_t t = 0; t < triangles.size(); ++t) {
-      if (!frozen[t]) input.add(faces, t);
-    }
-    ScratchVector<Triangle> context;
-    context.reserve(contextCount);
-    for (std::size_t t = 0; t < triangles.size() && contextCount > 0; ++t) {
-      if (inContext[t] == 0) continue;
-      context.push_back(triangles[t]);
-      input.triangles.push_back(triangles[t]);  // not input.add: one call site keeps that inlined
-      if (!faces.labels.empty()) input.labels.push_back(faces.labels[t]);
-    }
-    // Frozen triangles count towards the target: the rest is simplified a little further.
-    const std::size_t share = target > frozenCount ? target - frozenCount : 0;
     const Originals* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
-    // The context's corners stay. In a label complex, so does every vertex with a frozen triangle:
-    // its triangles in the input can look like a closed fan where three labels meet (a scalar
-    // surface shows it a border edge).
-    ScratchVector<VertexId> pinned;
-    if (complex_) {
-      for (std::size_t t = 0; t < triangles.size(); ++t) {
-        if (frozen[t]) pinned.insert(pinned.end(), triangles[t].begin(), triangles[t].end());
-      }
-    } else {
-      for (const Triangle& t : context) pinned.insert(pinned.end(), t.begin(), t.end());
-    }
-    std::sort(pinned.begin(), pinned.end());
-    pinned.erase(std::unique(pinned.begin(), pinned.end()), pinned.end());
+    Faces simplified, result;
     ScratchVector<std::uint8_t> unchecked;
-    // The first try's collapses, replayed by each repair: the frozen patch changes only what it
-    // reaches, so the rest is made as before without choosing it again.
-    Steps steps;
-    if (attempt == 0) {
-      steps.record = &log;
+    if (!root.empty()) {
+      simplified = repairNear(faces, frozen, fresh, previous, root, first, log, original, unchecked);
     } else {
-      steps.replay = log;
-    }
-    Faces simplified = collapse(std::move(input), share, contextCount, original, pinned, steps, unchecked);
-    if (!context.empty()) {
-      // The context came back as it went in (no corner of it moves): each kept triangle that is one
-      // of its triangles, corner for corner, is taken out, with its flag (a surface has no triangle
-      // twice).
-      std::sort(context.begin(), context.end());
-      std::size_t kept = 0;
-      for (std::size_t t = 0; t < simplified.size(); ++t) {
-        if (std::binary_search(context.begin(), context.end(), simplified.triangles[t])) continue;
-        simplified.triangles[kept] = simplified.triangles[t];
-        if (!simplified.labels.empty()) simplified.labels[kept] = simplified.labels[t];
-        unchecked[kept] = unchecked[t];
-        ++kept;
+      // The frozen triangles that go in too, as context (frozenContext).
+      ScratchVector<std::uint8_t> inContext(frozenCount > 0 ? triangles.size() : 0, 0);
+      const std::size_t contextCount = frozenCount > 0 ? frozenContext(triangles, frozen, first, span, inContext) : 0;
+      // Every array at its size (growing one would copy it and leave slack).
+      Faces input;
+      const std::size_t inputSize = triangles.size() - frozenCount + contextCount;
+      input.triangles.reserve(inputSize);
+      input.labels.reserve(faces.labels.empty() ? 0 : inputSize);
+      for (std::size_t t = 0; t < triangles.size(); ++t) {
+        if (!frozen[t]) input.add(faces, t);
       }
-      simplified.triangles.resize(kept);
-      if (!simplified.labels.empty()) simplified.labels.resize(kept);
-      unchecked.resize(kept);
+      ScratchVector<Triangle> context;
+      context.reserve(contextCount);
+      for (std::size_t t = 0; t < triangles.size() && contextCount > 0; ++t) {
+        if (inContext[t] == 0) continue;
+        context.push_back(triangles[t]);
+        input.triangles.push_back(triangles[t]);  // not input.add: one call site keeps that inlined
+        if (!faces.labels.empty()) input.labels.push_back(faces.labels[t]);
+      }
+      // Frozen triangles count towards the target: the rest is simplified a little further.
+      const std::size_t share = target > frozenCount ? target - frozenCount : 0;
+      // The context's corners stay. In a label complex, so does every vertex with a frozen
+      // triangle: its triangles in the input can look like a closed fan where three labels meet (a
+      // scalar surface shows it a border edge).
+      ScratchVector<VertexId> pinned;
+      if (complex_) {
+        for (std::size_t t = 0; t < triangles.size(); ++t) {
+          if (frozen[t]) pinned.insert(pinned.end(), triangles[t].begin(), triangles[t].end());
+        }
+      } else {
+        for (const Triangle& t : context) pinned.insert(pinned.end(), t.begin(), t.end());
+      }
+      std::sort(pinned.begin(), pinned.end());
+      pinned.erase(std::unique(pinned.begin(), pinned.end()), pinned.end());
+      // The first try's collapses, replayed by each repair: the frozen patch changes only what it
+      // reaches, so the rest is made as before without choosing it again.
+      Steps steps;
+      if (attempt == 0) {
+        steps.record = &log;
+      } else {
+        steps.replay = log;  // the first try made no collapse (else repairNear)
+      }
+      simplified = collapse(std::move(input), share, contextCount, original, pinned, steps, unchecked);
+      if (!context.empty()) {
+        // The context came back as it went in (no corner of it moves): each kept triangle that is
+        // one of its triangles, corner for corner, is taken out, with its flag (a surface has no
+        // triangle twice).
+        std::sort(context.begin(), context.end());
+        std::size_t kept = 0;
+        for (std::size_t t = 0; t < simplified.size(); ++t) {
+          if (std::binary_search(context.begin(), context.end(), simplified.triangles[t])) continue;
+          simplified.triangles[kept] = simplified.triangles[t];
+          if (!simplified.labels.empty()) simplified.labels[kept] = simplified.labels[t];
+          unchecked[kept] = unchecked[t];
+          ++kept;
+        }
+        simplified.triangles.resize(kept);
+        if (!simplified.labels.empty()) simplified.labels.resize(kept);
+        unchecked.resize(kept);
+      }
     }
     result.triangles.reserve(frozenCount + simplified.size());
     result.labels.reserve(faces.labels.empty() ? 0 : frozenCount + simplified.size());
@@ -1206,6 +1346,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // A border edge that went missing leaves no bad vertex to freeze around: keep the region whole.
     if (bad.empty()) break;
     // Freeze the original triangles within 1 + attempt / 2 rings of the bad vertices.
+    fresh.clear();
     ScratchVector<VertexId> ring = bad;
     for (int step = 0; step < 1 + attempt / 2; ++step) {
       ScratchVector<VertexId> next;
@@ -1218,6 +1359,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
           if (!frozen[t]) {
             frozen[t] = true;
             ++frozenCount;
+            fresh.push_back(t);
           }
           next.insert(next.end(), triangles[t].begin(), triangles[t].end());
         }
@@ -1226,6 +1368,22 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       next.erase(std::unique(next.begin(), next.end()), next.end());
       ring = std::move(next);
     }
+    // The next try starts from this one's result, near the bad spots only, where the first try
+    // made collapses to replay.
+    if (attempt == 0 && !log.empty() && options_.localRepairs) {
+      root.resize(span);
+      for (std::uint32_t v = 0; v < span; ++v) root[v] = v;
+      for (const SimplifyStep& s : log) {
+        if (!s.isPass()) root[s.from - first] = s.to - first;
+      }
+      // A collapse's `to` may move later: each vertex follows its chain to the end.
+      for (std::uint32_t v = 0; v < span; ++v) {
+        std::uint32_t r = root[v];
+        while (root[r] != r) r = root[r];
+        root[v] = r;
+      }
+    }
+    if (!root.empty()) previous = std::move(simplified);
   }
   ++scope.keptRegions;
   return faces;

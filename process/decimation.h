@@ -67,6 +67,9 @@ struct DecimateOptions {
   /// The most triangles given to one simplifier call: a larger input goes in batches of whole
   /// connected components (its working set is about 70 bytes a triangle).
   std::size_t batchTriangles = 1 << 17;
+  /// A repair simplifies again only the neighbourhood of its bad spots, around the frozen patch
+  /// (false: the whole region, replaying the first try; the same triangles, slower: for tests).
+  bool localRepairs = true;
   /// Measure the one-sided distance of every output triangle to the original surface, for the
   /// report (DecimationReport::distanceMean, distanceMax, samples); false leaves them 0.
   bool measure = true;
@@ -330,7 +333,17 @@ class DecimationSink final : public MeshSink {
   struct Steps {
     LazyScratchVector<SimplifyStep>* record = nullptr;
     std::span<const SimplifyStep> replay;
+    // A local repair's vertices outside its zone (sorted): they stay, and move only by the replay's
+    // renames (SimplifyLimits::kRenamedOnly); numbered even where no triangle has them yet.
+    std::span<const VertexId> outline;
   };
+  // A repair's try near the bad spots only: the zone around the newly frozen triangles `fresh` is
+  // taken out of `previous` (the last try's simplified triangles) and simplified again from the
+  // region's own triangles; `root` names each vertex's vertex in `previous` (repairNear).
+  Faces repairNear(const Faces& faces, const ScratchVector<bool>& frozen, std::span<const std::uint32_t> fresh,
+                   const Faces& previous, ScratchVector<std::uint32_t>& root, VertexId first,
+                   std::span<const SimplifyStep> log, const Originals* original,
+                   ScratchVector<std::uint8_t>& unchecked) const;
   // The simplifier on a try's triangles (in batches of whole components when there are many);
   // `unchecked` gets a flag per kept triangle (collapseBatch).
   Faces collapse(Faces faces, std::size_t targetTriangles, std::size_t context, const Originals* original,

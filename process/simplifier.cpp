@@ -211,9 +211,13 @@ class Simplifier {
   // collapse that is not made again, or that a dirty vertex made. A clean vertex's collapse makes
   // the triangles that the recorded run made, which its check passed.
   std::size_t replay(const SimplifyLimits& limits) {
+    record_ = limits.record;
     const double limit = takeLimits(limits);
     dirty_.assign(vertices_, 0);
-    for (std::size_t v = 0; v < vertices_; ++v) dirty_[v] = free_[v] == kStays ? 1 : 0;
+    const std::vector<std::uint8_t>& locked = limits.locked;
+    for (std::size_t v = 0; v < vertices_; ++v) {
+      dirty_[v] = free_[v] == kStays && !(v < locked.size() && locked[v] == SimplifyLimits::kRenamedOnly) ? 1 : 0;
+    }
     const std::span<const SimplifyStep> steps = limits.replay;
     std::uint32_t pass = 0;
     for (std::size_t i = 0; i < steps.size();) {
@@ -227,8 +231,12 @@ class Simplifier {
         continue;
       }
       for (; i < steps.size() && !steps[i].isPass(); ++i) {
-        const std::uint32_t from = steps[i].from, to = steps[i].to;
+        const std::uint32_t from = steps[i].from, to = steps[i].target();
         if (from >= vertices_ || to >= vertices_ || from == to) continue;
+        if (steps[i].isRename()) {
+          rename(from, to, pass);
+          continue;
+        }
         const bool clean = dirty_[from] == 0;
         bool made = false;
         if (mark_[from] != pass && mark_[to] != pass && onLineOrDisk(from, to)) {
@@ -259,6 +267,41 @@ class Simplifier {
   }
 
  private:
+  // A replay's rename (SimplifyStep::kRename): `from` becomes `to` in its triangles, and those on
+  // both die, as the recorded collapse left them. Where a dirty vertex is among them, the
+  // triangles are not as recorded: their corners are dirty too.
+  void rename(std::uint32_t from, std::uint32_t to, std::uint32_t pass) {
+    bool dirty = dirty_[from] != 0 || dirty_[to] != 0;
+    for (std::uint32_t i = first_[from]; i < first_[from + 1]; ++i) {
+      const std::uint32_t* t = &idx_[3 * around_[i]];
+      if (t[0] != kDead) dirty = dirty || dirty_[t[0]] != 0 || dirty_[t[1]] != 0 || dirty_[t[2]] != 0;
+    }
+    for (std::uint32_t i = first_[from]; i < first_[from + 1]; ++i) {
+      std::uint32_t* t = &idx_[3 * around_[i]];
+      if (t[0] == kDead) continue;
+      if (dirty) dirty_[t[0]] = dirty_[t[1]] = dirty_[t[2]] = 1;
+      if (t[0] == to || t[1] == to || t[2] == to) {
+        t[0] = t[1] = t[2] = kDead;
+        --live_;
+        continue;
+      }
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (t[k] != from) {
+          // A line vertex beside `from` has `to` for its neighbour on the line now.
+          if (free_[t[k]] == kLine) {
+            std::array<std::uint32_t, 3>& ends = lineEnds_[lineAt_[t[k]]];
+            for (std::size_t e = 1; e < 3; ++e) ends[e] = ends[e] == from ? to : ends[e];
+          }
+          continue;
+        }
+        t[k] = to;
+      }
+      if (!unchecked_.empty()) unchecked_[around_[i]] = 1;
+    }
+    if (dirty) dirty_[to] = 1;
+    mark_[from] = mark_[to] = static_cast<std::uint16_t>(pass);
+  }
+
   // The limits' squared error bound (returned), sample bound and check, for run() and replay().
   double takeLimits(const SimplifyLimits& limits) {
     const double limit = limits.maxError * limits.maxError;

@@ -34,11 +34,16 @@
 namespace isoslab {
 
 /// A collapse that was made: `from` moved onto `to` (ids as in the input). A log of them begins each
-/// pass with a mark: `from` kPassMark, `to` the pass's number (from 1).
+/// pass with a mark: `from` kPassMark, `to` the pass's number (from 1). In a replay (below), a step
+/// whose `to` has kRename set only renames `from` in the triangles that have it, with no test: a
+/// collapse that was made around the input, which its triangles on `from` took part in.
 struct SimplifyStep {
   static constexpr std::uint32_t kPassMark = 0xffffffffu;
+  static constexpr std::uint32_t kRename = 0x80000000u;
   std::uint32_t from = 0, to = 0;
   bool isPass() const { return from == kPassMark; }
+  bool isRename() const { return !isPass() && (to & kRename) != 0; }
+  std::uint32_t target() const { return to & ~kRename; }
 };
 
 struct SimplifyLimits {
@@ -54,7 +59,10 @@ struct SimplifyLimits {
   std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)> check;
   double checkAbove = INFINITY;
   /// Per vertex, nonzero where it must stay whatever its triangles look like (empty: none): a
-  /// vertex whose other triangles are left out of the input.
+  /// vertex whose other triangles are left out of the input. kRenamedOnly in a replay: a vertex
+  /// that the recorded run moved (if at all) only by the replay's renames, so that its triangles
+  /// are as that run had them.
+  static constexpr std::uint8_t kRenamedOnly = 2;
   std::vector<std::uint8_t> locked;
   /// A label complex's lines where three labels meet (three sheets on each of their edges) are
   /// simplified along themselves: a vertex inside such a line moves onto one of its two neighbours

@@ -303,5 +303,101 @@ TEST(Simplifier, AReplayMakesTheRecordedCollapsesAgainAwayFromWhatIsLeftOut) {
   expectClosedSurface(shapeOf(partial, keptPartial), 0);
 }
 
+// A replay on part of the input (a local repair, process/decimation.cpp): the triangles on a zone
+// of vertices, closed under the collapses that joined them, with the collapses made among the
+// zone's vertices and, as renames, those among the vertices around it (their triangles on the zone
+// took part). It makes the recorded run's triangles on the zone again, in order, asks the check
+// nothing and leaves nothing to measure. With the vertices around the zone taken for ordinary
+// fixed ones instead (dirty, as a frozen patch's outline is), the replay measures again near them.
+TEST(Simplifier, AReplayOnAZoneWithRenamesAroundItMakesTheRecordedTriangles) {
+  const Flat m = torus();
+  const std::size_t all = m.indices.size() / 3;
+  std::size_t asked = 0;
+  SimplifyLimits limits = toTarget(all / 10);
+  limits.checkAbove = 0.01;
+  limits.check = [&](const std::vector<std::array<std::uint32_t, 3>>&) {
+    ++asked;
+    return true;
+  };
+  LazyScratchVector<SimplifyStep> steps;
+  steps.reserve(all / 2);
+  limits.record = &steps;
+  Flat recorded = m;
+  recorded.indices.resize(simplifyTriangles(recorded.indices, recorded.xyz.data(), recorded.vertices(), limits));
+  ASSERT_GT(asked, 100u);
+  // Where each vertex ended: itself, or along its collapses.
+  std::vector<std::uint32_t> root(m.vertices());
+  for (std::uint32_t v = 0; v < root.size(); ++v) root[v] = v;
+  for (const SimplifyStep& s : steps) {
+    if (!s.isPass()) root[s.from] = s.to;
+  }
+  for (std::uint32_t& r : root) {
+    while (root[r] != r) r = root[r];
+  }
+  // The zone: the result's vertices within one ring of a vertex of its first triangle, and every
+  // vertex that ended on one of them.
+  std::set<std::uint32_t> ends{recorded.indices[0]};
+  for (std::size_t i = 0; i < recorded.indices.size(); i += 3) {
+    const std::uint32_t* c = &recorded.indices[i];
+    if (c[0] == recorded.indices[0] || c[1] == recorded.indices[0] || c[2] == recorded.indices[0])
+      ends.insert(c, c + 3);
+  }
+  const auto inZone = [&](std::uint32_t v) { return ends.count(root[v]) > 0; };
+  Flat zone = m;
+  zone.indices.clear();
+  std::set<std::uint32_t> around;  // the ends of the vertices around the zone
+  std::vector<std::uint8_t> locked(m.vertices(), 0);
+  for (std::size_t t = 0; t < all; ++t) {
+    const std::uint32_t* c = &m.indices[3 * t];
+    if (!inZone(c[0]) && !inZone(c[1]) && !inZone(c[2])) continue;
+    zone.indices.insert(zone.indices.end(), c, c + 3);
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (!inZone(c[k])) around.insert(root[c[k]]);
+    }
+  }
+  std::vector<SimplifyStep> local;
+  std::size_t renames = 0, collapses = 0;
+  for (const SimplifyStep& s : steps) {
+    if (s.isPass()) {
+      local.push_back(s);
+    } else if (inZone(s.from)) {
+      local.push_back(s);
+      ++collapses;
+    } else if (around.count(root[s.from]) > 0) {
+      local.push_back({s.from, s.to | SimplifyStep::kRename});
+      ++renames;
+    }
+  }
+  for (std::uint32_t v = 0; v < m.vertices(); ++v) {
+    if (!inZone(v) && around.count(root[v]) > 0) locked[v] = SimplifyLimits::kRenamedOnly;
+  }
+  ASSERT_GT(collapses, 20u);
+  ASSERT_GT(renames, 10u);
+  std::vector<std::uint32_t> expected;
+  for (std::size_t i = 0; i < recorded.indices.size(); i += 3) {
+    const std::uint32_t* c = &recorded.indices[i];
+    if (inZone(c[0]) || inZone(c[1]) || inZone(c[2])) expected.insert(expected.end(), c, c + 3);
+  }
+  limits.record = nullptr;
+  limits.replay = local;
+  limits.locked = locked;
+  for (const std::uint8_t mark : {SimplifyLimits::kRenamedOnly, std::uint8_t{1}}) {
+    SCOPED_TRACE(int(mark));
+    for (std::uint8_t& l : limits.locked) l = l != 0 ? mark : 0;
+    Flat again = zone;
+    asked = 0;
+    std::vector<std::uint8_t> unchecked(again.indices.size() / 3, 2);
+    again.indices.resize(simplifyTriangles(again.indices, again.xyz.data(), again.vertices(), limits, {}, unchecked));
+    const auto flagged = std::count(unchecked.begin(), unchecked.begin() + long(again.indices.size() / 3), 1);
+    if (mark == SimplifyLimits::kRenamedOnly) {
+      EXPECT_EQ(again.indices, expected);
+      EXPECT_EQ(asked, 0u);
+      EXPECT_EQ(flagged, 0);
+    } else {
+      EXPECT_GT(asked + std::size_t(flagged), 0u);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace isoslab
