@@ -813,17 +813,18 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
     for (std::uint32_t p = 1; p <= passes; ++p) {
       replay.push_back({SimplifyStep::kPassMark, p});
       std::uint32_t pass = 0;
-      for (const SimplifyStep& s : steps.replay) {
+      for (std::size_t i = 0; i < steps.replay.size(); ++i) {
+        const SimplifyStep& s = steps.replay[i];
         if (s.isPass()) {
           pass = s.to;
           continue;
         }
-        const VertexId target = s.target();
-        if (pass != p || s.from < low || target < low || s.from - low >= local.size() || target - low >= local.size()) {
+        if (pass != p || s.from < low || s.to < low || s.from - low >= local.size() || s.to - low >= local.size()) {
           continue;
         }
-        const unsigned from = local[s.from - low], to = local[target - low];
-        if (from != ~0u && to != ~0u) replay.push_back({from, to | (s.to & SimplifyStep::kRename)});
+        const unsigned from = local[s.from - low], to = local[s.to - low];
+        const bool rename = !steps.renames.empty() && steps.renames[i] != 0;
+        if (from != ~0u && to != ~0u) replay.push_back({from, rename ? to | SimplifyStep::kRename : to});
       }
     }
   }
@@ -857,6 +858,7 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
     limits.record = steps.record;
   }
   limits.replay = replay;
+  limits.renameFolds = steps.renameFolds;
   limits.locked = std::move(locked);
   const double bound = options_.maxError > 0 ? options_.maxError : 0.5 * options_.maxDistance;
   limits.maxError = bound > 0 ? bound * options_.voxelSize : INFINITY;
@@ -955,37 +957,43 @@ std::size_t frozenContext(std::span<const Triangle> triangles, const ScratchVect
 }  // namespace
 
 // A repair's try (issue 36's local repairs): only the neighbourhood of the bad spots is simplified
-// again. `previous` is the last try's simplified triangles (the frozen ones apart) and `root[v -
-// first]` the vertex that stands for v in it (v itself, or the vertex that the collapses moved it
-// onto; ids relative to `first`); a logged collapse whose `from` stands for itself was not made.
-// The zone: the vertices of `previous` on the newly frozen triangles `fresh` and their neighbours
-// there, with every vertex that each stands for. Its triangles in `previous` go. In their place the
-// region's triangles on a zone vertex (less the frozen ones) get the first try's collapses among
-// the zone's vertices again, tested as a replay tests them (SimplifyLimits::replay), in order with
-// the collapses made outside the zone that took part in them, which are only renames there
-// (SimplifyStep::kRename). So every step sees the triangles around the zone as that try had them,
-// the zone's vertices have all their triangles (the frozen ones as context, every corner fixed),
-// and outside the zone nothing changes: what the last try's checks passed there stands (its flags
-// are 0).
-DecimationSink::Faces DecimationSink::repairNear(const Faces& faces, const ScratchVector<bool>& frozen,
-                                                 std::span<const std::uint32_t> fresh, const Faces& previous,
-                                                 ScratchVector<std::uint32_t>& root, VertexId first,
-                                                 std::span<const SimplifyStep> log, const Originals* original,
-                                                 ScratchVector<std::uint8_t>& unchecked) const {
+// again, as the region-wide replay of the first try's collapses would simplify it. The zone: the
+// vertices of the last try's result on the newly frozen triangles `fresh` and their neighbours
+// there, with every vertex that the first try joined to one of them (repairs.firstRoot). Its
+// triangles in the last try's result go. In their place, the region's triangles on a zone vertex
+// (less the frozen ones, which go in as context, every corner fixed) get the first try's collapses
+// among the zone's vertices again, tested as a replay tests them (SimplifyLimits::replay). The
+// vertices around the zone stay, but the collapses that the first try joined them with come in
+// order too: those made in the last try's result as renames (SimplifyStep::kRename), so that the
+// triangles on the zone are renamed as they were; the others as steps that fail, which mark what
+// they touch dirty, as they do in a region-wide replay. So every step sees the triangles that a
+// region-wide replay would show it, and outside the zone nothing changes (what the last try's
+// checks passed there stands: its flags are 0). Where a dirty vertex reaches a rename, a
+// region-wide replay would have tested that collapse: its triangles are flagged for the checks
+// that follow (every edge and fan of the result is checked anyway), and if it turned one over,
+// which only its own test would see, nothing changes and the answer is false. On every input
+// measured (docs/performance.md, stop 60) the result is the region-wide replay's.
+bool DecimationSink::repairNear(const Faces& faces, const ScratchVector<bool>& frozen,
+                                std::span<const std::uint32_t> fresh, Repairs& repairs, VertexId first,
+                                std::span<const SimplifyStep> log, const Originals* original, Faces& simplified,
+                                ScratchVector<std::uint8_t>& unchecked) const {
   const ScratchVector<Triangle>& triangles = faces.triangles;
+  const ScratchVector<std::uint32_t>& joined = repairs.firstRoot;
+  ScratchVector<std::uint32_t>& root = repairs.root;
   const std::size_t span = root.size();
-  // The zone, by the vertices that stand for it in `previous`: 1 for those on the new frozen
-  // triangles, 2 for their neighbours (marked apart, so that the scan does not go on from them).
-  // 3 marks the vertices outside that stand for a corner of the input (below).
+  // The zone by the first try's classes (each named by its last vertex, relative to `first`): 1 for
+  // those on the new frozen triangles, 2 for their neighbours in the last result (marked apart, so
+  // that the scan does not go on from them), 3 for those around the zone that the input touches.
   ScratchVector<std::uint8_t> zone(span, 0);
+  const auto classOf = [&](VertexId v) -> std::uint8_t& { return zone[joined[v - first]]; };
   for (const std::uint32_t t : fresh) {
-    for (const VertexId v : triangles[t]) zone[root[v - first]] = 1;
+    for (const VertexId v : triangles[t]) classOf(v) = 1;
   }
-  for (const Triangle& t : previous.triangles) {
-    if (zone[t[0] - first] != 1 && zone[t[1] - first] != 1 && zone[t[2] - first] != 1) continue;
-    for (const VertexId v : t) zone[v - first] = zone[v - first] == 1 ? 1 : 2;
+  for (const Triangle& t : repairs.previous.triangles) {
+    if (classOf(t[0]) != 1 && classOf(t[1]) != 1 && classOf(t[2]) != 1) continue;
+    for (const VertexId v : t) classOf(v) = classOf(v) == 1 ? 1 : 2;
   }
-  const auto inZone = [&](VertexId v) { return zone[root[v - first]] == 1 || zone[root[v - first]] == 2; };
+  const auto inZone = [&](VertexId v) { return classOf(v) == 1 || classOf(v) == 2; };
   // The region's triangles on the zone as they are, and its frozen ones there as context.
   Faces input;
   ScratchVector<Triangle> context;
@@ -998,7 +1006,7 @@ DecimationSink::Faces DecimationSink::repairNear(const Faces& faces, const Scrat
     }
     input.add(faces, t);
     for (const VertexId v : tri) {
-      if (!inZone(v)) zone[root[v - first]] = 3;
+      if (!inZone(v)) classOf(v) = 3;
     }
   }
   const std::size_t plain = input.size();
@@ -1011,18 +1019,21 @@ DecimationSink::Faces DecimationSink::repairNear(const Faces& faces, const Scrat
   for (const Triangle& t : context) pinned.insert(pinned.end(), t.begin(), t.end());
   std::sort(pinned.begin(), pinned.end());
   pinned.erase(std::unique(pinned.begin(), pinned.end()), pinned.end());
-  // The steps: the first try's collapses within the zone, and the renames of the collapses made
-  // outside it among the vertices that its corners outside stand with.
+  // The steps: the zone's, and those of the classes around it, each a rename where the last result
+  // has it made (its `from` stands for another vertex).
   LazyScratchVector<SimplifyStep> replay, made;
+  LazyScratchVector<std::uint8_t> renames;
   replay.reserve(log.size());
+  renames.reserve(log.size());
   ScratchVector<VertexId> outline;
   for (const SimplifyStep& s : log) {
-    if (s.isPass()) {
+    const std::uint8_t kind = s.isPass() ? 0 : classOf(s.from);
+    if (s.isPass() || kind == 1 || kind == 2) {
       replay.push_back(s);
-    } else if (inZone(s.from)) {
-      if (inZone(s.to)) replay.push_back(s);
-    } else if (zone[root[s.from - first]] == 3 && root[s.from - first] != s.from - first) {
-      replay.push_back({s.from, s.to | SimplifyStep::kRename});
+      renames.push_back(0);
+    } else if (kind == 3) {
+      replay.push_back(s);
+      renames.push_back(root[s.from - first] != s.from - first ? 1 : 0);
       outline.push_back(s.from);
       outline.push_back(s.to);
     }
@@ -1034,46 +1045,46 @@ DecimationSink::Faces DecimationSink::repairNear(const Faces& faces, const Scrat
   }
   std::sort(outline.begin(), outline.end());
   outline.erase(std::unique(outline.begin(), outline.end()), outline.end());
-  // What stays of `previous`.
-  Faces out;
-  for (std::size_t t = 0; t < previous.size(); ++t) {
-    const Triangle& tri = previous.triangles[t];
-    if (!inZone(tri[0]) && !inZone(tri[1]) && !inZone(tri[2])) out.add(previous, t);
-  }
-  // Which vertices were in the zone, before `root` changes below.
-  ScratchVector<std::uint32_t> members;
-  for (std::uint32_t v = 0; v < span; ++v) {
-    if (zone[root[v]] == 1 || zone[root[v]] == 2) members.push_back(v);
-  }
-  decltype(zone)().swap(zone);
   // No target: a replay makes what its steps say, and with no step nothing is made.
+  bool folded = false;
   Steps steps;
   steps.replay = replay;
+  steps.renames = renames;
   steps.record = &made;
   steps.outline = outline;
+  steps.renameFolds = &folded;
   ScratchVector<std::uint8_t> flags;
   ScratchVector<unsigned> local(span, ~0u);
   const std::size_t contextCount = context.size();
-  Faces simplified = collapseBatch(input.triangles, input.labels, plain + contextCount, original, pinned, local, first,
-                                   nullptr, steps, flags);
+  const Faces zoned = collapseBatch(input.triangles, input.labels, plain + contextCount, original, pinned, local, first,
+                                    nullptr, steps, flags);
+  if (folded) return false;
+  // What stays of the last result, then the zone's triangles less the context.
+  simplified = Faces{};
+  for (std::size_t t = 0; t < repairs.previous.size(); ++t) {
+    const Triangle& tri = repairs.previous.triangles[t];
+    if (!inZone(tri[0]) && !inZone(tri[1]) && !inZone(tri[2])) simplified.add(repairs.previous, t);
+  }
+  unchecked.assign(simplified.size(), 0);
   std::sort(context.begin(), context.end());
-  unchecked.assign(out.size(), 0);
-  for (std::size_t t = 0; t < simplified.size(); ++t) {
-    if (std::binary_search(context.begin(), context.end(), simplified.triangles[t])) continue;
-    out.add(simplified, t);
+  for (std::size_t t = 0; t < zoned.size(); ++t) {
+    if (std::binary_search(context.begin(), context.end(), zoned.triangles[t])) continue;
+    simplified.add(zoned, t);
     unchecked.push_back(flags[t]);
   }
   // The zone's vertices stand for themselves again, or for what the collapses made of them.
-  for (const std::uint32_t v : members) root[v] = v;
-  for (const SimplifyStep& s : made) {
-    if (!s.isPass()) root[s.from - first] = s.to - first;
+  ScratchVector<std::uint32_t> members;
+  for (std::uint32_t v = 0; v < span; ++v) {
+    if (zone[joined[v]] == 1 || zone[joined[v]] == 2) members.push_back(v);
   }
+  for (const std::uint32_t v : members) root[v] = v;
+  for (const SimplifyStep& s : made) root[s.from - first] = s.to - first;
   for (const std::uint32_t v : members) {
     std::uint32_t r = root[v];
     while (root[r] != r) r = root[r];
     root[v] = r;
   }
-  return out;
+  return true;
 }
 
 // Simplifies a region so that it stays as closed and manifold as it was, and near the original
@@ -1145,19 +1156,31 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
   const double limit = options_.maxDistance * options_.voxelSize;
   LazyScratchVector<SimplifyStep> log;
   CrossingCache crossingCache;
-  // For the repairs (repairNear): the last try's simplified triangles, the vertex that stands for
-  // each vertex in them (ids relative to `first`; empty while the repairs start over) and the
-  // triangles frozen since.
-  Faces previous;
-  ScratchVector<std::uint32_t> root;
+  // For the repairs (repairNear; empty where they replay the whole region) and the triangles
+  // frozen since the last try.
+  Repairs repairs;
   ScratchVector<std::uint32_t> fresh;
+  // Each vertex's vertex after the collapses of `steps` (ids relative to `first`).
+  const auto rootsAfter = [&](std::span<const SimplifyStep> steps) {
+    ScratchVector<std::uint32_t> root(span);
+    for (std::uint32_t v = 0; v < span; ++v) root[v] = v;
+    for (const SimplifyStep& s : steps) {
+      if (!s.isPass()) root[s.from - first] = s.to - first;
+    }
+    // A collapse's `to` may move later: each vertex follows its chain to the end.
+    for (std::uint32_t v = 0; v < span; ++v) {
+      std::uint32_t r = root[v];
+      while (root[r] != r) r = root[r];
+      root[v] = r;
+    }
+    return root;
+  };
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
     const Originals* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
     Faces simplified, result;
     ScratchVector<std::uint8_t> unchecked;
-    if (!root.empty()) {
-      simplified = repairNear(faces, frozen, fresh, previous, root, first, log, original, unchecked);
-    } else {
+    if (repairs.root.empty() ||
+        !repairNear(faces, frozen, fresh, repairs, first, log, original, simplified, unchecked)) {
       // The frozen triangles that go in too, as context (frozenContext).
       ScratchVector<std::uint8_t> inContext(frozenCount > 0 ? triangles.size() : 0, 0);
       const std::size_t contextCount = frozenCount > 0 ? frozenContext(triangles, frozen, first, span, inContext) : 0;
@@ -1195,10 +1218,13 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       // The first try's collapses, replayed by each repair: the frozen patch changes only what it
       // reaches, so the rest is made as before without choosing it again.
       Steps steps;
+      LazyScratchVector<SimplifyStep> remade;
       if (attempt == 0) {
         steps.record = &log;
       } else {
-        steps.replay = log;  // the first try made no collapse (else repairNear)
+        steps.replay = log;
+        // repairNear's next try starts from this one.
+        if (!repairs.root.empty()) steps.record = &remade;
       }
       simplified = collapse(std::move(input), share, contextCount, original, pinned, steps, unchecked);
       if (!context.empty()) {
@@ -1218,6 +1244,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
         if (!simplified.labels.empty()) simplified.labels.resize(kept);
         unchecked.resize(kept);
       }
+      if (attempt > 0 && !repairs.root.empty()) repairs.root = rootsAfter(remade);
     }
     result.triangles.reserve(frozenCount + simplified.size());
     result.labels.reserve(faces.labels.empty() ? 0 : frozenCount + simplified.size());
@@ -1371,19 +1398,10 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // The next try starts from this one's result, near the bad spots only, where the first try
     // made collapses to replay.
     if (attempt == 0 && !log.empty() && options_.localRepairs) {
-      root.resize(span);
-      for (std::uint32_t v = 0; v < span; ++v) root[v] = v;
-      for (const SimplifyStep& s : log) {
-        if (!s.isPass()) root[s.from - first] = s.to - first;
-      }
-      // A collapse's `to` may move later: each vertex follows its chain to the end.
-      for (std::uint32_t v = 0; v < span; ++v) {
-        std::uint32_t r = root[v];
-        while (root[r] != r) r = root[r];
-        root[v] = r;
-      }
+      repairs.root = rootsAfter(log);
+      repairs.firstRoot = repairs.root;
     }
-    if (!root.empty()) previous = std::move(simplified);
+    if (!repairs.root.empty()) repairs.previous = std::move(simplified);
   }
   ++scope.keptRegions;
   return faces;

@@ -333,17 +333,29 @@ class DecimationSink final : public MeshSink {
   struct Steps {
     LazyScratchVector<SimplifyStep>* record = nullptr;
     std::span<const SimplifyStep> replay;
+    // Per replayed step, nonzero for a rename (SimplifyStep::kRename, set on the batch's own ids;
+    // empty: none).
+    std::span<const std::uint8_t> renames;
     // A local repair's vertices outside its zone (sorted): they stay, and move only by the replay's
     // renames (SimplifyLimits::kRenamedOnly); numbered even where no triangle has them yet.
     std::span<const VertexId> outline;
+    bool* renameFolds = nullptr;  // SimplifyLimits::renameFolds
+  };
+  // What a region's repairs carry from try to try (repairNear): the last try's simplified
+  // triangles; per vertex (ids relative to the region's first), the vertex that stands for it in
+  // them (itself, or the vertex that the collapses moved it onto), and the same after the first
+  // try, whose collapses the repairs replay.
+  struct Repairs {
+    Faces previous;
+    ScratchVector<std::uint32_t> root, firstRoot;
   };
   // A repair's try near the bad spots only: the zone around the newly frozen triangles `fresh` is
-  // taken out of `previous` (the last try's simplified triangles) and simplified again from the
-  // region's own triangles; `root` names each vertex's vertex in `previous` (repairNear).
-  Faces repairNear(const Faces& faces, const ScratchVector<bool>& frozen, std::span<const std::uint32_t> fresh,
-                   const Faces& previous, ScratchVector<std::uint32_t>& root, VertexId first,
-                   std::span<const SimplifyStep> log, const Originals* original,
-                   ScratchVector<std::uint8_t>& unchecked) const;
+  // taken out of the last try's result and simplified again from the region's own triangles.
+  // False where the zone's replay reached beyond it (nothing changed: the whole region is replayed
+  // instead).
+  bool repairNear(const Faces& faces, const ScratchVector<bool>& frozen, std::span<const std::uint32_t> fresh,
+                  Repairs& repairs, VertexId first, std::span<const SimplifyStep> log, const Originals* original,
+                  Faces& simplified, ScratchVector<std::uint8_t>& unchecked) const;
   // The simplifier on a try's triangles (in batches of whole components when there are many);
   // `unchecked` gets a flag per kept triangle (collapseBatch).
   Faces collapse(Faces faces, std::size_t targetTriangles, std::size_t context, const Originals* original,

@@ -207,11 +207,13 @@ class Simplifier {
 
   // The recorded collapses again (SimplifyLimits::replay). A vertex is `dirty` where its triangles
   // or its quadric may differ from the recorded run's at the same point: at first those that do
-  // not move (a frozen patch's outline among them), then the ends and neighbours of every recorded
-  // collapse that is not made again, or that a dirty vertex made. A clean vertex's collapse makes
-  // the triangles that the recorded run made, which its check passed.
+  // not move (a frozen patch's outline among them; not those that only renames move), then the
+  // ends and neighbours of every recorded collapse that is not made again, or that a dirty vertex
+  // made, and every corner of a rename's triangles where one of them is dirty. A clean vertex's
+  // collapse makes the triangles that the recorded run made, which its check passed.
   std::size_t replay(const SimplifyLimits& limits) {
     record_ = limits.record;
+    renameFolds_ = limits.renameFolds;
     const double limit = takeLimits(limits);
     dirty_.assign(vertices_, 0);
     const std::vector<std::uint8_t>& locked = limits.locked;
@@ -268,14 +270,17 @@ class Simplifier {
 
  private:
   // A replay's rename (SimplifyStep::kRename): `from` becomes `to` in its triangles, and those on
-  // both die, as the recorded collapse left them. Where a dirty vertex is among them, the
-  // triangles are not as recorded: their corners are dirty too.
+  // both die, as the recorded collapse left them. Where a dirty vertex is among them, the triangles
+  // may not be as recorded: their corners are dirty too, and a triangle that the rename turns over
+  // or flattens (which the recorded collapse's test would have refused) is reported
+  // (SimplifyLimits::renameFolds).
   void rename(std::uint32_t from, std::uint32_t to, std::uint32_t pass) {
     bool dirty = dirty_[from] != 0 || dirty_[to] != 0;
     for (std::uint32_t i = first_[from]; i < first_[from + 1]; ++i) {
       const std::uint32_t* t = &idx_[3 * around_[i]];
       if (t[0] != kDead) dirty = dirty || dirty_[t[0]] != 0 || dirty_[t[1]] != 0 || dirty_[t[2]] != 0;
     }
+    const Vec3 p = at(from), q = at(to);
     for (std::uint32_t i = first_[from]; i < first_[from + 1]; ++i) {
       std::uint32_t* t = &idx_[3 * around_[i]];
       if (t[0] == kDead) continue;
@@ -285,17 +290,21 @@ class Simplifier {
         --live_;
         continue;
       }
-      for (std::size_t k = 0; k < 3; ++k) {
-        if (t[k] != from) {
-          // A line vertex beside `from` has `to` for its neighbour on the line now.
-          if (free_[t[k]] == kLine) {
-            std::array<std::uint32_t, 3>& ends = lineEnds_[lineAt_[t[k]]];
-            for (std::size_t e = 1; e < 3; ++e) ends[e] = ends[e] == from ? to : ends[e];
-          }
-          continue;
-        }
-        t[k] = to;
+      const std::size_t at0 = t[0] == from ? 0 : t[1] == from ? 1 : 2;
+      if (dirty && renameFolds_ != nullptr) {
+        const Vec3 px = at(t[(at0 + 1) % 3]), py = at(t[(at0 + 2) % 3]);
+        const Vec3 before = cross(sub(px, p), sub(py, p)), after = cross(sub(px, q), sub(py, q));
+        const double b2 = dot(before, before);
+        if (b2 > 0 && !(dot(before, after) > 0 && dot(after, after) > 1e-12 * b2)) *renameFolds_ = true;
       }
+      // A line vertex beside `from` has `to` for its neighbour on the line now.
+      for (std::size_t k = 1; k < 3; ++k) {
+        const std::uint32_t v = t[(at0 + k) % 3];
+        if (free_[v] != kLine) continue;
+        std::array<std::uint32_t, 3>& ends = lineEnds_[lineAt_[v]];
+        for (std::size_t e = 1; e < 3; ++e) ends[e] = ends[e] == from ? to : ends[e];
+      }
+      t[at0] = to;
       if (!unchecked_.empty()) unchecked_[around_[i]] = 1;
     }
     if (dirty) dirty_[to] = 1;
@@ -575,6 +584,7 @@ class Simplifier {
   ScratchVector<std::uint16_t> mark_, seen_;
   ScratchVector<std::uint8_t> dirty_;  // replaying: 1 where the recorded run's fan may differ
   LazyScratchVector<SimplifyStep>* record_ = nullptr;
+  bool* renameFolds_ = nullptr;
   ScratchVector<std::uint32_t> first_, around_;
   LazyScratchVector<std::uint64_t> keys_, spare_;  // reserved for every edge, used for fewer
   const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;
@@ -592,6 +602,10 @@ std::size_t simplifyTriangles(std::span<std::uint32_t> indices, const float* xyz
   const std::size_t triangles = indices.size() / 3;
   if ((!keptFrom.empty() && keptFrom.size() < triangles) || (!unchecked.empty() && unchecked.size() < triangles)) {
     throw std::invalid_argument("simplifyTriangles: an output array is shorter than the triangles");
+  }
+  if (vertexCount >= SimplifyStep::kRename &&
+      std::any_of(limits.replay.begin(), limits.replay.end(), [](const SimplifyStep& s) { return s.isRename(); })) {
+    throw std::invalid_argument("simplifyTriangles: a replay with renames needs fewer than 2^31 vertices");
   }
   if (triangles <= limits.targetTriangles && limits.replay.empty()) {
     for (std::size_t t = 0; t < std::min(triangles, keptFrom.size()); ++t) keptFrom[t] = static_cast<std::uint32_t>(t);

@@ -36,7 +36,8 @@ namespace isoslab {
 /// A collapse that was made: `from` moved onto `to` (ids as in the input). A log of them begins each
 /// pass with a mark: `from` kPassMark, `to` the pass's number (from 1). In a replay (below), a step
 /// whose `to` has kRename set only renames `from` in the triangles that have it, with no test: a
-/// collapse that was made around the input, which its triangles on `from` took part in.
+/// collapse that was made around the input, which its triangles on `from` took part in (the flag
+/// takes the ids' top bit: a replay with renames needs fewer than 2^31 vertices).
 struct SimplifyStep {
   static constexpr std::uint32_t kPassMark = 0xffffffffu;
   static constexpr std::uint32_t kRename = 0x80000000u;
@@ -68,8 +69,9 @@ struct SimplifyLimits {
   /// simplified along themselves: a vertex inside such a line moves onto one of its two neighbours
   /// on the line, with the tests above for every sheet (false: such vertices stay).
   bool alongLines = false;
-  /// When set, each collapse made is appended to it, in order, each pass after its mark (a lazy
-  /// buffer: reserve it for the most that may come, and only what is written is resident).
+  /// When set, each collapse made is appended to it, in order, each pass after its mark (a replay
+  /// appends its collapses without the marks; a lazy buffer: reserve it for the most that may come,
+  /// and only what is written is resident).
   LazyScratchVector<SimplifyStep>* record = nullptr;
   /// When not empty (a log as `record` makes, its pass marks in increasing order and below 2^16 - 1:
   /// the replay stops at a mark beyond), the simplifier makes these collapses again, pass by pass
@@ -82,6 +84,10 @@ struct SimplifyLimits {
   /// are as the recorded run left them: it is a triangle of that run's result, which the caller
   /// has measured.
   std::span<const SimplifyStep> replay;
+  /// Set (when given) where a replay's rename turned a triangle over or flattened it: among
+  /// triangles that differ from the recorded run's (a dirty vertex, below), where the recorded
+  /// collapse's tests would have refused it.
+  bool* renameFolds = nullptr;
 };
 
 /// Simplifies the triangles `indices` (three ids a triangle, into `xyz`: three floats a vertex) in
