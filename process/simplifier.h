@@ -82,11 +82,13 @@ struct SimplifyLimits {
   /// recorded run makes the same triangles: `check`, which passed them then, is not asked again.
   /// The `unchecked` flags (below) are then 0 for every kept triangle with a corner whose triangles
   /// are as the recorded run left them: it is a triangle of that run's result, which the caller
-  /// has measured.
+  /// has measured. Renames among the steps (SimplifyStep::kRename) are made with no test: a local
+  /// repair (process/decimation.cpp, repairNear) replays a zone's collapses, with those of the
+  /// vertices around it as renames, on the input's triangles on the zone.
   std::span<const SimplifyStep> replay;
   /// Set (when given) where a replay's rename turned a triangle over or flattened it: among
-  /// triangles that differ from the recorded run's (a dirty vertex, below), where the recorded
-  /// collapse's tests would have refused it.
+  /// triangles that may differ from the recorded run's (a corner's triangles or quadric changed
+  /// since), where the recorded collapse's tests would have refused it.
   bool* renameFolds = nullptr;
 };
 
