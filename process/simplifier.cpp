@@ -187,6 +187,7 @@ class Simplifier {
 
   std::size_t run(const SimplifyLimits& limits) {
     if (!limits.replay.empty()) return replay(limits);
+    choosing_ = limits.carryKeys;
     record_ = limits.record;
     const double limit = takeLimits(limits);
 
@@ -348,7 +349,11 @@ class Simplifier {
 
   void compact() {
     std::size_t kept = 0;
+    // Each triangle's new place, for the keys that the next pass takes over (without lines only).
+    const bool carry = lineEnds_.empty();
+    if (carry) moved_.resize(count_ / 3);
     for (std::size_t t = 0; t < count_ / 3; ++t) {
+      if (carry) moved_[t] = idx_[3 * t] == kDead ? kDead : static_cast<std::uint32_t>(kept);
       if (idx_[3 * t] == kDead) continue;
       if (kept != t) {
         std::memmove(&idx_[3 * kept], &idx_[3 * t], 3 * sizeof(std::uint32_t));
@@ -363,54 +368,18 @@ class Simplifier {
   // One pass: the candidates by error, each made where nothing around it has changed. Returns
   // the collapses made.
   std::size_t collapsePass(std::uint32_t pass, std::size_t target, double limit) {
-    keys_.clear();
     const std::size_t triangles = count_ / 3;
-    // Each edge once, and two a line vertex: about 3/2 a triangle. Reserved, not grown, so that the
-    // array has no untouched tail (a huge page of it would be resident: core/scratch.h).
-    keys_.reserve(3 * triangles / 2 + 2 * lineEnds_.size() + 64);
-    for (std::size_t t = 0; t < triangles; ++t) {
-      for (std::size_t k = 0; k < 3; ++k) {
-        const std::uint32_t a = idx_[3 * t + k], b = idx_[3 * t + (k + 1) % 3];
-        // Each edge between two triangles once (where it runs from the smaller id); a border
-        // edge's ends do not move.
-        if (a > b || (free_[a] != kDisk && free_[b] != kDisk)) continue;
-        const Vec3 ab = sub(at(b), at(a));
-        const double abError = free_[a] == kDisk ? quadrics_[a].error(ab) : INFINITY;
-        const double baError = free_[b] == kDisk ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
-        const double e = std::min(abError, baError);
-        if (!(e <= limit)) continue;
-        const auto error = static_cast<float>(e);
-        std::uint32_t bits = 0;
-        std::memcpy(&bits, &error, sizeof bits);
-        // The candidate: its corner (which holds the edge's first end) and 1 when the second end
-        // moves.
-        keys_.push_back(static_cast<std::uint64_t>(bits) << 32 | (3 * t + k) << 1 | (abError <= baError ? 0u : 1u));
-      }
+    // After a pass that made few collapses, its keys are taken over: only those around its
+    // collapses are new (carryKeys). The same keys in the same order either way.
+    const bool carry =
+        choosing_ && pass > 1 && lineEnds_.empty() && !moved_.empty() && 16 * touched_.size() < triangles;
+    if (carry) {
+      carryKeys(pass, limit);
+    } else {
+      allKeys(limit);
     }
-    // A line vertex's collapses onto its neighbours on the line, each named by a corner of a
-    // triangle on the edge, as above.
-    for (const auto& [v, e0, e1] : lineEnds_) {
-      if (free_[v] != kLine) continue;  // collapsed away
-      for (const std::uint32_t e : {e0, e1}) {
-        const double error = quadrics_[v].error(sub(at(e), at(v)));
-        if (!(error <= limit)) continue;
-        for (std::uint32_t i = first_[v]; i < first_[v + 1]; ++i) {
-          const std::uint32_t t = around_[i];
-          const std::uint32_t k = idx_[3 * t] == v ? 0 : idx_[3 * t + 1] == v ? 1 : 2;
-          std::uint32_t corner = kDead, swap = 0;
-          if (idx_[3 * t + (k + 1) % 3] == e) corner = 3 * t + k;
-          if (idx_[3 * t + (k + 2) % 3] == e) corner = 3 * t + (k + 2) % 3, swap = 1;
-          if (corner == kDead) continue;
-          const auto bits32 = static_cast<float>(error);
-          std::uint32_t bits = 0;
-          std::memcpy(&bits, &bits32, sizeof bits);
-          keys_.push_back(static_cast<std::uint64_t>(bits) << 32 | corner << 1 | swap);
-          break;
-        }
-      }
-    }
+    touched_.clear();
     if (keys_.empty()) return 0;
-    sortKeys();
     // Most collapses remove two triangles: the pass goes as far as the error of the collapse that
     // would meet the target, and half as far again (the skipped ones come back in the next pass),
     // or further while it has made fewer than a quarter of those collapses (cheap ones that the
@@ -441,6 +410,101 @@ class Simplifier {
       if (collapse(from, to, pass, error)) ++made;
     }
     return made;
+  }
+
+  // The key of the candidate edge from corner k of triangle t (a to b, a < b), if either end may
+  // move and the error is within the limit: its error's bits, the corner, and 1 when b moves.
+  bool edgeKey(std::size_t t, std::size_t k, double limit, std::uint64_t& key) const {
+    const std::uint32_t a = idx_[3 * t + k], b = idx_[3 * t + (k + 1) % 3];
+    // Each edge between two triangles once (where it runs from the smaller id); a border edge's
+    // ends do not move.
+    if (a > b || (free_[a] != kDisk && free_[b] != kDisk)) return false;
+    const Vec3 ab = sub(at(b), at(a));
+    const double abError = free_[a] == kDisk ? quadrics_[a].error(ab) : INFINITY;
+    const double baError = free_[b] == kDisk ? quadrics_[b].error({-ab[0], -ab[1], -ab[2]}) : INFINITY;
+    const double e = std::min(abError, baError);
+    if (!(e <= limit)) return false;
+    const auto error = static_cast<float>(e);
+    std::uint32_t bits = 0;
+    std::memcpy(&bits, &error, sizeof bits);
+    key = static_cast<std::uint64_t>(bits) << 32 | (3 * t + k) << 1 | (abError <= baError ? 0u : 1u);
+    return true;
+  }
+
+  // Every candidate, sorted.
+  void allKeys(double limit) {
+    keys_.clear();
+    const std::size_t triangles = count_ / 3;
+    // Each edge once, and two a line vertex: about 3/2 a triangle. Reserved, not grown, so that the
+    // array has no untouched tail (a huge page of it would be resident: core/scratch.h).
+    keys_.reserve(3 * triangles / 2 + 2 * lineEnds_.size() + 64);
+    for (std::size_t t = 0; t < triangles; ++t) {
+      for (std::size_t k = 0; k < 3; ++k) {
+        std::uint64_t key = 0;
+        if (edgeKey(t, k, limit, key)) keys_.push_back(key);
+      }
+    }
+    // A line vertex's collapses onto its neighbours on the line, each named by a corner of a
+    // triangle on the edge, as above.
+    for (const auto& [v, e0, e1] : lineEnds_) {
+      if (free_[v] != kLine) continue;  // collapsed away
+      for (const std::uint32_t e : {e0, e1}) {
+        const double error = quadrics_[v].error(sub(at(e), at(v)));
+        if (!(error <= limit)) continue;
+        for (std::uint32_t i = first_[v]; i < first_[v + 1]; ++i) {
+          const std::uint32_t t = around_[i];
+          const std::uint32_t k = idx_[3 * t] == v ? 0 : idx_[3 * t + 1] == v ? 1 : 2;
+          std::uint32_t corner = kDead, swap = 0;
+          if (idx_[3 * t + (k + 1) % 3] == e) corner = 3 * t + k;
+          if (idx_[3 * t + (k + 2) % 3] == e) corner = 3 * t + (k + 2) % 3, swap = 1;
+          if (corner == kDead) continue;
+          const auto bits32 = static_cast<float>(error);
+          std::uint32_t bits = 0;
+          std::memcpy(&bits, &bits32, sizeof bits);
+          keys_.push_back(static_cast<std::uint64_t>(bits) << 32 | corner << 1 | swap);
+          break;
+        }
+      }
+    }
+    sortKeys();
+  }
+
+  // The last pass's keys (sorted), less those with an end that a collapse of that pass moved or
+  // moved onto, each renamed to its triangle's new place (compact() keeps the triangles' order, so
+  // they stay sorted); then the edges at the vertices that it moved others onto, found again,
+  // sorted and merged in. An edge with neither end changed is in the same triangle, at the same
+  // corner, with the same quadrics at its ends: the key that allKeys() would make. Without lines.
+  void carryKeys(std::uint32_t pass, double limit) {
+    const auto last = static_cast<std::uint16_t>(pass - 1);
+    std::size_t kept = 0;
+    for (const std::uint64_t key : keys_) {
+      const auto corner = static_cast<std::uint32_t>(key & 0xffffffffu) >> 1;
+      const std::uint32_t t = moved_[corner / 3], k = corner % 3;
+      if (t == kDead) continue;
+      if (mark_[idx_[3 * t + k]] == last || mark_[idx_[3 * t + (k + 1) % 3]] == last) continue;
+      keys_[kept++] = (key & 0xffffffff00000000ull) | static_cast<std::uint64_t>(3 * t + k) << 1 | (key & 1u);
+    }
+    keys_.resize(kept);
+    fresh_.clear();
+    fresh_.reserve(touched_.size() * kMaxFan + 64);
+    for (const std::uint32_t v : touched_) {
+      for (std::uint32_t i = first_[v]; i < first_[v + 1]; ++i) {
+        const std::uint32_t t = around_[i];
+        for (std::size_t k = 0; k < 3; ++k) {
+          const std::uint32_t a = idx_[3 * t + k], b = idx_[3 * t + (k + 1) % 3];
+          if (a != v && b != v) continue;
+          // An edge between two such vertices is found from its smaller end's triangles.
+          const std::uint32_t other = a == v ? b : a;
+          if (mark_[other] == last && other < v) continue;
+          std::uint64_t key = 0;
+          if (edgeKey(t, k, limit, key)) fresh_.push_back(key);
+        }
+      }
+    }
+    std::sort(fresh_.begin(), fresh_.end());
+    spare_.resize(keys_.size() + fresh_.size());
+    std::merge(keys_.begin(), keys_.end(), fresh_.begin(), fresh_.end(), spare_.begin());
+    keys_.swap(spare_);
   }
 
   // The keys in order of error (their upper 32 bits, the bits of a float that is not negative),
@@ -558,6 +622,7 @@ class Simplifier {
     // `to` has gained triangles that its list lacks, and its quadric has changed: it waits for the
     // next pass, as does `from`, which is gone.
     mark_[from] = mark_[to] = static_cast<std::uint16_t>(pass);
+    if (choosing_) touched_.push_back(to);
     if (record_ != nullptr) record_->push_back({from, to});
     return true;
   }
@@ -587,6 +652,10 @@ class Simplifier {
   bool* renameFolds_ = nullptr;
   ScratchVector<std::uint32_t> first_, around_;
   LazyScratchVector<std::uint64_t> keys_, spare_;  // reserved for every edge, used for fewer
+  LazyScratchVector<std::uint64_t> fresh_;         // carryKeys()'s new keys
+  ScratchVector<std::uint32_t> moved_;             // compact(): each triangle's new place (kDead: gone)
+  std::vector<std::uint32_t> touched_;             // the pass's collapses' `to`s (run() with carryKeys only)
+  bool choosing_ = false;
   const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;
   double checkAbove_ = INFINITY;
   double sampleLimit_ = INFINITY;

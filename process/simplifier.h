@@ -86,6 +86,9 @@ struct SimplifyLimits {
   /// repair (process/decimation.cpp, repairNear) replays a zone's collapses, with those of the
   /// vertices around it as renames, on the input's triangles on the zone.
   std::span<const SimplifyStep> replay;
+  /// A pass after one that made few collapses takes over its candidates and finds again only those
+  /// around its collapses (false: every pass finds them all; the same collapses, for the tests).
+  bool carryKeys = true;
   /// Set (when given) where a replay's rename turned a triangle over or flattened it: among
   /// triangles that may differ from the recorded run's (a corner's triangles or quadric changed
   /// since), where the recorded collapse's tests would have refused it.

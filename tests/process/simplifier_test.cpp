@@ -399,5 +399,58 @@ TEST(Simplifier, AReplayOnAZoneWithRenamesAroundItMakesTheRecordedTriangles) {
   }
 }
 
+// A pass after one that made few collapses takes over its candidates and finds again only those
+// around them (SimplifyLimits::carryKeys): the same candidates in the same order as finding them
+// all, so the same collapses, checks and result. A bumpy ball whose error bound stops it far above
+// the target: its last passes make few collapses each (asserted from the log).
+TEST(Simplifier, CandidatesTakenOverFromTheLastPassGiveTheSameCollapses) {
+  const Flat m = extracted({34, 34, 34}, [](std::int64_t i, std::int64_t j, std::int64_t k) {
+    const double x = double(i) - 16.5, y = double(j) - 16.2, z = double(k) - 16.8;
+    return static_cast<float>(13.0 - std::sqrt(x * x + y * y + z * z) + 0.7 * std::sin(1.3 * x) * std::cos(1.1 * y) +
+                              0.5 * std::sin(0.9 * z));
+  });
+  const std::size_t all = m.indices.size() / 3;
+  std::array<Flat, 2> out{m, m};
+  std::array<LazyScratchVector<SimplifyStep>, 2> logs;
+  std::array<std::size_t, 2> asked{};
+  for (std::size_t run = 0; run < 2; ++run) {
+    SimplifyLimits limits = toTarget(all / 20);
+    limits.maxError = 0.08;
+    limits.checkAbove = 0.04;
+    limits.check = [&](const std::vector<std::array<std::uint32_t, 3>>& made) {
+      ++asked[run];
+      return made.size() % 5 != 0;  // refuse some, as a distance check would
+    };
+    limits.carryKeys = run == 0;
+    logs[run].reserve(all / 2);
+    limits.record = &logs[run];
+    out[run].indices.resize(simplifyTriangles(out[run].indices, out[run].xyz.data(), out[run].vertices(), limits));
+  }
+  EXPECT_EQ(out[0].indices, out[1].indices);
+  EXPECT_EQ(asked[0], asked[1]);
+  EXPECT_GT(asked[0], 100u);
+  ASSERT_EQ(logs[0].size(), logs[1].size());
+  EXPECT_TRUE(
+      std::equal(logs[0].begin(), logs[0].end(), logs[1].begin(),
+                 [](const SimplifyStep& a, const SimplifyStep& b) { return a.from == b.from && a.to == b.to; }));
+  // Stopped by the bound, with passes that follow one of few collapses (fewer than 1/16 of the
+  // triangles left): those took the candidates over.
+  EXPECT_GT(out[0].indices.size() / 3, all / 10);
+  std::vector<std::size_t> perPass;
+  for (const SimplifyStep& s : logs[0]) {
+    if (s.isPass()) {
+      perPass.push_back(0);
+    } else {
+      ++perPass.back();
+    }
+  }
+  std::size_t live = all, carried = 0;
+  for (std::size_t p = 0; p + 1 < perPass.size(); ++p) {
+    live -= 2 * perPass[p];
+    carried += 16 * perPass[p] < live ? 1 : 0;
+  }
+  EXPECT_GE(carried, 1u);
+}
+
 }  // namespace
 }  // namespace isoslab
