@@ -652,9 +652,11 @@ class Simplifier {
   bool* renameFolds_ = nullptr;
   ScratchVector<std::uint32_t> first_, around_;
   LazyScratchVector<std::uint64_t> keys_, spare_;  // reserved for every edge, used for fewer
-  LazyScratchVector<std::uint64_t> fresh_;         // carryKeys()'s new keys
-  ScratchVector<std::uint32_t> moved_;             // compact(): each triangle's new place (kDead: gone)
-  std::vector<std::uint32_t> touched_;             // the pass's collapses' `to`s (run() with carryKeys only)
+  // carryKeys(): its new keys; each triangle's new place after compact() (kDead: gone); the last
+  // pass's collapses' `to`s (run() with SimplifyLimits::carryKeys only).
+  LazyScratchVector<std::uint64_t> fresh_;
+  ScratchVector<std::uint32_t> moved_;
+  std::vector<std::uint32_t> touched_;
   bool choosing_ = false;
   const std::function<bool(const std::vector<std::array<std::uint32_t, 3>>&)>* check_ = nullptr;
   double checkAbove_ = INFINITY;
