@@ -983,7 +983,9 @@ bool DecimationSink::repairNear(const Faces& faces, const ScratchVector<bool>& f
   const std::size_t span = root.size();
   // The zone by the first try's classes (each named by its last vertex, relative to `first`): 1 for
   // those on the new frozen triangles, 2 for their neighbours in the last result (marked apart, so
-  // that the scan does not go on from them), 3 for those around the zone that the input touches.
+  // that the scan does not go on from them), 3 for those around the zone that the input touches
+  // (its context too: a frozen corner whose logged collapse the last result did not make marks
+  // its neighbours as its failing step does in a region-wide replay).
   ScratchVector<std::uint8_t> zone(span, 0);
   const auto classOf = [&](VertexId v) -> std::uint8_t& { return zone[joined[v - first]]; };
   for (const std::uint32_t t : fresh) {
@@ -1002,9 +1004,9 @@ bool DecimationSink::repairNear(const Faces& faces, const ScratchVector<bool>& f
     if (!inZone(tri[0]) && !inZone(tri[1]) && !inZone(tri[2])) continue;
     if (frozen[t]) {
       context.push_back(tri);
-      continue;
+    } else {
+      input.add(faces, t);
     }
-    input.add(faces, t);
     for (const VertexId v : tri) {
       if (!inZone(v)) classOf(v) = 3;
     }
@@ -1038,8 +1040,8 @@ bool DecimationSink::repairNear(const Faces& faces, const ScratchVector<bool>& f
       outline.push_back(s.to);
     }
   }
-  for (std::size_t t = 0; t < plain; ++t) {
-    for (const VertexId v : input.triangles[t]) {
+  for (const Triangle& t : input.triangles) {
+    for (const VertexId v : t) {
       if (!inZone(v)) outline.push_back(v);
     }
   }
