@@ -971,8 +971,10 @@ std::size_t frozenContext(std::span<const Triangle> triangles, const ScratchVect
 // checks passed there stands: its flags are 0). Where a dirty vertex reaches a rename, a
 // region-wide replay would have tested that collapse: its triangles are flagged for the checks
 // that follow (every edge and fan of the result is checked anyway), and if it turned one over,
-// which only its own test would see, nothing changes and the answer is false. On every input
-// measured (docs/performance.md, stop 60) the result is the region-wide replay's.
+// which only its own test would see, nothing changes and the answer is false. So the result can
+// differ from the region-wide replay's where that one would refuse a collapse that is only a
+// rename here; it is checked as any try is. The same triangles on the real inputs measured and on
+// 142 of 144 small random label complexes (docs/plans/issue36.md, stop 60).
 bool DecimationSink::repairNear(const Faces& faces, const ScratchVector<bool>& frozen,
                                 std::span<const std::uint32_t> fresh, Repairs& repairs, VertexId first,
                                 std::span<const SimplifyStep> log, const Originals* original, Faces& simplified,
