@@ -68,7 +68,8 @@ struct DecimateOptions {
   /// connected components (its working set is about 70 bytes a triangle).
   std::size_t batchTriangles = 1 << 17;
   /// A repair simplifies again only the neighbourhood of its bad spots, around the frozen patch
-  /// (false: the whole region, replaying the first try; the same triangles, slower: for tests).
+  /// (false: the whole region, replaying the first try; slower, and almost always the same
+  /// triangles: for the tests that compare them).
   bool localRepairs = true;
   /// Measure the one-sided distance of every output triangle to the original surface, for the
   /// report (DecimationReport::distanceMean, distanceMax, samples); false leaves them 0.
