@@ -201,6 +201,20 @@ TEST(Simplifier, TheErrorLimitAndTheCheckHoldCollapsesBack) {
   EXPECT_GT(asked, all / 4);
 }
 
+// To a tenth, recording the collapses into `steps` and counting the checks asked (each passes),
+// which every collapse above a small error asks.
+SimplifyLimits recording(std::size_t all, std::size_t& asked, LazyScratchVector<SimplifyStep>& steps) {
+  SimplifyLimits limits = toTarget(all / 10);
+  limits.checkAbove = 0.01;
+  limits.check = [&asked](const std::vector<std::array<std::uint32_t, 3>>&) {
+    ++asked;
+    return true;
+  };
+  steps.reserve(all / 2);
+  limits.record = &steps;
+  return limits;
+}
+
 // A replay makes a recorded run's collapses again. On the same input it makes them all, asks the
 // check nothing (the recorded run's check passed those triangles) and leaves nothing to measure.
 // With a patch left out (a repair's frozen triangles), the patch's outline stays as it is, the
@@ -210,15 +224,8 @@ TEST(Simplifier, AReplayMakesTheRecordedCollapsesAgainAwayFromWhatIsLeftOut) {
   const Flat m = torus();
   const std::size_t all = m.indices.size() / 3;
   std::size_t asked = 0;
-  SimplifyLimits limits = toTarget(all / 10);
-  limits.checkAbove = 0.01;
-  limits.check = [&](const std::vector<std::array<std::uint32_t, 3>>&) {
-    ++asked;
-    return true;
-  };
   LazyScratchVector<SimplifyStep> steps;
-  steps.reserve(all / 2);
-  limits.record = &steps;
+  SimplifyLimits limits = recording(all, asked, steps);
   Flat recorded = m;
   std::vector<std::uint8_t> unchecked(all, 2);
   const std::size_t kept =
@@ -313,15 +320,8 @@ TEST(Simplifier, AReplayOnAZoneWithRenamesAroundItMakesTheRecordedTriangles) {
   const Flat m = torus();
   const std::size_t all = m.indices.size() / 3;
   std::size_t asked = 0;
-  SimplifyLimits limits = toTarget(all / 10);
-  limits.checkAbove = 0.01;
-  limits.check = [&](const std::vector<std::array<std::uint32_t, 3>>&) {
-    ++asked;
-    return true;
-  };
   LazyScratchVector<SimplifyStep> steps;
-  steps.reserve(all / 2);
-  limits.record = &steps;
+  SimplifyLimits limits = recording(all, asked, steps);
   Flat recorded = m;
   recorded.indices.resize(simplifyTriangles(recorded.indices, recorded.xyz.data(), recorded.vertices(), limits));
   ASSERT_GT(asked, 100u);
