@@ -793,7 +793,9 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
       indices[3 * t + k] = l;
     }
   }
+  // `local` spans the outline too (repairNear gives one over the whole region).
   for (const VertexId v : steps.outline) {
+    if (v < low || v - low >= local.size()) throw std::logic_error("collapseBatch: an outline vertex beyond the ids");
     unsigned& l = local[v - low];
     if (l == ~0u) l = used++;
   }
@@ -958,23 +960,23 @@ std::size_t frozenContext(std::span<const Triangle> triangles, const ScratchVect
 
 // A repair's try (issue 36's local repairs): only the neighbourhood of the bad spots is simplified
 // again, as the region-wide replay of the first try's collapses would simplify it. The zone: the
-// vertices of the last try's result on the newly frozen triangles `fresh` and their neighbours
-// there, with every vertex that the first try joined to one of them (repairs.firstRoot). Its
-// triangles in the last try's result go. In their place, the region's triangles on a zone vertex
-// (less the frozen ones, which go in as context, every corner fixed) get the first try's collapses
-// among the zone's vertices again, tested as a replay tests them (SimplifyLimits::replay). The
-// vertices around the zone stay, but the collapses that the first try joined them with come in
-// order too: those made in the last try's result as renames (SimplifyStep::kRename), so that the
-// triangles on the zone are renamed as they were; the others as steps that fail, which mark what
-// they touch dirty, as they do in a region-wide replay. So every step sees the triangles that a
-// region-wide replay would show it, and outside the zone nothing changes (what the last try's
-// checks passed there stands: its flags are 0). Where a dirty vertex reaches a rename, a
-// region-wide replay would have tested that collapse: its triangles are flagged for the checks
-// that follow (every edge and fan of the result is checked anyway), and if it turned one over,
-// which only its own test would see, nothing changes and the answer is false. So the result can
-// differ from the region-wide replay's where that one would refuse a collapse that is only a
-// rename here; it is checked as any try is. The same triangles on the real inputs measured and on
-// 142 of 144 small random label complexes (docs/plans/issue36.md, stop 60).
+// corners of the newly frozen triangles `fresh` and the last try's result's neighbours of what
+// stands for them there, with every vertex that the first try joined to one of those
+// (repairs.firstRoot). Its triangles in the last try's result go. In their place, the region's
+// triangles on a zone vertex (less the frozen ones, which go in as context, every corner fixed) get
+// the first try's collapses among the zone's vertices again, tested as a replay tests them
+// (SimplifyLimits::replay). The vertices around the zone stay, but the collapses that the first try
+// joined them with come in order too: those made in the last try's result as renames
+// (SimplifyStep::kRename), so that the triangles on the zone are renamed as they were; the others
+// as steps that fail, which mark what they touch dirty, as they do in a region-wide replay. So
+// every step sees the triangles that a region-wide replay would show it, and outside the zone
+// nothing changes (what the last try's checks passed there stands: its flags are 0). Where a dirty
+// vertex reaches a rename, a region-wide replay might have tested that collapse: its triangles are
+// flagged for the checks that follow (every edge and fan of the result is checked anyway), and if
+// it turned one over, which only its own test would see, nothing changes and the answer is false.
+// So the result can differ from the region-wide replay's where that one would refuse a collapse
+// that is only a rename here; it is checked as any try is. The same triangles on the real inputs
+// measured and on 142 of 144 small random label complexes (docs/plans/issue36.md, stop 60).
 bool DecimationSink::repairNear(const Faces& faces, const ScratchVector<bool>& frozen,
                                 std::span<const std::uint32_t> fresh, Repairs& repairs, VertexId first,
                                 std::span<const SimplifyStep> log, const Originals* original, Faces& simplified,
@@ -1064,7 +1066,13 @@ bool DecimationSink::repairNear(const Faces& faces, const ScratchVector<bool>& f
                                     nullptr, steps, flags);
   if (folded) return false;
   // What stays of the last result, then the zone's triangles less the context.
+  // Every array at its size (growing one would leave slack resident: core/scratch.h).
   simplified = Faces{};
+  const std::size_t most = repairs.previous.size() + zoned.size();
+  simplified.triangles.reserve(most);
+  simplified.labels.reserve(faces.labels.empty() ? 0 : most);
+  unchecked.clear();
+  unchecked.reserve(most);
   for (std::size_t t = 0; t < repairs.previous.size(); ++t) {
     const Triangle& tri = repairs.previous.triangles[t];
     if (!inZone(tri[0]) && !inZone(tri[1]) && !inZone(tri[2])) simplified.add(repairs.previous, t);

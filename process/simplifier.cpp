@@ -350,7 +350,7 @@ class Simplifier {
   void compact() {
     std::size_t kept = 0;
     // Each triangle's new place, for the keys that the next pass takes over (without lines only).
-    const bool carry = lineEnds_.empty();
+    const bool carry = choosing_ && lineEnds_.empty();
     if (carry) moved_.resize(count_ / 3);
     for (std::size_t t = 0; t < count_ / 3; ++t) {
       if (carry) moved_[t] = idx_[3 * t] == kDead ? kDead : static_cast<std::uint32_t>(kept);

@@ -61,8 +61,8 @@ struct SimplifyLimits {
   double checkAbove = INFINITY;
   /// Per vertex, nonzero where it must stay whatever its triangles look like (empty: none): a
   /// vertex whose other triangles are left out of the input. kRenamedOnly in a replay: a vertex
-  /// that the recorded run moved (if at all) only by the replay's renames, so that its triangles
-  /// are as that run had them.
+  /// whose triangles in the input are as the recorded run had them, and that moves only by the
+  /// replay's renames (its other steps fail, as it stays).
   static constexpr std::uint8_t kRenamedOnly = 2;
   std::vector<std::uint8_t> locked;
   /// A label complex's lines where three labels meet (three sheets on each of their edges) are
