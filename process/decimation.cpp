@@ -1999,16 +1999,32 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
   struct Box {
     Vec3d low, high;
   };
+  // Each triangle's plane (its corners' cross product and that one's squared length) and its
+  // longest edge squared, for the side tests below: made once here rather than for every pair.
+  struct Plane {
+    Vec3d normal;
+    double normal2 = 0, size = 0;
+  };
   ScratchVector<Box> boxes(triangles.size());
+  ScratchVector<Plane> planes(triangles.size());
   Vec3d low{INFINITY, INFINITY, INFINITY}, high{-INFINITY, -INFINITY, -INFINITY};
   for (std::size_t t = 0; t < triangles.size(); ++t) {
+    const std::array<Vec3d, 3> p{toDouble(position(triangles[t][0])), toDouble(position(triangles[t][1])),
+                                 toDouble(position(triangles[t][2]))};
     Box& b = boxes[t];
-    b.low = b.high = toDouble(position(triangles[t][0]));
+    b.low = b.high = p[0];
     for (std::size_t k = 1; k < 3; ++k) {
-      const Vec3d p = toDouble(position(triangles[t][k]));
-      for (std::size_t d = 0; d < 3; ++d) b.low[d] = std::min(b.low[d], p[d]), b.high[d] = std::max(b.high[d], p[d]);
+      for (std::size_t d = 0; d < 3; ++d)
+        b.low[d] = std::min(b.low[d], p[k][d]), b.high[d] = std::max(b.high[d], p[k][d]);
     }
     for (std::size_t d = 0; d < 3; ++d) low[d] = std::min(low[d], b.low[d]), high[d] = std::max(high[d], b.high[d]);
+    Plane& plane = planes[t];
+    plane.normal = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+    plane.normal2 = dot(plane.normal, plane.normal);
+    for (std::size_t k = 0; k < 3; ++k) {
+      const Vec3d e = sub(p[(k + 1) % 3], p[k]);
+      plane.size = std::max(plane.size, dot(e, e));
+    }
   }
   double cell = 2.0 * options_.voxelSize;
   std::array<std::int64_t, 3> dims{};
@@ -2030,20 +2046,32 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
   const auto indexOf = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
     return static_cast<std::size_t>(x + dims[0] * (y + dims[1] * z));
   };
-  const auto forCells = [&](const Box& b, auto&& visit) {
-    for (std::int64_t z = cellOf(b.low[2], 2); z <= cellOf(b.high[2], 2); ++z)
-      for (std::int64_t y = cellOf(b.low[1], 1); y <= cellOf(b.high[1], 1); ++y)
-        for (std::int64_t x = cellOf(b.low[0], 0); x <= cellOf(b.high[0], 0); ++x) visit(indexOf(x, y, z));
+  // Each triangle's first and last cell along each axis. cellOf does not decrease, so the cell of
+  // the larger of two lows is the larger of their cells.
+  struct Span {
+    std::array<std::int32_t, 3> first, last;  // dims fit: fewer cells than 2 per triangle and 4096
+  };
+  ScratchVector<Span> spans(triangles.size());
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    for (std::size_t d = 0; d < 3; ++d) {
+      spans[t].first[d] = static_cast<std::int32_t>(cellOf(boxes[t].low[d], d));
+      spans[t].last[d] = static_cast<std::int32_t>(cellOf(boxes[t].high[d], d));
+    }
+  }
+  const auto forCells = [&](const Span& c, auto&& visit) {
+    for (std::int64_t z = c.first[2]; z <= c.last[2]; ++z)
+      for (std::int64_t y = c.first[1]; y <= c.last[1]; ++y)
+        for (std::int64_t x = c.first[0]; x <= c.last[0]; ++x) visit(indexOf(x, y, z));
   };
   ScratchVector<std::uint32_t> start(static_cast<std::size_t>(dims[0] * dims[1] * dims[2]) + 1, 0);
-  for (const Box& b : boxes) forCells(b, [&](std::size_t i) { ++start[i + 1]; });
+  for (const Span& c : spans) forCells(c, [&](std::size_t i) { ++start[i + 1]; });
   for (std::size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
   ScratchVector<std::uint32_t> list(start.back()), fill(start.begin(), start.end() - 1);
   // Each cell lists its new triangles first: a pair is tested from its first triangle, which must
   // be new unless the last try had both.
   for (const int listed : {0, 1}) {
     for (std::uint32_t t = 0; t < boxes.size(); ++t) {
-      if (known[t] == listed) forCells(boxes[t], [&](std::size_t i) { list[fill[i]++] = t; });
+      if (known[t] == listed) forCells(spans[t], [&](std::size_t i) { list[fill[i]++] = t; });
     }
   }
   for (std::size_t i = 0; i + 1 < start.size(); ++i) {
@@ -2052,12 +2080,13 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
         const Triangle &s = triangles[list[m]], &t = triangles[list[n]];
         const Box &bs = boxes[list[m]], &bt = boxes[list[n]];
         bool apart = false;
-        Vec3d corner{};
-        for (std::size_t d = 0; d < 3; ++d) {
-          apart = apart || bs.low[d] > bt.high[d] || bt.low[d] > bs.high[d];
-          corner[d] = std::max(bs.low[d], bt.low[d]);
+        for (std::size_t d = 0; d < 3; ++d) apart = apart || bs.low[d] > bt.high[d] || bt.low[d] > bs.high[d];
+        // A pair is tested in one cell: that of the larger low corner of their boxes.
+        const Span &cs = spans[list[m]], &ct = spans[list[n]];
+        if (apart || indexOf(std::max(cs.first[0], ct.first[0]), std::max(cs.first[1], ct.first[1]),
+                             std::max(cs.first[2], ct.first[2])) != i) {
+          continue;
         }
-        if (apart || indexOf(cellOf(corner[0], 0), cellOf(corner[1], 1), cellOf(corner[2], 2)) != i) continue;
         // Corners in common: none, every edge is tested; one, the edges opposite it (those from it
         // cannot pass through the other's inside); an edge, none (a fold there turns a triangle
         // over, which the simplifier refuses).
@@ -2088,15 +2117,10 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
         // plane (by more than rounding), neither passes through the other: one's edges do not reach
         // the plane, and the other's edges lie in it, where the first has no point but a shared
         // corner. Most pairs in a cell end here.
-        const auto oneSide = [](const std::array<Vec3d, 3>& x, const Triangle& xi, const std::array<Vec3d, 3>& y,
-                                const Triangle& yi) {
-          const Vec3d normal = cross(sub(y[1], y[0]), sub(y[2], y[0]));
-          double size = 0;
-          for (std::size_t k = 0; k < 3; ++k) {
-            const Vec3d e = sub(x[(k + 1) % 3], x[k]);
-            size = std::max(size, dot(e, e));
-          }
-          const double tolerance = 1e-6 * std::sqrt(dot(normal, normal) * size);
+        const auto oneSide = [](const std::array<Vec3d, 3>& x, const Triangle& xi, const Plane& xPlane,
+                                const std::array<Vec3d, 3>& y, const Triangle& yi, const Plane& yPlane) {
+          const Vec3d& normal = yPlane.normal;
+          const double tolerance = 1e-6 * std::sqrt(yPlane.normal2 * xPlane.size);
           int above = 0, below = 0, free = 0;
           for (std::size_t k = 0; k < 3; ++k) {
             if (xi[k] == yi[0] || xi[k] == yi[1] || xi[k] == yi[2]) continue;
@@ -2107,7 +2131,8 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
           }
           return free > 0 && (above == free || below == free);
         };
-        if (oneSide(p, s, q, t) || oneSide(q, t, p, s)) continue;
+        const Plane &sPlane = planes[list[m]], &tPlane = planes[list[n]];
+        if (oneSide(p, s, sPlane, q, t, tPlane) || oneSide(q, t, tPlane, p, s, sPlane)) continue;
         bool hit = false;
         for (std::size_t k = 0; k < 3 && !hit; ++k) {
           const bool fromS = shared == 1 && (k == sharedInS || (k + 1) % 3 == sharedInS);
