@@ -261,6 +261,41 @@ bool segmentCrosses(const Vec3d& p, const Vec3d& q, const Vec3d& a, const Vec3d&
   return v > eps && u + v < 1 - eps && t > eps && t < 1 - eps;
 }
 
+// How many times each triangle (corner for corner) is in a list: open addressing, for a few lookups
+// a triangle (a sort of the list cost the crossing search more than its lookups saved).
+class TriangleCounts {
+ public:
+  explicit TriangleCounts(std::span<const Triangle> triangles) {
+    std::size_t capacity = 16;
+    while (capacity < 2 * triangles.size()) capacity *= 2;
+    slots_.resize(capacity);
+    mask_ = capacity - 1;
+    for (const Triangle& t : triangles) {
+      Slot& slot = slots_[find(t)];
+      slot.key = t;
+      ++slot.count;
+    }
+  }
+  std::uint32_t count(const Triangle& t) const { return slots_[find(t)].count; }
+
+ private:
+  struct Slot {
+    Triangle key{};
+    std::uint32_t count = 0;  // 0: empty
+  };
+  // The slot that holds t, or the empty one where it would go.
+  std::size_t find(const Triangle& t) const {
+    std::uint64_t h = (std::uint64_t{t[0]} * 0x9e3779b97f4a7c15ull) ^ (std::uint64_t{t[1]} * 0xc2b2ae3d27d4eb4full) ^
+                      (std::uint64_t{t[2]} * 0x165667b19e3779f9ull);
+    h ^= h >> 32;
+    for (std::size_t i = static_cast<std::size_t>(h) & mask_;; i = (i + 1) & mask_) {
+      if (slots_[i].count == 0 || slots_[i].key == t) return i;
+    }
+  }
+  ScratchVector<Slot> slots_;
+  std::size_t mask_ = 0;
+};
+
 }  // namespace
 
 std::string checkDecimateOptions(const DecimateOptions& o) {
@@ -1970,28 +2005,22 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
   ScratchVector<VertexId> out;
   // The triangles of the last try that are here again (each once here and once there): a pair of
   // them is not tested again, and crosses if it crossed then.
-  ScratchVector<Triangle> sorted(triangles.begin(), triangles.end());
-  std::sort(sorted.begin(), sorted.end());
-  const auto once = [](const ScratchVector<Triangle>& list, const Triangle& t) {
-    const auto [from, to] = std::equal_range(list.begin(), list.end(), t);
-    return to - from == 1;
-  };
   ScratchVector<std::uint8_t> known(triangles.size(), 0);
-  if (!cache.tested.empty()) {
-    for (std::size_t t = 0; t < triangles.size(); ++t) {
-      known[t] = once(cache.tested, triangles[t]) && once(sorted, triangles[t]) ? 1 : 0;
-    }
-  }
   std::vector<std::pair<Triangle, Triangle>> pairs;
-  for (const auto& [s, t] : cache.pairs) {
-    if (once(cache.tested, s) && once(sorted, s) && once(cache.tested, t) && once(sorted, t)) {
-      out.insert(out.end(), s.begin(), s.end());
-      out.insert(out.end(), t.begin(), t.end());
-      pairs.emplace_back(s, t);
+  if (!cache.tested.empty()) {
+    const TriangleCounts then(cache.tested), now(triangles);
+    const auto once = [&](const Triangle& t) { return then.count(t) == 1 && now.count(t) == 1; };
+    for (std::size_t t = 0; t < triangles.size(); ++t) known[t] = once(triangles[t]) ? 1 : 0;
+    for (const auto& [s, t] : cache.pairs) {
+      if (once(s) && once(t)) {
+        out.insert(out.end(), s.begin(), s.end());
+        out.insert(out.end(), t.begin(), t.end());
+        pairs.emplace_back(s, t);
+      }
     }
   }
   const auto keep = [&] {
-    cache.tested = std::move(sorted);
+    cache.tested.assign(triangles.begin(), triangles.end());
     cache.pairs = std::move(pairs);
     return std::move(out);
   };

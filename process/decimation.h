@@ -381,8 +381,8 @@ class DecimationSink final : public MeshSink {
   // The original surface of `range` (its grids built), kept in the scope for the next caller with
   // the same range: the tries and the simplifier's checks share it.
   const Originals& surfaceFor(ChunkRange range, Scope& scope) const;
-  // What a region's crossing search found in its last try: the triangles it tested (sorted) and
-  // the pairs that cross. A pair of triangles that were both in that try, once each, crosses now
+  // What a region's crossing search found in its last try: the triangles it tested and the pairs
+  // that cross. A pair of triangles that were both in that try, once each, crosses now
   // as it did then, so the next try tests only the pairs with a triangle that is new.
   struct CrossingCache {
     ScratchVector<Triangle> tested;
