@@ -2066,8 +2066,8 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
     if (cells <= 2.0 * static_cast<double>(triangles.size()) + 4096.0) break;
     cell *= 2;
   }
-  // By the inverse width (the same function for the lists and the pairs' corners); x is within the
-  // box, so truncating is flooring.
+  // By the inverse width (one function for every cell found below); x is within the box, so
+  // truncating is flooring.
   const double inverse = 1.0 / cell;
   const auto cellOf = [&](double x, std::size_t d) {
     return std::clamp(static_cast<std::int64_t>((x - low[d]) * inverse), std::int64_t{0}, dims[d] - 1);
@@ -2078,7 +2078,8 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
   // Each triangle's first and last cell along each axis. cellOf does not decrease, so the cell of
   // the larger of two lows is the larger of their cells.
   struct Span {
-    std::array<std::int32_t, 3> first, last;  // dims fit: fewer cells than 2 per triangle and 4096
+    // Each of dims is at most 2 n + 4096 (the cells' product is), n the triangles: under 2^31.
+    std::array<std::int32_t, 3> first, last;
   };
   ScratchVector<Span> spans(triangles.size());
   for (std::size_t t = 0; t < triangles.size(); ++t) {
