@@ -261,8 +261,8 @@ bool segmentCrosses(const Vec3d& p, const Vec3d& q, const Vec3d& a, const Vec3d&
   return v > eps && u + v < 1 - eps && t > eps && t < 1 - eps;
 }
 
-// How many times each triangle (corner for corner) is in a list: open addressing, for a few lookups
-// a triangle (a sort of the list cost the crossing search more than its lookups saved).
+// How many times each triangle (corner for corner) is in a list, in a table with open addressing:
+// the crossing search looks up each triangle a few times, which costs less than sorting the list.
 class TriangleCounts {
  public:
   explicit TriangleCounts(std::span<const Triangle> triangles) {

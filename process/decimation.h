@@ -382,8 +382,8 @@ class DecimationSink final : public MeshSink {
   // the same range: the tries and the simplifier's checks share it.
   const Originals& surfaceFor(ChunkRange range, Scope& scope) const;
   // What a region's crossing search found in its last try: the triangles it tested and the pairs
-  // that cross. A pair of triangles that were both in that try, once each, crosses now
-  // as it did then, so the next try tests only the pairs with a triangle that is new.
+  // that cross. A pair of triangles that were both in that try, once each, crosses now as it did
+  // then, so the next try tests only the pairs with a triangle that is new.
   struct CrossingCache {
     ScratchVector<Triangle> tested;
     std::vector<std::pair<Triangle, Triangle>> pairs;
