@@ -164,6 +164,11 @@ std::string extractReportText(const ExtractReport& report, const std::string& wh
                   {"write", report.seconds.write},
                   {"total", report.seconds.total}};
   if (report.seconds.componentPass) r["seconds"]["component_pass"] = *report.seconds.componentPass;
+  if (report.decimation) {
+    const DecimationReport::Seconds& d = report.decimation->result.seconds;
+    r["seconds"]["decimation"] = {{"calls", d.calls},       {"simplifier", d.simplifier}, {"checks", d.checks},
+                                  {"crossing", d.crossing}, {"grids", d.grids},           {"measure", d.measure}};
+  }
   if (report.ranks > 1) r["ranks"] = report.ranks;
   r["ring_bytes"] = report.ringBytes;
   r["peak_rss_mib"] = report.peakRssMib;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <exception>
@@ -51,6 +52,21 @@ T max3(T a, T b, T c) {
 struct EdgeUse {
   std::uint32_t uses = 0;
   std::uint32_t forward = 0;  // uses from the smaller id to the larger
+};
+
+using Clock = std::chrono::steady_clock;
+
+// Adds the seconds since `start` to `into` when it leaves its scope (DecimationReport::Seconds).
+class Timed {
+ public:
+  explicit Timed(double& into) : into_(into), start_(Clock::now()) {}
+  ~Timed() { into_ += std::chrono::duration<double>(Clock::now() - start_).count(); }
+  Timed(const Timed&) = delete;
+  Timed& operator=(const Timed&) = delete;
+
+ private:
+  double& into_;
+  Clock::time_point start_;
 };
 
 // The smallest and largest vertex id of `triangles` (not empty): per-vertex arrays of a region span
@@ -411,6 +427,10 @@ void DecimationSink::count(const Scope& scope) {
   report_.brokenShape += scope.brokenShape;
   report_.beyondBound += scope.beyondBound;
   report_.crossing += scope.crossing;
+  report_.seconds.calls += scope.seconds.calls;
+  report_.seconds.simplifier += scope.seconds.simplifier;
+  report_.seconds.checks += scope.seconds.checks;
+  report_.seconds.crossing += scope.seconds.crossing;
 }
 
 // The chunk (index in the stream) that holds vertex v.
@@ -635,6 +655,7 @@ void DecimationSink::processQueued(bool last) {
   for (Work& w : regions) w.scope.surface.reset();
   for (std::unique_ptr<OriginalSurface>& grid : chunkGrids_) grid.reset();
   if (options_.measure) {
+    const Timed measuring(report_.seconds.measure);
     for (Work& w : regions) measure(w.output.triangles, w.range);
   }
   for (Work& w : regions) {
@@ -677,12 +698,15 @@ void DecimationSink::buildGrids(const std::vector<ChunkRange>& ranges, int threa
   missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
   // Each grid reads only the chunk's triangles and the positions, and writes only its own slot.
   const std::size_t shares = std::min<std::size_t>(static_cast<std::size_t>(std::max(1, threads)), missing.size());
+  std::vector<double> seconds(shares, 0.0);  // each share's, summed after (report_ is not theirs)
   onThreads(shares, [&](std::size_t from) {
+    const Timed building(seconds[from]);
     for (std::size_t i = from; i < missing.size(); i += shares) {
       const std::size_t c = missing[i];
       chunkGrids_[c - chunkBase_] = std::make_unique<OriginalSurface>(originalSurface(c));
     }
   });
+  for (const double share : seconds) report_.seconds.grids += share;
 }
 
 void DecimationSink::trim(std::size_t firstChunk) {
@@ -1148,8 +1172,11 @@ bool DecimationSink::repairNear(const Faces& faces, const ScratchVector<bool>& f
 DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t originalTriangles, ChunkRange originals,
                                                const Lock& lock, Scope& scope) const {
   if (faces.empty()) return faces;
+  const Timed call(scope.seconds.calls);
   const ScratchVector<Triangle>& triangles = faces.triangles;
+  std::optional<Timed> checking(std::in_place, scope.seconds.checks);
   const Shape before = shapeOf(triangles);
+  checking.reset();
   // A label complex's vertices on lines where three labels meet, and its other odd edges.
   ScratchVector<VertexId> lineVertices;
   std::size_t otherOdd = 0;
@@ -1226,6 +1253,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     const Originals* original = limit > 0 ? &surfaceFor(originals, scope) : nullptr;
     Faces simplified, result;
     ScratchVector<std::uint8_t> unchecked;
+    std::optional<Timed> collapsing(std::in_place, scope.seconds.simplifier);
     if (repairs.root.empty() ||
         !repairNear(faces, frozen, fresh, repairs, first, log, original, simplified, unchecked)) {
       // The frozen triangles that go in too, as context (frozenContext).
@@ -1293,6 +1321,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
       }
       if (attempt > 0 && !repairs.root.empty()) repairs.root = rootsAfter(remade);
     }
+    collapsing.reset();
     result.triangles.reserve(frozenCount + simplified.size());
     result.labels.reserve(faces.labels.empty() ? 0 : frozenCount + simplified.size());
     for (std::size_t t = 0; t < triangles.size(); ++t) {
@@ -1305,6 +1334,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // vertices are tallied: those of the triangles that have such an edge (every triangle on such
     // an edge is one of them).
     ScratchVector<std::uint8_t> closed;
+    checking.emplace(scope.seconds.checks);
     const ScratchVector<std::uint32_t> fansAfter = fanCounts(out, span, first, &closed);
     const auto open = [&](VertexId v) { return closed[v - first] == 0; };
     ScratchVector<Triangle> openTriangles;
@@ -1390,7 +1420,9 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     // A label complex's sheets lie close together (a label one voxel thick): a collapse within the
     // bound can push one through another.
     const std::size_t beyond = bad.size() - misshapen;
+    checking.reset();
     if (complex_) {
+      const Timed searching(scope.seconds.crossing);
       const ScratchVector<VertexId> crossing = crossingVertices(out, crossingCache);
       bad.insert(bad.end(), crossing.begin(), crossing.end());
       scope.crossing += crossing.empty() ? 0 : 1;

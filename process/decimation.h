@@ -120,6 +120,15 @@ struct DecimationReport {
   std::uint64_t samples = 0;
   /// Whether the distance was measured (DecimateOptions::measure).
   bool measured = true;
+  /// Where the time went, in seconds of the threads that spent it (summed over them): the simplify
+  /// calls of the blocks and regions (every try); within them, the simplifier (with the distance
+  /// checks that it asks for as it collapses), the checks of each try's result (the input's shape
+  /// and the result's, and the distance of the triangles that changed unchecked) and a label
+  /// complex's crossing search; and apart from them, the grids of the original triangles for the
+  /// checks and the measure of the distance above.
+  struct Seconds {
+    double calls = 0, simplifier = 0, checks = 0, crossing = 0, grids = 0, measure = 0;
+  } seconds;
 };
 
 class DecimationSink final : public MeshSink {
@@ -276,6 +285,7 @@ class DecimationSink final : public MeshSink {
     ChunkRange surfaceRange;
     std::uint64_t repairedRegions = 0, frozenTriangles = 0, keptRegions = 0, attempts = 0;
     std::uint64_t brokenShape = 0, beyondBound = 0, crossing = 0;  // DecimationReport's
+    DecimationReport::Seconds seconds;                             // calls, simplifier, checks, crossing
     bool block = false;  // a block's simplification (which keeps kBlockSlack times the ratio)
   };
   // Triangles and, in a label complex, each one's sides (MeshChunk::faceLabels; empty otherwise),

@@ -195,6 +195,7 @@ TEST(Cli, ExtractWritesMeshAndReport) {
     EXPECT_TRUE(report.contains(key)) << key;
   }
   for (const char* key : {"read", "extract", "write", "total"}) EXPECT_TRUE(report["seconds"].contains(key)) << key;
+  EXPECT_FALSE(report["seconds"].contains("decimation"));  // only a decimated run has its parts
   EXPECT_EQ(report["method"], "mc");
   EXPECT_EQ(report["euler"], 2);
   EXPECT_EQ(report["boundary_edges"], 0);
@@ -877,6 +878,15 @@ TEST(Cli, SmoothingAndDecimationWriteEveryFormat) {
     EXPECT_EQ(metrics["triangles"], report["triangles"]) << ext;
     EXPECT_EQ(report["boundary_edges"], 0) << ext;
     EXPECT_LT(report["decimation"]["kept_fraction"].get<double>(), 0.5) << ext;
+    // Where the decimation's time went: the parts of the calls within them, no crossing search on
+    // an iso surface, and the distance measured for the report.
+    const auto& seconds = report["seconds"]["decimation"];
+    const auto part = [&](const char* key) { return seconds.at(key).get<double>(); };
+    EXPECT_GT(part("simplifier"), 0.0) << ext;
+    EXPECT_GE(part("calls") * (1 + 1e-9), part("simplifier") + part("checks") + part("crossing")) << ext;
+    EXPECT_EQ(part("crossing"), 0.0) << ext;
+    EXPECT_GT(part("grids"), 0.0) << ext;
+    EXPECT_GT(part("measure"), 0.0) << ext;
     // STL stores triangles alone, so its reader welds by position; the others keep the vertices.
     if (std::string(ext) != "stl") {
       EXPECT_EQ(metrics["boundary_edges"], 0) << ext;

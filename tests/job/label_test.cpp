@@ -1298,6 +1298,15 @@ TEST(LabelDecimation, BlocksKeepEveryLabelClosedNearAndApart) {
     }
     EXPECT_EQ(local.repairedRegions, regionWide.repairedRegions);
     EXPECT_EQ(local.attempts, regionWide.attempts);
+    // The report's seconds: a complex's calls search for crossings, inside the calls' own time (the
+    // parts are timed within each call), and the distance is measured (the options' default).
+    const DecimationReport::Seconds& seconds = local.seconds;
+    EXPECT_GT(seconds.crossing, 0.0);
+    EXPECT_GT(seconds.simplifier, 0.0);
+    EXPECT_GT(seconds.checks, 0.0);
+    EXPECT_GT(seconds.grids, 0.0);
+    EXPECT_GE(seconds.calls * (1 + 1e-9), seconds.simplifier + seconds.checks + seconds.crossing);
+    EXPECT_GT(seconds.measure, 0.0);
     EXPECT_EQ(local.frozenTriangles, regionWide.frozenTriangles);
     EXPECT_EQ(local.crossing, regionWide.crossing);
     // Corner for corner (the output numbers its vertices in the order that the triangles come).
