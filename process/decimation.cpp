@@ -56,7 +56,7 @@ struct EdgeUse {
 
 using Clock = std::chrono::steady_clock;
 
-// Adds the seconds since `start` to `into` when it leaves its scope (DecimationReport::Seconds).
+// Adds to `into` the seconds from its making to the end of its scope (DecimationReport::Seconds).
 class Timed {
  public:
   explicit Timed(double& into) : into_(into), start_(Clock::now()) {}
