@@ -406,6 +406,8 @@ class DecimationSink final : public MeshSink {
                       bool forwardEdges = false) const;
   using Vec3d = std::array<double, 3>;
   std::array<Vec3d, 4> samplePoints(const Triangle& t) const;
+  // Whether p is within `limit` of a corner of t (an input vertex, so on the original surface).
+  bool nearCorner(const Vec3d& p, const Triangle& t, double limit) const;
   std::size_t chunkOfVertex(VertexId v) const;
   std::int64_t originalIn(std::size_t first, std::size_t end) const;
   void count(const Scope& scope);
