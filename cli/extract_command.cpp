@@ -251,7 +251,9 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
       ->add_option("--decimate", args.decimate,
                    "Keep this fraction of the triangles, in (0, 1], by quadric-error edge collapses, "
                    "in the stream; the mesh stays closed and the chunks join (a label map: once for all "
-                   "labels, interfaces kept shared, within a voxel)")
+                   "labels, interfaces kept shared). Every triangle stays within half a voxel of the "
+                   "surface (a label map's: a voxel; --max-error sets the bound), which can stop it short "
+                   "of the fraction: a warning then says how much it kept")
       ->group(decimateGroup);
   extract
       ->add_option("--max-error", args.maxError,

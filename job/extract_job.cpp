@@ -193,13 +193,15 @@ ExtractOptions extractOptions(const ExtractSettings& settings, double iso, bool 
   return options;
 }
 
-// The warnings after the run: the readers' (this rank's, then the other ranks'), then an empty
-// surface's; handed to `observer` (nullptr: a rank that does not report).
+// The warnings after the run (and after the report's finishing parts): the readers' (this rank's,
+// then the other ranks'), then an empty surface's, then a decimation's that stopped short; handed
+// to `observer` (nullptr: a rank that does not report).
 void collectWarnings(const ExtractSettings& settings, SliceSource& source, const PipelineResult& run,
                      ExtractObserver* observer, ExtractReport& report) {
   for (std::string& w : source.warnings()) report.warnings.push_back(std::move(w));
   for (const std::string& w : run.rankWarnings) report.warnings.push_back(w);
   if (auto w = emptySurfaceWarning(settings, report)) report.warnings.push_back(*w);
+  if (auto w = decimationShortWarning(report)) report.warnings.push_back(*w);
   if (observer == nullptr) return;
   for (std::size_t n = report.openingWarnings; n < report.warnings.size(); ++n) observer->warning(report.warnings[n]);
 }
@@ -333,8 +335,8 @@ ExtractReport runExtract(const ExtractSettings& settings, ExtractObserver& obser
   report.iso = iso;
   fillIsoReport(settings, isoChoice, report);
   describeVolume(settings, info, header, run, report);
-  collectWarnings(settings, *source, run, primary ? &observer : nullptr, report);
   describeFinishing(settings, chain, sphere, run, writer.get(), header, writing.voxelSize, report);
+  collectWarnings(settings, *source, run, primary ? &observer : nullptr, report);
   report.peakRssMib = peakRssMib();
   if (!settings.reportPath.empty() && primary) {
     const auto spell = [&](const std::string& t) { return observer.spell(t); };

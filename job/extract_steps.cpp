@@ -275,6 +275,19 @@ std::optional<std::string> emptySurfaceWarning(const ExtractSettings& settings, 
   return fmt::format("0 triangles: no cell crosses {} (value range {} .. {})", name, lo, hi);
 }
 
+std::optional<std::string> decimationShortWarning(const ExtractReport& report) {
+  if (!report.decimation) return std::nullopt;
+  const ExtractDecimation& d = *report.decimation;
+  const DecimationReport& r = d.result;
+  if (d.ratio >= 1 || r.trianglesIn == 0) return std::nullopt;
+  const double kept = static_cast<double>(r.trianglesOut) / static_cast<double>(r.trianglesIn);
+  if (kept <= 1.2 * d.ratio) return std::nullopt;
+  return fmt::format(
+      "`decimate` {} kept {:.1f}% of the triangles: the distance bound of {} voxel{} stopped it there "
+      "(`max_error` sets the bound)",
+      d.ratio, 100 * kept, d.distanceBoundVoxels, d.distanceBoundVoxels == 1 ? "" : "s");
+}
+
 double seedReach(const ExtractSettings& settings, const VolumeInfo& info) {
   const auto& sp = info.spacing;
   return settings.space == OutputSpace::kVoxel ? std::sqrt(3.0)

@@ -222,6 +222,7 @@ class SurfaceSetRun {
     warnAbsent(counts);
     for (std::string& w : source_->warnings()) report_.warnings.push_back(std::move(w));
     for (const std::string& w : run.rankWarnings) report_.warnings.push_back(w);
+    if (auto w = decimationShortWarning(report_)) report_.warnings.push_back(*w);
     for (std::size_t n = report_.openingWarnings; n < report_.warnings.size(); ++n) {
       observer.warning(report_.warnings[n]);
     }

@@ -862,6 +862,38 @@ TEST(Cli, DecimationOptionsOutOfRangeAreUsageErrors) {
   EXPECT_EQ(testing::fileCount(dir), 0);
 }
 
+// A decimation that its distance bound stops well short of the fraction asked for says so, with
+// the fraction kept (from the report's counts) and the bound, even with -q; one that gets there
+// says nothing.
+TEST(Cli, DecimationStoppedShortOfItsFractionWarns) {
+  const std::string dir = testing::tempDir();
+  const std::string input =
+      "extract 'phantom:head?n=40,36,40&noise=40' --iso 0 -q -o " + dir + "/m.ply --report " + dir + "/r.json";
+  for (const auto& [options, bound] : {std::pair<std::string, std::string>{" --decimate 0.01", "0.5 voxels"},
+                                       {" --decimate 0.01 --max-error 2", "2 voxels"},
+                                       {" --decimate 0.01 --max-error 1", "1 voxel"}}) {
+    SCOPED_TRACE(options);
+    const auto r = testing::runCli(input + options);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+    const auto& d = report["decimation"];
+    const double kept = d["triangles_after"].get<double>() / d["triangles_before"].get<double>();
+    ASSERT_GT(kept, 0.012);
+    const std::string text = fmt::format(
+        "--decimate 0.01 kept {:.1f}% of the triangles: the distance bound of {} stopped it there (--max-error "
+        "sets the bound)",
+        100 * kept, bound);
+    EXPECT_EQ(r.err, "isoslab: warning: " + text + "\n");
+    EXPECT_EQ(report["warnings"], nlohmann::json::array({text}));
+  }
+  const auto met = testing::runCli(input + " --decimate 0.5");
+  ASSERT_EQ(met.exitCode, 0) << met.err;
+  EXPECT_EQ(met.err, "");
+  const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
+  EXPECT_LE(report["decimation"]["kept_fraction"].get<double>(), 0.6);
+  EXPECT_EQ(report["warnings"], nlohmann::json::array());
+}
+
 TEST(Cli, SmoothingAndDecimationWriteEveryFormat) {
   const std::string dir = testing::tempDir();
   for (const char* ext : {"ply", "stl", "obj", "glb", "drc"}) {
