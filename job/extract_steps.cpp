@@ -279,13 +279,20 @@ std::optional<std::string> decimationShortWarning(const ExtractReport& report) {
   if (!report.decimation) return std::nullopt;
   const ExtractDecimation& d = *report.decimation;
   const DecimationReport& r = d.result;
-  if (d.ratio >= 1 || r.trianglesIn == 0) return std::nullopt;
+  if (r.trianglesIn == 0) return std::nullopt;
   const double kept = static_cast<double>(r.trianglesOut) / static_cast<double>(r.trianglesIn);
-  if (kept <= 1.2 * d.ratio) return std::nullopt;
+  if (kept <= 1.2 * d.ratio) return std::nullopt;  // --max-error alone (ratio 1) never warns
+  const std::string bound = fmt::format("{} voxel{}", d.distanceBoundVoxels, d.distanceBoundVoxels == 1 ? "" : "s");
+  // The default bound is a distance, with each collapse's quadric error held to half of it
+  // (process/decimation.h); `max_error` sets both to its value.
+  if (d.maxError > 0) {
+    return fmt::format("`decimate` {} kept {:.1f}% of the triangles: the error bound of {} stopped it there", d.ratio,
+                       100 * kept, bound);
+  }
   return fmt::format(
-      "`decimate` {} kept {:.1f}% of the triangles: the distance bound of {} voxel{} stopped it there "
-      "(`max_error` sets the bound)",
-      d.ratio, 100 * kept, d.distanceBoundVoxels, d.distanceBoundVoxels == 1 ? "" : "s");
+      "`decimate` {} kept {:.1f}% of the triangles: the default error bound ({}) stopped it there (`max_error` "
+      "sets the bound)",
+      d.ratio, 100 * kept, bound);
 }
 
 double seedReach(const ExtractSettings& settings, const VolumeInfo& info) {

@@ -862,27 +862,27 @@ TEST(Cli, DecimationOptionsOutOfRangeAreUsageErrors) {
   EXPECT_EQ(testing::fileCount(dir), 0);
 }
 
-// A decimation that its distance bound stops well short of the fraction asked for says so, with
-// the fraction kept (from the report's counts) and the bound, even with -q; one that gets there
-// says nothing.
+// A decimation that its error bound stops well short of the fraction asked for says so, with the
+// fraction kept (from the report's counts) and the bound, even with -q; one that gets there says
+// nothing.
 TEST(Cli, DecimationStoppedShortOfItsFractionWarns) {
   const std::string dir = testing::tempDir();
   const std::string input =
       "extract 'phantom:head?n=40,36,40&noise=40' --iso 0 -q -o " + dir + "/m.ply --report " + dir + "/r.json";
-  for (const auto& [options, bound] : {std::pair<std::string, std::string>{" --decimate 0.01", "0.5 voxels"},
-                                       {" --decimate 0.01 --max-error 2", "2 voxels"},
-                                       {" --decimate 0.01 --max-error 1", "1 voxel"}}) {
+  for (const auto& [options, cause] :
+       {std::pair<std::string, std::string>{"",
+                                            "the default error bound (0.5 voxels) stopped it there (--max-error "
+                                            "sets the bound)"},
+        {" --max-error 2", "the error bound of 2 voxels stopped it there"},
+        {" --max-error 1", "the error bound of 1 voxel stopped it there"}}) {
     SCOPED_TRACE(options);
-    const auto r = testing::runCli(input + options);
+    const auto r = testing::runCli(input + " --decimate 0.01" + options);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const auto report = nlohmann::json::parse(slurp(dir + "/r.json"));
     const auto& d = report["decimation"];
     const double kept = d["triangles_after"].get<double>() / d["triangles_before"].get<double>();
     ASSERT_GT(kept, 0.012);
-    const std::string text = fmt::format(
-        "--decimate 0.01 kept {:.1f}% of the triangles: the distance bound of {} stopped it there (--max-error "
-        "sets the bound)",
-        100 * kept, bound);
+    const std::string text = fmt::format("--decimate 0.01 kept {:.1f}% of the triangles: {}", 100 * kept, cause);
     EXPECT_EQ(r.err, "isoslab: warning: " + text + "\n");
     EXPECT_EQ(report["warnings"], nlohmann::json::array({text}));
   }

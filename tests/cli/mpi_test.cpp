@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -201,6 +202,12 @@ TEST(Mpi, LabelSurfacesOnRanksAreOneProcesssBytes) {
     const std::string input = std::string("'phantom:checker?n=40,36,30&b=3&labels=20' -q") + finish;
     const auto one = runCli(fmt::format("extract {} -o {}/one.glb --report {}/one.json", input, dir, dir));
     ASSERT_EQ(one.exitCode, 0) << one.err;
+    if (std::string(finish).find("--decimate") == std::string::npos) {
+      EXPECT_EQ(one.err, "");
+    } else {
+      EXPECT_TRUE(one.err.starts_with("isoslab: warning: --decimate 0.3 kept ")) << one.err;
+      EXPECT_EQ(std::count(one.err.begin(), one.err.end(), '\n'), 1) << one.err;
+    }
     fs::create_directories(dir + "/p1");
     ASSERT_EQ(runCli(fmt::format("extract {} -o '{}/p1/{{label}}.ply'", input, dir)).exitCode, 0);
     // The report without its times, memory and paths (at any depth).
@@ -226,7 +233,8 @@ TEST(Mpi, LabelSurfacesOnRanksAreOneProcesssBytes) {
     for (const int ranks : {2, 3}) {
       const auto r = runRanks(ranks, fmt::format("extract {} -o {}/r.glb --report {}/r.json", input, dir, dir));
       ASSERT_EQ(r.exitCode, 0) << r.err;
-      // One process's warnings (a decimation stopped short of its fraction), once, and no more.
+      // One process's warnings, once, and no more: a decimation's that stopped short of its
+      // fraction, and nothing without one.
       EXPECT_EQ(r.err, one.err);
       EXPECT_TRUE(slurp(dir + "/r.glb") == slurp(dir + "/one.glb")) << ranks << " ranks";
       EXPECT_EQ(stable(dir + "/r.json"), report) << ranks << " ranks";
