@@ -283,16 +283,13 @@ std::optional<std::string> decimationShortWarning(const ExtractReport& report) {
   const double kept = static_cast<double>(r.trianglesOut) / static_cast<double>(r.trianglesIn);
   if (kept <= 1.2 * d.ratio) return std::nullopt;  // --max-error alone (ratio 1) never warns
   const std::string bound = fmt::format("{} voxel{}", d.distanceBoundVoxels, d.distanceBoundVoxels == 1 ? "" : "s");
-  // The default bound is a distance, with each collapse's quadric error held to half of it
-  // (process/decimation.h); `max_error` sets both to its value.
-  if (d.maxError > 0) {
-    return fmt::format("`decimate` {} kept {:.1f}% of the triangles: the error bound of {} stopped it there", d.ratio,
-                       100 * kept, bound);
-  }
+  // What stops it is not known here: the bound (by default a distance, with each collapse's quadric
+  // error held to half of it; `max_error` sets both), or the tests that keep the mesh closed and
+  // manifold (many small components, say, which no bound lets go below a few triangles each).
   return fmt::format(
-      "`decimate` {} kept {:.1f}% of the triangles: the default error bound ({}) stopped it there (`max_error` "
-      "sets the bound)",
-      d.ratio, 100 * kept, bound);
+      "`decimate` {} kept {:.1f}% of the triangles, more than asked: a collapse is made only within the {}error "
+      "bound ({}; `max_error` sets it) and where the mesh stays closed and manifold",
+      d.ratio, 100 * kept, d.maxError > 0 ? "" : "default ", bound);
 }
 
 double seedReach(const ExtractSettings& settings, const VolumeInfo& info) {

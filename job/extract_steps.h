@@ -62,8 +62,8 @@ void fillIsoReport(const ExtractSettings& settings, const IsoChoice& choice, Ext
 std::optional<std::string> emptySurfaceWarning(const ExtractSettings& settings, const ExtractReport& report);
 
 /// With `decimate` under 1, when the decimation kept more than 1.2 times the fraction asked for: a
-/// warning that its error bound stopped it there (the default one, or `max_error`'s), and which
-/// setting sets the bound.
+/// warning with the fraction kept, and what limits the collapses (the error bound, the default one
+/// or `max_error`'s, and the mesh's shape).
 std::optional<std::string> decimationShortWarning(const ExtractReport& report);
 
 /// How far a component seed may lie from a component's bounds: one voxel diagonal.
