@@ -285,7 +285,7 @@ std::optional<std::string> decimationShortWarning(const ExtractReport& report) {
   const std::string bound = fmt::format("{} voxel{}", d.distanceBoundVoxels, d.distanceBoundVoxels == 1 ? "" : "s");
   // What stops it is not known here: the bound (by default a distance, with each collapse's quadric
   // error held to half of it; `max_error` sets both), or the tests that keep the mesh closed and
-  // manifold (a noisy phantom of 1,236 components keeps 17.5% at `decimate` 0.05 with `max_error` 50).
+  // manifold (a noisy phantom of 1,236 components keeps 17.5% at `decimate` 0.05, `max_error` 50).
   return fmt::format(
       "`decimate` {} kept {:.1f}% of the triangles, more than asked: a collapse is made only within the {}error "
       "bound ({}; `max_error` sets it) and where the mesh stays closed and manifold",
