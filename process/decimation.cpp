@@ -934,9 +934,9 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
                     hint = kNoHint](const std::vector<std::array<std::uint32_t, 3>>& made) mutable {
       ends.clear();
       for (const auto& t : made) {
-        const Triangle global{ids[t[0]], ids[t[1]], ids[t[2]]};
-        const std::array<Vec3d, 4> samples = samplePoints(global);
-        if (!nearCorner(samples[0], global, distanceLimit) && !original->within(samples[0], distanceLimit, hint)) {
+        const std::array<Vec3d, 3> corners = cornersOf({ids[t[0]], ids[t[1]], ids[t[2]]});
+        const std::array<Vec3d, 4> samples = samplePoints(corners);
+        if (!nearCorner(samples[0], corners, distanceLimit) && !original->within(samples[0], distanceLimit, hint)) {
           return false;
         }
         for (std::size_t k = 1; k < 3; ++k) {
@@ -945,7 +945,7 @@ DecimationSink::Faces DecimationSink::collapseBatch(std::span<const Triangle> tr
           if (std::find(ends.begin(), ends.end(), end) != ends.end()) continue;
           ends.push_back(end);
           const Vec3d& middle = samples[k == 1 ? 1 : 3];
-          if (!nearCorner(middle, global, distanceLimit) && !original->within(middle, distanceLimit, hint)) {
+          if (!nearCorner(middle, corners, distanceLimit) && !original->within(middle, distanceLimit, hint)) {
             return false;
           }
         }
@@ -1687,23 +1687,26 @@ double DecimationSink::OriginalSurface::nearestSquared(const Vec3d& p, double be
   }
 }
 
+std::array<DecimationSink::Vec3d, 3> DecimationSink::cornersOf(const Triangle& t) const {
+  return {toDouble(position(t[0])), toDouble(position(t[1])), toDouble(position(t[2]))};
+}
+
 // The points where a decimated triangle is measured: its centroid and its edges' midpoints.
-std::array<DecimationSink::Vec3d, 4> DecimationSink::samplePoints(const Triangle& t) const {
-  const Vec3d a = toDouble(position(t[0])), b = toDouble(position(t[1])), c = toDouble(position(t[2]));
+std::array<DecimationSink::Vec3d, 4> DecimationSink::samplePoints(const std::array<Vec3d, 3>& corners) {
+  const auto& [a, b, c] = corners;
   return {{{(a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3, (a[2] + b[2] + c[2]) / 3},
            {(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2},
            {(b[0] + c[0]) / 2, (b[1] + c[1]) / 2, (b[2] + c[2]) / 2},
            {(c[0] + a[0]) / 2, (c[1] + a[1]) / 2, (c[2] + a[2]) / 2}}};
 }
 
-// Whether p lies within `limit` of a corner of t. The corners are the input's vertices, each on an
-// original triangle (the block's or region's own, which its grids list): the search would find one
-// within the limit too. About a quarter of the brain's centroids at half a voxel, and over half of
-// the atlas's samples at one voxel, end here without a search.
-bool DecimationSink::nearCorner(const Vec3d& p, const Triangle& t, double limit) const {
+// Whether p lies within `limit` of one of a triangle's corners. The corners are the input's
+// vertices, each on an original triangle (the block's or region's own, which its grids list): the
+// search would find one within the limit too. About a quarter of the brain's centroids at half a
+// voxel, and over half of the atlas's samples at one voxel, end here without a search.
+bool DecimationSink::nearCorner(const Vec3d& p, const std::array<Vec3d, 3>& corners, double limit) {
   const double limit2 = limit * limit;
-  for (const VertexId v : t) {
-    const Vec3d c = toDouble(position(v));
+  for (const Vec3d& c : corners) {
     const Vec3d d = sub(p, c);
     if (dot(d, d) <= limit2) return true;
   }
@@ -1876,11 +1879,12 @@ double DecimationSink::Originals::distance(const Vec3d& p, Hint& hint) const {
 // the original surface.
 bool DecimationSink::triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint,
                                     bool forwardEdges) const {
-  const std::array<Vec3d, 4> samples = samplePoints(t);
+  const std::array<Vec3d, 3> corners = cornersOf(t);
+  const std::array<Vec3d, 4> samples = samplePoints(corners);
   for (std::size_t k = 0; k < 4; ++k) {
     // samples[k] (k from 1) is the midpoint of the edge from t[k - 1] to t[k % 3].
     if (forwardEdges && k > 0 && t[k - 1] > t[k % 3]) continue;
-    if (!nearCorner(samples[k], t, limit) && !surface.within(samples[k], limit, hint)) return false;
+    if (!nearCorner(samples[k], corners, limit) && !surface.within(samples[k], limit, hint)) return false;
   }
   return true;
 }

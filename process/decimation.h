@@ -405,9 +405,11 @@ class DecimationSink final : public MeshSink {
   bool triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint,
                       bool forwardEdges = false) const;
   using Vec3d = std::array<double, 3>;
-  std::array<Vec3d, 4> samplePoints(const Triangle& t) const;
-  // Whether p is within `limit` of a corner of t (an input vertex, so on the original surface).
-  bool nearCorner(const Vec3d& p, const Triangle& t, double limit) const;
+  std::array<Vec3d, 3> cornersOf(const Triangle& t) const;
+  static std::array<Vec3d, 4> samplePoints(const std::array<Vec3d, 3>& corners);
+  // Whether p is within `limit` of one of a triangle's corners (input vertices, so on the original
+  // surface).
+  static bool nearCorner(const Vec3d& p, const std::array<Vec3d, 3>& corners, double limit);
   std::size_t chunkOfVertex(VertexId v) const;
   std::int64_t originalIn(std::size_t first, std::size_t end) const;
   void count(const Scope& scope);
