@@ -7,7 +7,9 @@
 // (core/mesh_sink.h: a triangle uses its own chunk's and the previous chunk's vertices), so
 // iteration i of chunk z can run once chunk z + i has arrived: after chunk c arrives, chunk c - 1
 // goes to iteration 1, c - 2 to 2, ..., and a chunk that has done all N leaves. The sink holds
-// about N + 2 chunks; its result is the whole-mesh filter's, to rounding.
+// about N + 2 chunks; its result is the whole-mesh filter's, to rounding. Those steps form a chain
+// (each reads the one before); with threads, the steps of chunks that are not side by side run at
+// once instead, and the sink holds about 1.5N chunks.
 #pragma once
 
 #include <array>
@@ -60,11 +62,11 @@ struct LabelSmoothing {
 /// atlas with 1,000 voxels or more keeps its volume within 1% (0.08 loses up to 1.75%).
 inline constexpr double kLabelPassBand = 0.3;
 
-/// The fewest vertices of a chunk's step that a thread takes: a share of a few thousand vertices
+/// The fewest vertices of a round's steps that a thread takes: a share of a few thousand vertices
 /// takes about as long as waking a thread (measured in docs/performance.md, "Stop 54").
 inline constexpr std::size_t kSmoothMinShare = 2048;
 
-/// The most iterations allowed: the sink holds N + 2 chunks.
+/// The most iterations allowed: the sink holds about N + 2 chunks (1.5N with threads).
 inline constexpr int kMaxSmoothIterations = 500;
 
 /// Taubin's mu for a lambda and pass band: 1/lambda + 1/mu = k_PB.
@@ -84,8 +86,8 @@ std::string checkSmoothOptions(const SmoothOptions& options);
 
 class SmoothingSink final : public MeshSink {
  public:
-  /// Each step of a chunk is shared among up to `threads` threads, at least `minShare` vertices
-  /// each; the output is the same for any count.
+  /// The steps of chunks that are not side by side run at once, their vertices shared among up to
+  /// `threads` threads, at least `minShare` each; the output is the same for any count.
   SmoothingSink(MeshSink& next, const SmoothOptions& options, int threads = 1, std::size_t minShare = kSmoothMinShare);
 
   void begin(const MeshHeader& header) override;
@@ -127,7 +129,6 @@ class SmoothingSink final : public MeshSink {
   Chunk* chunkOf(VertexId v);
   void link(std::size_t index);
   bool canAdvance(std::size_t index) const;
-  void advance(std::size_t index);
   // What one step of a chunk reads: the recurrence's coefficients, and the iterates of the chunk's
   // vertices [first, end) and of the chunks on either side.
   struct Step {
@@ -136,9 +137,11 @@ class SmoothingSink final : public MeshSink {
     const Vec3d* own = nullptr;
     const Vec3d* before = nullptr;
     const Vec3d* after = nullptr;
+    Vec3d* out = nullptr;  // the new iterate
   };
+  Step stepOf(std::size_t index);
   void run(Chunk& chunk, const Step& step, std::size_t from, std::size_t to);
-  void sweep();
+  bool sweep();
   void emitReady(bool finished);
   void emit(std::size_t index);
   void finalize(Chunk& chunk);
@@ -157,7 +160,9 @@ class SmoothingSink final : public MeshSink {
   std::size_t peakChunks_ = 0;
   std::size_t peakVertices_ = 0;
   MeshChunk out_;
-  std::vector<Vec3d> scratch_;
+  // A round's chunks that step at once, and their steps (sweep()).
+  std::vector<std::size_t> chosen_;
+  std::vector<Step> steps_;
   std::map<std::int32_t, LabelSmoothing> labels_;
   std::size_t minShare_;
   std::unique_ptr<ThreadShares> threads_;  // none for one thread

@@ -258,8 +258,12 @@ TEST(Smoothing, EveryMethodAndCappedFacesSlideOrLock) {
   }
 }
 
-// The extraction on 1 or 3 threads, and each chunk's steps shared among 1 to 3 threads (a share
-// as small as one vertex here): the same positions and normals as the 1-thread run.
+// The extraction on 1 or 3 threads, and the steps of chunks side by side on 1 to 3 threads (a
+// share as small as one vertex here): the same positions and normals as the 1-thread run. With
+// threads, the chunks not side by side step at once (two rounds a chunk): the sink then holds more
+// chunks than the chain's N + 3 at most (smoothStreamed; 10 here, found with a hundred rounds a
+// chunk), and at most 2N + 2 (one round a chunk keeps every other chunk stepping: N levels, two
+// chunks each).
 TEST(Smoothing, SameForEveryThreadCount) {
   for (const auto& [threads, smoothThreads, method] : {std::tuple{1, 1, SmoothMethod::kSinc},
                                                        {3, 1, SmoothMethod::kSinc},
@@ -285,6 +289,10 @@ TEST(Smoothing, SameForEveryThreadCount) {
     p.threads = threads;
     p.sequentialVoxels = 0;  // threads even on a small volume
     runPipeline(*source, *extractor, smooth, extractionHeader(e, info, frame, *extractor), p);
+    if (smoothThreads > 1) {
+      EXPECT_GT(smooth.peakChunks(), static_cast<std::size_t>(o.iterations) + 3);
+      EXPECT_LE(smooth.peakChunks(), 2 * static_cast<std::size_t>(o.iterations) + 2);
+    }
     const Extracted x = extractChunks(lumpyTorus(), {32, 30, 34}, Method::kMarchingCubes, 0.0);
     const IndexedMesh expected = smoothStreamed(x, o);
     EXPECT_TRUE(memory.mesh().positions == expected.positions);
