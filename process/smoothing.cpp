@@ -20,8 +20,8 @@ namespace {
 using Vec3d = std::array<double, 3>;
 
 // With threads, the rounds of steps side by side after each chunk arrives (sweep()): one keeps
-// about 2N chunks, each round stepping about N/2 at once; two keep about 1.5N, each round stepping
-// about N/3 (measured on the atlas at --smooth 20 and 2 threads: 0.82 of the chained steps' time, at
+// about 2N chunks, each round stepping about N at once; two keep about 1.5N, each round stepping
+// about N/2 (measured on the atlas at --smooth 20 and 2 threads: 0.82 of the chained steps' time, at
 // the same peak; one round 0.78, at 6 MB more). docs/performance.md, "Stop 63".
 constexpr int kThreadRounds = 2;
 
@@ -498,8 +498,9 @@ void SmoothingSink::run(Chunk& c, const Step& step, std::size_t from, std::size_
 // chunks that can step now, no two side by side (a step reads its neighbours' iterates and writes
 // only its own chunk's), all at once, their vertices shared among the threads (at least minShare_
 // each). A round for each chunk that arrives then steps every other chunk, the sink holding about
-// 2N chunks: about N steps a round at once, where the chain had one. The same iterates either way,
-// so the same bytes for any count. Returns whether a chunk stepped.
+// 2N chunks: about N steps a round at once, where the chain had one (kThreadRounds rounds: about
+// N / kThreadRounds at once). The same iterates either way, so the same bytes for any count.
+// Returns whether a chunk stepped.
 bool SmoothingSink::sweep() {
   const auto finishStep = [](Chunk& c) {
     std::swap(c.previous, c.current);

@@ -1163,13 +1163,14 @@ Complex decimateComplex(const Complex& c, const VolumeInfo& info, double ratio, 
   return out;
 }
 
-// The complex smoothed as the label job smooths it (--smooth 20).
-Complex smoothComplex(const Complex& c, const VolumeInfo& info) {
+// The complex smoothed as the label job smooths it (--smooth 20); with threads, each round's steps
+// shared down to single vertices.
+Complex smoothComplex(const Complex& c, const VolumeInfo& info, int threads = 1) {
   SmoothOptions o;
   o.iterations = 20;
   o.passBand = kLabelPassBand;
   o.maxDisplacement = 0.5;
-  return through(c, info, [&](MeshSink& next) { return SmoothingSink(next, o); });
+  return through(c, info, [&](MeshSink& next) { return SmoothingSink(next, o, threads, 1); });
 }
 
 double pointSegment(const Vec3f& p, const Vec3f& a, const Vec3f& b) {
@@ -1275,6 +1276,25 @@ TEST(LabelDecimation, NoTwoTrianglesLieOnTheSamePoints) {
       std::sort(corners.begin(), corners.end());
       const auto [it, fresh] = seen.emplace(corners, t);
       EXPECT_TRUE(fresh) << "--max-error " << maxError << ": triangles " << it->second << " and " << t;
+    }
+  }
+}
+
+// The constraints (sheets, lines, fixed corners, the volume's faces, the displacement limit) in the
+// smoothing's rounds of steps side by side on threads: the same positions as on one thread.
+TEST(LabelSmoothing, SameOnThreadsAsOnOne) {
+  for (const auto& [name, labels] :
+       {std::pair{"voronoi", voronoiBall(22, 7, 5)}, std::pair{"noise", randomLabels({9, 8, 10}, 3, 11)}}) {
+    SCOPED_TRACE(name);
+    VolumeInfo info;
+    const Complex c = extractComplex(labels, 1, &info);
+    const Complex one = smoothComplex(c, info);
+    ASSERT_FALSE(one.positions.empty());
+    EXPECT_NE(one.positions, c.positions);  // it moved
+    for (const int threads : {2, 3}) {
+      const Complex many = smoothComplex(c, info, threads);
+      EXPECT_TRUE(many.positions == one.positions) << threads << " threads";
+      EXPECT_EQ(many.triangles, one.triangles);
     }
   }
 }

@@ -260,10 +260,10 @@ TEST(Smoothing, EveryMethodAndCappedFacesSlideOrLock) {
 
 // The extraction on 1 or 3 threads, and the steps of chunks side by side on 1 to 3 threads (a
 // share as small as one vertex here): the same positions and normals as the 1-thread run. With
-// threads, the chunks not side by side step at once (two rounds a chunk): the sink then holds more
-// chunks than the chain's N + 3 at most (smoothStreamed; 10 here, found with a hundred rounds a
-// chunk), and at most 2N + 2 (one round a chunk keeps every other chunk stepping: N levels, two
-// chunks each).
+// threads, the chunks not side by side step at once (two rounds a chunk), which spreads the levels
+// over more chunks: the sink holding more than the chain's N + 3 (smoothStreamed's bound) shows
+// that the rounds ran (13 here; 10 when each chunk's rounds go on until none can step, which is the
+// chain again), and no more than 2N + 2 (one round a chunk: two chunks a level).
 TEST(Smoothing, SameForEveryThreadCount) {
   for (const auto& [threads, smoothThreads, method] : {std::tuple{1, 1, SmoothMethod::kSinc},
                                                        {3, 1, SmoothMethod::kSinc},
