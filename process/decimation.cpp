@@ -548,8 +548,9 @@ void DecimationSink::makeRegion(const Block& b, Work& block, Work& w) {
   w.original = originalIn(hasPending_ ? pendingMiddle_ : b.start, b.middle);
   ++report_.regions;
   w.range = rangeAround(w.input.triangles, b.base, b.end);
-  // The grids that the blocks did not need (the pending upper half's, which the last regions
-  // freed), here: the calls running meanwhile read only the other chunks' grids.
+  // The grids that the blocks did not need (the pending upper half's, where the call before freed
+  // them: its last region's, which it keeps, are there), here: the calls running meanwhile read
+  // only the other chunks' grids.
   buildGrids({w.range}, 1);
   block.scope.surface.reset();
   if (complex_) {
@@ -650,10 +651,11 @@ void DecimationSink::processQueued(bool last) {
   for (std::vector<Work>* group : {&blocks, &regions}) {
     for (const Work& w : *group) count(w.scope);
   }
-  // The grids freed (none is held while the regions go on downstream: the next region's are made
-  // again, half a block's), then the regions measured.
+  // The grids freed but those that the next region reads (the pending upper half's chunks and the
+  // one below them: rangeAround), which it would otherwise make again; then the regions measured.
   for (Work& w : regions) w.scope.surface.reset();
-  for (std::unique_ptr<OriginalSurface>& grid : chunkGrids_) grid.reset();
+  const std::size_t keepFrom = hasPending_ ? std::max(pendingMiddle_, std::size_t{1}) - 1 : chunks_;
+  for (std::size_t c = chunkBase_; c < std::min(keepFrom, chunks_); ++c) chunkGrids_[c - chunkBase_].reset();
   if (options_.measure) {
     const Timed measuring(report_.seconds.measure);
     for (Work& w : regions) measure(w.output.triangles, w.range);
