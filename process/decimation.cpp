@@ -548,9 +548,9 @@ void DecimationSink::makeRegion(const Block& b, Work& block, Work& w) {
   w.original = originalIn(hasPending_ ? pendingMiddle_ : b.start, b.middle);
   ++report_.regions;
   w.range = rangeAround(w.input.triangles, b.base, b.end);
-  // The grids that the blocks did not need (the pending upper half's, where the call before freed
-  // them: its last region's, which it keeps, are there), here: the calls running meanwhile read
-  // only the other chunks' grids.
+  // Any grid of the region's range not built yet (its blocks built theirs, and the call before
+  // kept those of the pending upper half), here: the calls running meanwhile read only the other
+  // chunks' grids.
   buildGrids({w.range}, 1);
   block.scope.surface.reset();
   if (complex_) {
