@@ -455,7 +455,8 @@ SmoothingSink::Step SmoothingSink::stepOf(std::size_t index) {
 // One step of the vertices [from, to) of a chunk into step.out (and the sinc's sum).
 void SmoothingSink::run(Chunk& c, const Step& step, std::size_t from, std::size_t to) {
   const bool sum = options_.method == SmoothMethod::kSinc;
-  const double limitSquared = options_.maxDisplacement * options_.maxDisplacement * (1 - 1e-12);
+  const double limit = options_.maxDisplacement;
+  const double limitSquared = limit * limit * (1 - 1e-12);
   for (std::size_t v = from; v < to; ++v) {
     const Vec3d& x = c.current[v];
     Vec3d lap{0, 0, 0};
@@ -477,14 +478,24 @@ void SmoothingSink::run(Chunk& c, const Step& step, std::size_t from, std::size_
       next[d] = step.a * x[d] + step.b * lap[d];
       if (step.c != 0) next[d] += step.c * c.previous[v][d];
     }
-    // Most vertices lie inside the volume, and (a label complex's) well within their limit.
+    // Most vertices lie inside the volume, and (a label complex's) well within their limit; one
+    // beyond it (a staircase's corner, often) is drawn back here as constrainLabel would.
     bool free = false;
     if (!header_.labels) {
       free = c.mesh.boundary.empty() || c.mesh.boundary[v] == 0;
     } else if (c.faceBits[v] == 0 && (c.kind.empty() || c.kind[v] != kFixed)) {
       const Vec3d start = toDouble(c.starts[v]);
       const Vec3d d{next[0] - start[0], next[1] - start[1], next[2] - start[2]};
-      free = options_.maxDisplacement <= 0 || dot(d, d) <= limitSquared;
+      const double dd = dot(d, d);
+      free = options_.maxDisplacement <= 0 || dd <= limitSquared;
+      if (!free) {
+        const double length = std::sqrt(dd);
+        if (length > limit) {
+          const double scale = limit / length;
+          next = {start[0] + d[0] * scale, start[1] + d[1] * scale, start[2] + d[2] * scale};
+        }
+        free = true;
+      }
     }
     step.out[v] = free ? next : constrain(c, v, next);
     if (sum) {
