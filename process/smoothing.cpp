@@ -497,9 +497,10 @@ void SmoothingSink::run(Chunk& c, const Step& step, std::size_t from, std::size_
         free = true;
       }
     }
-    step.out[v] = free ? next : constrain(c, v, next);
+    const Vec3d result = free ? next : constrain(c, v, next);
+    step.out[v] = result;
     if (sum) {
-      for (std::size_t d = 0; d < 3; ++d) c.sum[v][d] += step.w * step.out[v][d];
+      for (std::size_t d = 0; d < 3; ++d) c.sum[v][d] += step.w * result[d];
     }
   }
 }
