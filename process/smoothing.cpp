@@ -34,6 +34,16 @@ Vec3f toFloat(const Vec3d& p) {
 double dot(const Vec3d& a, const Vec3d& b) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
+// q, or where the segment from `start` to q leaves the ball of radius `limit` about start (and
+// `held` set, when given).
+Vec3d withinReach(const Vec3d& start, const Vec3d& q, double limit, bool* held) {
+  const Vec3d d{q[0] - start[0], q[1] - start[1], q[2] - start[2]};
+  const double length = std::sqrt(dot(d, d));
+  if (!(length > limit)) return q;
+  if (held != nullptr) *held = true;
+  const double scale = limit / length;
+  return {start[0] + d[0] * scale, start[1] + d[1] * scale, start[2] + d[2] * scale};
+}
 
 }  // namespace
 
@@ -354,17 +364,7 @@ SmoothingSink::Vec3d SmoothingSink::constrainLabel(const Chunk& chunk, std::size
     q = options_.faces == FaceVertices::kLock ? start
                                               : projectToFaces(chunk.faceBits[local], *header_.volumeFaces, start, q);
   }
-  const double limit = options_.maxDisplacement;
-  if (limit > 0) {
-    const Vec3d d{q[0] - start[0], q[1] - start[1], q[2] - start[2]};
-    const double length = std::sqrt(dot(d, d));
-    if (length > limit) {
-      const double scale = limit / length;
-      q = {start[0] + d[0] * scale, start[1] + d[1] * scale, start[2] + d[2] * scale};
-      if (held != nullptr) *held = true;
-    }
-  }
-  return q;
+  return options_.maxDisplacement > 0 ? withinReach(start, q, options_.maxDisplacement, held) : q;
 }
 
 // Per label, the largest move of its surface's vertices and how many were held back. A vertex's
@@ -486,16 +486,8 @@ void SmoothingSink::run(Chunk& c, const Step& step, std::size_t from, std::size_
     } else if (c.faceBits[v] == 0 && (c.kind.empty() || c.kind[v] != kFixed)) {
       const Vec3d start = toDouble(c.starts[v]);
       const Vec3d d{next[0] - start[0], next[1] - start[1], next[2] - start[2]};
-      const double dd = dot(d, d);
-      free = options_.maxDisplacement <= 0 || dd <= limitSquared;
-      if (!free) {
-        const double length = std::sqrt(dd);
-        if (length > limit) {
-          const double scale = limit / length;
-          next = {start[0] + d[0] * scale, start[1] + d[1] * scale, start[2] + d[2] * scale};
-        }
-        free = true;
-      }
+      if (limit > 0 && dot(d, d) > limitSquared) next = withinReach(start, next, limit, nullptr);
+      free = true;
     }
     const Vec3d result = free ? next : constrain(c, v, next);
     step.out[v] = result;
