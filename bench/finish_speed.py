@@ -13,6 +13,8 @@ cost is not timed). For each, and for 1 and 2 threads:
   adds (and gives the peak with the `.glb` encoder, as a user's run has it);
 - on the plain mesh read from PLY: meshoptimizer's whole-mesh `meshopt_simplify` (Debian's 0.18,
   locked border) to the count isoslab kept (bench/isoslab_simplify_whole, the call alone),
+  isoslab's own simplifier (process/simplifier.h) in the same harness, to the same count with no
+  error bound and no distance checks (the core of the streamed decimation, on the whole mesh),
   `vtkDecimatePro` and `vtkQuadricDecimation` (Debian's VTK 9.1, the filter alone, target reduction
   0.9).
 With --old, an older build runs beside each isoslab run, in turn (paired, as the machine's speed
@@ -129,6 +131,12 @@ def main():
             r = json.loads(out)
             show(f"{label}: meshoptimizer whole mesh to {kept:,} (the call)", {"wall": r["seconds"], "rss_mib": rss,
                                                                                "triangles": r["triangles"]})
+            # isoslab's own simplifier on the same whole mesh, to the same count, with no error bound
+            # and no distance checks: the core that the streamed decimation runs, against meshoptimizer's.
+            wall, rss, out = timed([a.simplify, plain_mesh, str(kept), "isoslab"])
+            r = json.loads(out)
+            show(f"{label}: isoslab's simplifier, whole mesh to {kept:,}, no bound (the call)",
+                 {"wall": r["seconds"], "rss_mib": rss, "triangles": r["triangles"]})
         if not a.no_vtk:
             for which, name in (("pro", "vtkDecimatePro"), ("quadric", "vtkQuadricDecimation")):
                 wall, rss, out = timed(["/usr/bin/python3", "-c", VTK_SCRIPT, plain_mesh, which])

@@ -13,6 +13,10 @@ decimation, which moves and drops vertices label by label, the gap at an interfa
 distance from the point of one label's decimated surface nearest to its smoothed copy to the other
 label's decimated surface (every 7th interface point, through vtkCellLocator).
 
+The first rows are the floors under issue 37's goal (10x VTK's speed at a tenth of its memory):
+isoslab's surfaces alone, neither smoothed nor decimated, and VTK's fixed cost (Python, `import
+vtk` and the atlas read). The last lines set the goal beside them.
+
     /usr/bin/python3 bench/labels_finished.py [--program build/cli/isoslab] [--old OLD] [--out DIR]
 
 Each row times the command that makes the surfaces and writes them (a binary .ply per label); the
@@ -117,15 +121,26 @@ print(json.dumps({"triangles": triangles, "smallest_volume_kept": smallest, "lar
                   "labels": len(labels)}))
 """
 
+# Python, VTK and the atlas in memory: the part of a VTK row's time and memory that comes before its
+# pipeline.
+VTK_READ_ONLY = r"""
+import sys, json, vtk
+reader = vtk.vtkNIFTIImageReader()
+reader.SetFileName(sys.argv[1])
+reader.Update()
+print(json.dumps({"points": reader.GetOutput().GetNumberOfPoints()}))
+"""
 
-def isoslab_run(program, aal, out, threads, decimate):
+
+def isoslab_run(program, aal, out, threads, decimate, smooth=20):
     """isoslab's smoothed (and decimated) labels, a .ply per label. The timed run is the user's
     command; a second run with --report gives the measures, and its time is shown apart (the report
     measures the decimated surface's distance from the original, which no VTK row does).
     The gap is 0 by construction (the same vertices in both labels); the test suite checks it."""
     report = os.path.join(out, "r.json")
-    command = [program, "extract", aal, "--smooth", "20", "-o", os.path.join(out, "{label}.ply"), "--threads",
-               str(threads), "-q"]
+    command = [program, "extract", aal, "-o", os.path.join(out, "{label}.ply"), "--threads", str(threads), "-q"]
+    if smooth > 0:
+        command += ["--smooth", str(smooth)]
     if decimate < 1:
         command += ["--decimate", str(decimate)]
     wall, rss, _ = timed(command)
@@ -148,6 +163,14 @@ def main():
         raise SystemExit(f"{aal} is absent (Debian mricron-data)")
     os.makedirs(a.out, exist_ok=True)
     rows = []
+    # The floors under issue 37's goal: isoslab's surfaces alone (neither smoothed nor decimated),
+    # and what VTK's rows spend before their pipeline starts (Python, `import vtk`, the atlas read).
+    for threads in (1, 2):
+        rows.append((f"isoslab, the surfaces alone (no --smooth or --decimate), {threads} thread(s)",
+                     isoslab_run(a.program, aal, a.out, threads, 1.0, smooth=0)))
+    wall, rss, _ = timed(["/usr/bin/python3", "-c", VTK_READ_ONLY, aal])
+    rows.append(("VTK: `import vtk` and the atlas read, no surfaces", {
+        "wall": wall, "rss_mib": rss, "triangles": 0, "smallest_volume_kept": 1.0, "largest_gap": 0.0}))
     for decimate in (1.0, 0.1):
         finish = " --decimate 0.1" if decimate < 1 else ""
         for threads in (1, 2):
@@ -177,6 +200,18 @@ def main():
             print(f"- {name} with --report (and its distance measure): {r['wall_with_report']:.2f} s")
         if "wall_with_measures" in r:
             print(f"- {name} with the measures in Python: {r['wall_with_measures']:.2f} s")
+    # Issue 37's goal, against Slicer's finished pipeline (pass band 0.01), and the floors above.
+    named = dict(rows)
+    vtk_row = named["VTK per label: discrete FE + windowed sinc 20, pass band 0.01 + quadric decimation to 0.1"]
+    goal_wall, goal_rss = vtk_row["wall"] / 10, vtk_row["rss_mib"] / 10
+    print(f"\nIssue 37's goal (10x the speed of VTK's finished row, at a tenth of its memory): at most "
+          f"{goal_wall:.2f} s and {goal_rss:.1f} MiB.")
+    for threads in (1, 2):
+        floor = named[f"isoslab, the surfaces alone (no --smooth or --decimate), {threads} thread(s)"]
+        done = named[f"isoslab --smooth 20 --decimate 0.1, {threads} thread(s)"]
+        print(f"- {threads} thread(s): finished {vtk_row['wall'] / done['wall']:.1f}x VTK's speed at "
+              f"{done['rss_mib'] / vtk_row['rss_mib']:.2f} of its memory; the surfaces alone take "
+              f"{floor['wall']:.2f} s and {floor['rss_mib']:.1f} MiB")
     json.dump(dict(rows), open(os.path.join(a.out, "labels-finished.json"), "w"), indent=1)
 
 

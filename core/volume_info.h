@@ -74,8 +74,13 @@ struct VolumeInfo {
 /// The most layers read in one pass (every label key then fits in 32 bits).
 constexpr int kMaxLayers = 31;
 
+/// The largest label magnitude: slices are float, whose integers are exact up to 2^24, and every
+/// integer of a larger magnitude is read as one of 2^24 or more (2^24 + 1 as 2^24), so 2^24 itself
+/// is out too: a file's labels 2^24 and 2^24 + 1 would be read as one.
+constexpr double kLargestLabel = 16777215.0;
+
 /// A label of a layered segmentation as one number, unique over the layers: its value (within
-/// +-2^24) plus its layer times 2^26. Layer 0's labels keep their values.
+/// +-kLargestLabel) plus its layer times 2^26. Layer 0's labels keep their values.
 constexpr std::int32_t layeredLabel(int layer, std::int32_t value) noexcept {
   return value + layer * (1 << 26);
 }

@@ -51,10 +51,14 @@ bool LabelSource::readSlice(std::span<float> slice) {
       const float v = plane[static_cast<std::size_t>(i)];
       const std::int64_t end = runEnd(plane.data(), i + 1, voxels, v);
       if (!(std::abs(v) <= kLargestLabel) || std::trunc(v) != v) {
-        const std::string value = std::isnan(v) ? "NaN" : fmt::format("{}", v);
-        const std::string why = std::abs(v) > kLargestLabel && std::isfinite(v)
-                                    ? "beyond the labels read exactly (whole numbers up to 16777216)"
-                                    : "which is not a label (a label map holds whole numbers)";
+        const bool large = std::abs(v) > kLargestLabel && std::isfinite(v);
+        // A large value as read (a float), not as the file has it: 16777217 is read as 16777216.
+        const std::string value =
+            std::isnan(v) ? "NaN"
+            : large       ? fmt::format("16777216 or more in magnitude (read as {:.0f})", static_cast<double>(v))
+                          : fmt::format("{}", v);
+        const std::string why = large ? "beyond the labels read exactly (whole numbers up to 16777215 in magnitude)"
+                                      : "which is not a label (a label map holds whole numbers)";
         throw Error(fmt::format("{}: voxel ({}, {}, {}){} holds {}, {}; for a scalar volume give --iso", what_, i % nx,
                                 i / nx, slice_, in.layers > 1 ? fmt::format(" of layer {}", layer) : std::string(),
                                 value, why));

@@ -17,9 +17,6 @@
 
 namespace isoslab {
 
-/// The largest label magnitude read exactly: slices are float, whose integers are exact up to 2^24.
-constexpr double kLargestLabel = 16777216.0;
-
 class LabelSource final : public SliceSource {
  public:
   /// `what` names the input in messages. `keep`: the labels to keep, all others become 0; empty

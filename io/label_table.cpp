@@ -12,6 +12,7 @@
 
 #include "core/edit_distance.h"
 #include "core/error.h"
+#include "core/volume_info.h"
 
 namespace isoslab {
 namespace {
@@ -101,7 +102,7 @@ LabelTable readLabelTable(const std::string& path) {
       entry.name = tokens[1];
     }
     const auto value = wholeNumber(tokens[0]);
-    if (!value || std::abs(static_cast<double>(*value)) > 16777216.0) {
+    if (!value || std::abs(static_cast<double>(*value)) > kLargestLabel) {
       throw Error(
           fmt::format("{}:{}: '{}' is not a label line: its first field is not a whole number", path, number, line));
     }

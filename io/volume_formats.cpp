@@ -20,6 +20,7 @@
 #include "core/error.h"
 #include "core/limits.h"
 #include "core/vec3.h"
+#include "core/volume_info.h"
 #include "io/file_list.h"
 #include "io/volume_file.h"
 
@@ -366,8 +367,8 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
     VolumeInfo::Label label;
     const std::string key = fmt::format("Segment{}_", n);
     const auto value = numbersIn(path, key + "LabelValue", keyValues[key + "LabelValue"]);
-    label.value =
-        static_cast<std::int32_t>(wholeNumber(path, key + "LabelValue", value.empty() ? -1.0 : value[0], 1, 16777216));
+    label.value = static_cast<std::int32_t>(
+        wholeNumber(path, key + "LabelValue", value.empty() ? -1.0 : value[0], 1, kLargestLabel));
     label.name = keyValues.count(key + "Name") != 0 ? keyValues[key + "Name"] : std::to_string(label.value);
     if (keyValues.count(key + "Color") != 0) {
       const auto c = numbersIn(path, key + "Color", keyValues[key + "Color"]);

@@ -11,6 +11,7 @@
 #include <iterator>
 
 #include "core/error.h"
+#include "core/volume_info.h"
 #include "process/decimation.h"
 
 namespace isoslab {
@@ -113,8 +114,17 @@ LabelRequest parseLabelRequest(const std::string& text) {
     char* end = nullptr;
     errno = 0;
     const long long v = std::strtoll(t.c_str(), &end, 10);
-    if (end != t.c_str() + t.size() || errno != 0 || v < -16777216 || v > 16777216) return std::nullopt;
+    if (end != t.c_str() + t.size() || errno != 0 || std::abs(static_cast<double>(v)) > kLargestLabel)
+      return std::nullopt;
     return static_cast<std::int32_t>(v);
+  };
+  // Digits (and a sign) that whole() refused are a number beyond the labels, not a name.
+  const auto beyond = [&](const std::string& t) {
+    const std::size_t digits = !t.empty() && (t[0] == '-' || t[0] == '+') ? 1 : 0;
+    const bool number = digits < t.size() && t.find_first_not_of("0123456789", digits) == std::string::npos;
+    require(!number || whole(t).has_value(),
+            fmt::format("`labels` '{}' is beyond the labels a map can hold (whole numbers from -{:.0f} to {:.0f})", t,
+                        kLargestLabel, kLargestLabel));
   };
   std::size_t at = 0;
   while (at <= text.size()) {
@@ -128,9 +138,12 @@ LabelRequest parseLabelRequest(const std::string& text) {
       r.ranges.push_back({*v, *v});
       continue;
     }
+    beyond(item);
     // A range: the dash after the first character (so that "-4--2" reads as -4 to -2).
     const std::size_t dash = item.find('-', 1);
     if (dash != std::string::npos) {
+      beyond(item.substr(0, dash));
+      beyond(item.substr(dash + 1));
       const auto lo = whole(item.substr(0, dash));
       const auto hi = whole(item.substr(dash + 1));
       if (lo && hi) {

@@ -554,6 +554,42 @@ TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
     EXPECT_EQ(r.err, c.message) << c.args;
     EXPECT_EQ(testing::fileCount(dir), 2) << c.args;  // the two tables only
   }
+  // Labels of 2^24 and beyond: a float slice reads 16777217 as 16777216, so the two would be one
+  // label; both are refused, and so is 2^24 itself. 2^24 - 1 is read exactly.
+  const auto raw32 = [&](const std::string& name, std::int32_t a, std::int32_t b) {
+    std::vector<std::int32_t> voxels(4 * 4 * 4, 0);
+    voxels[21] = a;  // (1, 1, 1)
+    voxels[22] = b;  // (2, 1, 1)
+    std::ofstream(dir + "/" + name, std::ios::binary)
+        .write(reinterpret_cast<const char*>(voxels.data()), static_cast<std::streamsize>(voxels.size() * 4));
+    return dir + "/" + name + " --raw-dims 4,4,4 --raw-type i32 --labels all -o " + dir + "/{label}.ply -q";
+  };
+  for (const auto& [a, b, read] : std::vector<std::tuple<std::int32_t, std::int32_t, std::string>>{
+           {16777217, 16777216, "16777216"}, {1, -16777217, "-16777216"}, {5, 2147483647, "2147483648"}}) {
+    const auto r = testing::runCli("extract " + raw32("big.raw", a, b));
+    EXPECT_EQ(r.exitCode, 1) << a << " " << b;
+    EXPECT_EQ(r.err, "isoslab: error: " + dir + "/big.raw: voxel (" + (a > 16777215 ? "1" : "2") +
+                         ", 1, 1) holds 16777216 or more in magnitude (read as " + read +
+                         "), beyond the labels read exactly (whole numbers up to 16777215 in magnitude); for a "
+                         "scalar volume give --iso\n");
+    std::filesystem::remove(dir + "/big.raw");
+    EXPECT_EQ(testing::fileCount(dir), 2);
+  }
+  const auto edge =
+      testing::runCli("extract " + raw32("edge.raw", 16777215, -16777215) + " --report " + dir + "/e.json");
+  ASSERT_EQ(edge.exitCode, 0) << edge.err;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/16777215.ply"));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/-16777215.ply"));
+  for (const std::string f : {"/16777215.ply", "/-16777215.ply", "/e.json", "/edge.raw"})
+    std::filesystem::remove(dir + f);
+  // A number beyond the labels in --labels is not taken for a name.
+  for (const std::string list : {"16777216", "1-99999999999", "-16777216-3"}) {
+    const auto r = testing::runCli("extract 'phantom:voxel' --labels " + list + " -o " + dir + "/{label}.ply -q");
+    EXPECT_EQ(r.exitCode, 2) << list;
+    const std::string number = list == "16777216" ? list : list == "1-99999999999" ? "99999999999" : "-16777216";
+    EXPECT_EQ(r.err, "isoslab: error: --labels '" + number +
+                         "' is beyond the labels a map can hold (whole numbers from -16777215 to 16777215)\n");
+  }
   // Two labels whose names give one file: the run stops and leaves none of its files.
   const std::string clash = writeText(dir + "/clash.txt", "1 a/b\n2 a_b\n");
   const auto r =

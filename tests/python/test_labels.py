@@ -229,6 +229,13 @@ def test_label_surfaces_refuses_what_it_cannot_mesh():
         isoslab.label_surfaces(np.zeros((4, 4), np.int32))
     with pytest.raises(isoslab.Error, match="decimate must be above 0 and at most 1"):
         isoslab.label_surfaces(np.ones((4, 4, 4), np.int32), decimate=1.5)
+    # 2^24 + 1 is read (as a float) as 2^24: the two would be one label, so both are refused.
+    big = np.zeros((4, 4, 4), np.int32)
+    big[1, 1, 1], big[1, 1, 2] = 2**24 + 1, 2**24
+    with pytest.raises(isoslab.Error, match=r"16777216 or more in magnitude \(read as 16777216\)"):
+        isoslab.label_surfaces(big)
+    big[1, 1, 1], big[1, 1, 2] = 2**24 - 1, -(2**24 - 1)
+    assert sorted(isoslab.label_surfaces(big)[0]) == [-(2**24 - 1), 2**24 - 1]
 
 
 def test_label_surfaces_decimated_stay_closed_and_touch_where_they_did():
