@@ -37,6 +37,10 @@ std::unique_ptr<SliceSource> openUnchecked(const std::vector<std::string>& input
       throw Error(fmt::format("{}: not a regular file or a folder (FIFOs and devices are not read)", in));
     }
   }
+  // Phantoms and raw data hold one value per voxel: a channel beyond 0 names nothing.
+  if (options.dicom.channel >= 1 && ((inputs.size() == 1 && PhantomSource::isPhantom(input)) || options.raw)) {
+    throw Error(fmt::format("`channel`: {} has one value per voxel (channel 0 only)", input));
+  }
   if (inputs.size() == 1 && PhantomSource::isPhantom(input)) return PhantomSource::open(input);
   for (const std::string& in : inputs) {
     if (PhantomSource::isPhantom(in)) {

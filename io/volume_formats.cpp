@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -14,6 +15,7 @@
 #include <map>
 #include <numbers>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string_view>
 
@@ -166,6 +168,9 @@ void pickComponent(VolumeFileLayout& layout, double components, int channel, con
   }
   layout.components = static_cast<int>(components);
   const int count = layout.components;
+  if (count == 1 && channel >= 1) {
+    throw Error(fmt::format("`channel`: {} has one value per voxel (channel 0 only)", path));
+  }
   if (count > 1) {
     if (channel < 0)
       throw Error(fmt::format("{}: {} components per voxel; choose one with `channel` 0..{}", path, count, count - 1));
@@ -345,13 +350,49 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
     throw Error(
         fmt::format("{}: NRRD dimension {} with sizes '{}' is not a 3-D volume", path, dimension, need("sizes")));
   }
-  // A 4-D NRRD is either components first (kinds "vector", "RGB-color", ...) or a series last.
+  // A 4-D NRRD is either components first (kinds "vector", "RGB-color", a segmentation's "list" of
+  // layers, ...) or a series last. Its one axis that is not spatial is told by `kinds` (the axes that
+  // are not "domain" or "space"), else by the "none" of `space directions`, else it is the first.
   std::size_t first = 0;
   double components = 1;
+  bool seriesLast = false;
   if (dimension == 4) {
+    std::vector<std::size_t> byKinds, byDirections;
+    if (fields.count("kinds")) {
+      std::istringstream k(lower(fields["kinds"]));
+      std::size_t axis = 0;
+      for (std::string kind; k >> kind; ++axis) {
+        if (kind != "domain" && kind != "space") byKinds.push_back(axis);
+      }
+    }
+    if (fields.count("space directions")) {
+      std::istringstream d(fields["space directions"]);
+      std::size_t axis = 0;
+      for (std::string token; d >> token; ++axis) {
+        if (token == "none") {
+          byDirections.push_back(axis);
+          continue;
+        }
+        while (token.find(')') == std::string::npos && d >> token) {
+        }
+      }
+    }
+    const auto named = [](const std::vector<std::size_t>& axes) {
+      return axes.size() == 1 && (axes[0] == 0 || axes[0] == 3);
+    };
+    if ((!byKinds.empty() && !named(byKinds)) || (!byDirections.empty() && !named(byDirections)) ||
+        (!byKinds.empty() && !byDirections.empty() && byKinds != byDirections)) {
+      throw Error(
+          fmt::format("{}: NRRD kinds '{}' and space directions '{}' do not name one non-spatial axis, first or last",
+                      path, fields.count("kinds") ? fields["kinds"] : "",
+                      fields.count("space directions") ? fields["space directions"] : ""));
+    }
+    // Neither names it: a series last where the kinds begin with space, else components first.
     const std::string kinds = lower(fields.count("kinds") ? fields["kinds"] : "");
-    const bool spaceFirst = kinds.rfind("domain", 0) == 0 || kinds.rfind("space", 0) == 0;
-    if (!spaceFirst) {
+    seriesLast = !byKinds.empty()        ? byKinds[0] == 3
+                 : !byDirections.empty() ? byDirections[0] == 3
+                                         : kinds.rfind("domain", 0) == 0 || kinds.rfind("space", 0) == 0;
+    if (!seriesLast) {
       components = sizes[0];
       first = 1;
     } else if (notes != nullptr) {
@@ -362,27 +403,76 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
     info.dims[a] =
         wholeNumber(path, fmt::format("NRRD sizes: axis {}", first + a), sizes[first + a], 1, limits::kMaxAxisPoints);
   // 3D Slicer's segmentation: SegmentN_Name, _Color (three numbers 0..1), _LabelValue, _Layer;
-  // a 4-D file holds one layer per component.
-  for (int n = 0; keyValues.count(fmt::format("Segment{}_LabelValue", n)) != 0; ++n) {
+  // a 4-D file holds one layer per component. Every SegmentN_ key counts, whatever the numbering's
+  // gaps; a segment that the file describes is read whole, or the file is refused.
+  // The N of a key "SegmentN_REST" (and REST), if it is one.
+  const auto segmentKey = [](const std::string& key) -> std::optional<std::pair<int, std::string>> {
+    constexpr std::string_view prefix = "Segment";
+    if (key.rfind(prefix, 0) != 0) return std::nullopt;
+    const std::size_t underscore = key.find('_', prefix.size());
+    if (underscore == std::string::npos || underscore == prefix.size()) return std::nullopt;
+    int n = 0;
+    const auto [end, error] = std::from_chars(key.data() + prefix.size(), key.data() + underscore, n);
+    if (error != std::errc() || end != key.data() + underscore) return std::nullopt;
+    return std::pair{n, key.substr(underscore + 1)};
+  };
+  std::set<int> segments;
+  for (const auto& [key, value] : keyValues) {
+    if (const auto k = segmentKey(key); k && k->second == "LabelValue") segments.insert(k->first);
+  }
+  for (const auto& [key, value] : keyValues) {
+    const auto k = segmentKey(key);
+    if (!segments.empty() && k && segments.count(k->first) == 0) {
+      throw Error(fmt::format("{}: {} describes a segment with no Segment{}_LabelValue", path, key, k->first));
+    }
+  }
+  const double layersRead = seriesLast ? 1 : components;
+  for (const int n : segments) {
     VolumeInfo::Label label;
     const std::string key = fmt::format("Segment{}_", n);
     const auto value = numbersIn(path, key + "LabelValue", keyValues[key + "LabelValue"]);
-    label.value = static_cast<std::int32_t>(
-        wholeNumber(path, key + "LabelValue", value.empty() ? -1.0 : value[0], 1, kLargestLabel));
+    if (value.size() != 1) {
+      throw Error(
+          fmt::format("{}: {}LabelValue '{}' is not one whole number", path, key, keyValues[key + "LabelValue"]));
+    }
+    label.value = static_cast<std::int32_t>(wholeNumber(path, key + "LabelValue", value[0], 1, kLargestLabel));
     label.name = keyValues.count(key + "Name") != 0 ? keyValues[key + "Name"] : std::to_string(label.value);
     if (keyValues.count(key + "Color") != 0) {
       const auto c = numbersIn(path, key + "Color", keyValues[key + "Color"]);
-      if (c.size() == 3 && std::all_of(c.begin(), c.end(), [](double x) { return x >= 0 && x <= 1; })) {
-        label.color = std::array<std::uint8_t, 3>{static_cast<std::uint8_t>(std::lround(c[0] * 255)),
-                                                  static_cast<std::uint8_t>(std::lround(c[1] * 255)),
-                                                  static_cast<std::uint8_t>(std::lround(c[2] * 255))};
+      if (c.size() != 3 || !std::all_of(c.begin(), c.end(), [](double x) { return x >= 0 && x <= 1; })) {
+        throw Error(
+            fmt::format("{}: {}Color '{}' is not three numbers from 0 to 1", path, key, keyValues[key + "Color"]));
       }
+      label.color = std::array<std::uint8_t, 3>{static_cast<std::uint8_t>(std::lround(c[0] * 255)),
+                                                static_cast<std::uint8_t>(std::lround(c[1] * 255)),
+                                                static_cast<std::uint8_t>(std::lround(c[2] * 255))};
     }
     if (keyValues.count(key + "Layer") != 0) {
       const auto layer = numbersIn(path, key + "Layer", keyValues[key + "Layer"]);
-      label.layer = static_cast<int>(wholeNumber(path, key + "Layer", layer.empty() ? -1.0 : layer[0], 0, 65535));
+      if (layer.size() != 1) {
+        throw Error(fmt::format("{}: {}Layer '{}' is not one whole number", path, key, keyValues[key + "Layer"]));
+      }
+      label.layer = static_cast<int>(wholeNumber(path, key + "Layer", layer[0], 0, 65535));
+    }
+    if (!seriesLast && label.layer >= layersRead) {
+      throw Error(fmt::format("{}: {}Layer {} is beyond the file's {} layer{}", path, key, label.layer, layersRead,
+                              layersRead == 1 ? "" : "s"));
+    }
+    for (const VolumeInfo::Label& other : info.labels) {
+      if (other.value == label.value && other.layer == label.layer) {
+        throw Error(fmt::format("{}: {} and {} both have LabelValue {} in layer {}", path, other.name, label.name,
+                                label.value, label.layer));
+      }
     }
     info.labels.push_back(std::move(label));
+  }
+  // Slicer writes a segmentation's layers on the first axis; read from a series on the last, every
+  // layer but the first would be dropped.
+  if (seriesLast && !info.labels.empty()) {
+    throw Error(
+        fmt::format("{}: its segmentation layers lie on the last axis; isoslab reads them from "
+                    "the first, as 3D Slicer writes them",
+                    path));
   }
   bool everyLayer = false;
   if (!info.labels.empty()) {
@@ -940,6 +1030,10 @@ std::unique_ptr<SliceSource> openVolumeFormat(const std::string& path, int chann
   if (!fs::is_regular_file(path, ec)) throw Error(fmt::format("{}: cannot open: {}", path, std::strerror(ENOENT)));
   if (endsWith(path, ".nrrd") || endsWith(path, ".nhdr")) return openNrrd(path, channel, notes);
   if (endsWith(path, ".mha") || endsWith(path, ".mhd")) return openMetaImage(path, channel);
+  if (channel >= 1) {
+    // A NIfTI's fourth axis is a series of volumes (isoslab reads the first), never components.
+    throw Error(fmt::format("`channel`: {} has one value per voxel (channel 0 only)", path));
+  }
   return openNifti(path, notes, xform);
 }
 

@@ -542,6 +542,8 @@ TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
        "isoslab: error: --seed does not apply to several iso values in one pass yet\n"},
       {"'phantom:voxel' --labels all --seed 1,2,3 -o " + dir + "/{name}.ply", 2,
        "isoslab: error: --seed does not apply to label surfaces yet\n"},
+      {"'phantom:voxel' --channel 1 -o " + dir + "/{name}.ply", 1,
+       "isoslab: error: --channel: phantom:voxel has one value per voxel (channel 0 only)\n"},
       {"'phantom:voxel' --labels all --iso 3 -o " + dir + "/{name}.ply", 2,
        "isoslab: error: --iso and --labels exclude each other: a run meshes an iso value or labels\n"},
       {"'phantom:sphere?n=4' --labels all -o " + dir + "/{name}.ply", 1,
@@ -712,6 +714,106 @@ TEST(LabelInputs, SlicerSegNrrdGivesNamesColoursAndPositions) {
   EXPECT_NEAR(r.labels[0].stats.volume, 12 * 0.5 * 0.75 * 2, 1e-9);
   EXPECT_EQ(r.interfaces.size(), 1u);  // Liver and Kidney touch
   EXPECT_NEAR(r.interfaces[0].area, 6 * 0.75 * 2, 1e-9);
+}
+
+// A segmentation's description is read whole, or the file is refused in one line: layers on the
+// last axis (which a reader of the first volume would drop), contradicting axes, segments with a
+// shared value, a layer beyond the file's, malformed values and colours; a gap in the segments'
+// numbering loses none of them.
+TEST(LabelInputs, SegNrrdMetadataIsReadWholeOrRefused) {
+  const std::string dir = testing::tempDir();
+  // writeSegNrrd's file with its header edited: each pair (from, to) replaced once.
+  const auto edited = [&](int layers, const std::vector<std::pair<std::string, std::string>>& edits) {
+    const std::string path = writeSegNrrd(dir + "/e.seg.nrrd", layers);
+    std::string text = testing::slurp(path);
+    const std::size_t end = text.find("\n\n");
+    std::string header = text.substr(0, end);
+    for (const auto& [from, to] : edits) {
+      const std::size_t at = header.find(from);
+      EXPECT_NE(at, std::string::npos) << from;
+      if (at != std::string::npos) header.replace(at, from.size(), to);
+    }
+    std::ofstream(path, std::ios::binary) << header << text.substr(end);
+    return path;
+  };
+  const std::string last = "sizes: 6 5 4 2";
+  const std::string lastDirections = "space directions: (0.5,0,0) (0,0.75,0) (0,0,2) none";
+  const std::string firstSizes = "sizes: 2 6 5 4";
+  const std::string firstDirections = "space directions: none (0.5,0,0) (0,0.75,0) (0,0,2)";
+  const std::string kinds = "kinds: list domain domain domain";
+  const std::string lastKinds = "kinds: domain domain domain list";
+  struct Case {
+    int layers;
+    std::vector<std::pair<std::string, std::string>> edits;
+    std::string options, message;
+  };
+  const std::vector<Case> cases{
+      {2,
+       {{firstSizes, last}, {firstDirections, lastDirections}, {kinds, lastKinds}},
+       "",
+       ": its segmentation layers lie on the last axis; isoslab reads them from the first, as 3D Slicer writes them"},
+      {2,
+       {{firstSizes, last}, {firstDirections, lastDirections}, {kinds + "\n", ""}},
+       "",
+       ": its segmentation layers lie on the last axis; isoslab reads them from the first, as 3D Slicer writes them"},
+      {2,
+       {{kinds, lastKinds}},
+       "",
+       ": NRRD kinds 'domain domain domain list' and space directions 'none (0.5,0,0) (0,0.75,0) (0,0,2)' do not "
+       "name one non-spatial axis, first or last"},
+      {2,
+       {{kinds, "kinds: domain list domain domain"}, {firstDirections + "\n", ""}},
+       "",
+       ": NRRD kinds 'domain list domain domain' and space directions '' do not name one non-spatial axis, first or "
+       "last"},
+      {1,
+       {{"Segment1_LabelValue:=2", "Segment1_LabelValue:=1"}},
+       "",
+       ": Liver and Kidney both have LabelValue 1 in layer 0"},
+      {1, {{"Segment1_Layer:=0", "Segment1_Layer:=1"}}, "", ": Segment1_Layer 1 is beyond the file's 1 layer"},
+      {2, {{"Segment2_Layer:=1", "Segment2_Layer:=2"}}, "", ": Segment2_Layer 2 is beyond the file's 2 layers"},
+      {1,
+       {{"Segment0_LabelValue:=1", "Segment0_LabelValue:=1 2"}},
+       "",
+       ": Segment0_LabelValue '1 2' is not one whole number"},
+      {1,
+       {{"Segment0_Color:=0.8 0.2 0.1", "Segment0_Color:=2 0 0"}},
+       "",
+       ": Segment0_Color '2 0 0' is not three numbers from 0 to 1"},
+      {1,
+       {{"Segment0_Color:=0.8 0.2 0.1", "Segment0_Color:=0.8 0.2"}},
+       "",
+       ": Segment0_Color '0.8 0.2' is not three numbers from 0 to 1"},
+      {1,
+       {{"Segment0_Name:=Liver", "Segment0_Name:=Liver\nSegment4_Name:=Orphan"}},
+       "",
+       ": Segment4_Name describes a segment with no Segment4_LabelValue"},
+  };
+  for (const Case& c : cases) {
+    const std::string seg = edited(c.layers, c.edits);
+    const auto r = testing::runCli("extract " + seg + " " + c.options + " -o " + dir + "/x.ply -q");
+    EXPECT_EQ(r.exitCode, 1) << c.message;
+    EXPECT_EQ(r.err, "isoslab: error: " + seg + c.message + "\n");
+    EXPECT_FALSE(std::filesystem::exists(dir + "/x.ply"));
+  }
+  // A channel beyond 0 of a one-layer file names nothing.
+  const std::string one = writeSegNrrd(dir + "/one.seg.nrrd", 1);
+  const auto channel = testing::runCli("extract " + one + " --channel 1 -o " + dir + "/x.ply -q");
+  EXPECT_EQ(channel.exitCode, 1);
+  EXPECT_EQ(channel.err, "isoslab: error: --channel: " + one + " has one value per voxel (channel 0 only)\n");
+  // Segments numbered 0 and 7: both are read, with their names and colours.
+  const std::string gap = edited(1, {{"Segment1_Color", "Segment7_Color"},
+                                     {"Segment1_ID", "Segment7_ID"},
+                                     {"Segment1_LabelValue", "Segment7_LabelValue"},
+                                     {"Segment1_Layer", "Segment7_Layer"},
+                                     {"Segment1_Name", "Segment7_Name"}});
+  ExtractSettings s;
+  s.inputs = {gap};
+  s.output = dir + "/{name}.ply";
+  const ExtractReport r = runExtract(s);
+  ASSERT_EQ(r.labels.size(), 2u);
+  EXPECT_EQ(r.labels[1].name, "Kidney");
+  EXPECT_EQ(r.labels[1].color, (std::array<std::uint8_t, 3>{26, 102, 230}));
 }
 
 // One pass keys a label by its layer in the upper bits of a 32-bit value (core/volume_info.h): a
