@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <limits>
+#include <string_view>
 
 #include "core/error.h"
 #include "core/interrupt.h"
@@ -45,6 +46,41 @@ std::uint32_t seekTo(std::uint64_t position, void* user) {
 // A fixed identity (a version-4 form): `kind` 0 the build, 1 an object, 2 a build item.
 std::string uuid(int kind, int index) {
   return fmt::format("{:08x}-0000-4000-8000-{:012x}", kind, index);
+}
+
+// A name as an XML attribute can hold it: lib3mf escapes markup but passes on bytes that are no
+// UTF-8 and characters that XML 1.0 forbids (C0 controls), which make the model unreadable. Each of
+// those becomes U+FFFD, and the name is cut at a character's end to kMaxNameBytes (lib3mf left
+// a 5,000-byte name empty).
+constexpr std::size_t kMaxNameBytes = 1024;
+std::string xmlName(const std::string& name) {
+  std::string out;
+  const auto* p = reinterpret_cast<const unsigned char*>(name.data());
+  const std::size_t n = name.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned char c = p[i];
+    const std::size_t length = c < 0x80             ? 1
+                               : (c & 0xe0) == 0xc0 ? 2
+                               : (c & 0xf0) == 0xe0 ? 3
+                               : (c & 0xf8) == 0xf0 ? 4
+                                                    : 0;
+    std::uint32_t code = length == 1 ? c : length == 2 ? c & 0x1fu : length == 3 ? c & 0x0fu : c & 0x07u;
+    bool valid = length > 0 && i + length <= n;
+    for (std::size_t k = 1; valid && k < length; ++k) {
+      valid = (p[i + k] & 0xc0) == 0x80;
+      code = code << 6 | (p[i + k] & 0x3fu);
+    }
+    // Shortest forms only, no surrogates, and what XML 1.0 allows (tab, newline and return among
+    // the controls, which an attribute then reads as spaces: they go too).
+    static constexpr std::uint32_t kLeast[5] = {0, 0, 0x80, 0x800, 0x10000};
+    valid = valid && code >= kLeast[length] && code <= 0x10ffff && !(code >= 0xd800 && code <= 0xdfff) &&
+            code >= 0x20 && code != 0xfffe && code != 0xffff;
+    const std::string_view piece = valid ? std::string_view(name).substr(i, length) : std::string_view("\xEF\xBF\xBD");
+    if (out.size() + piece.size() > kMaxNameBytes) break;
+    out += piece;
+    i += valid ? length : 1;
+  }
+  return out;
 }
 
 // lib3mf's functions, from the 3MF module, loaded on first use.
@@ -95,8 +131,9 @@ void ThreeMfModel::begin() {
   if (lib3mf().setBuildUuid(model_, uuid(0, 0).c_str()) != LIB3MF_OK) fail(model_, "identify the build of");
 }
 
-void ThreeMfModel::addObject(const std::string& name, const std::optional<std::array<std::uint8_t, 3>>& color,
+void ThreeMfModel::addObject(const std::string& given, const std::optional<std::array<std::uint8_t, 3>>& color,
                              const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles) {
+  const std::string name = xmlName(given);
   if (positions.size() > std::numeric_limits<DWORD>::max() || triangles.size() > std::numeric_limits<DWORD>::max()) {
     throw Error(fmt::format("{}: '{}' has more than 2^32 vertices or triangles, which 3MF cannot index", path_, name));
   }
@@ -118,6 +155,14 @@ void ThreeMfModel::addObject(const std::string& name, const std::optional<std::a
       }
       faces[t].m_nIndices[k] = index[v];
     }
+  }
+  // lib3mf 1.8 checks each new identity against all before it: time grows with the square of the
+  // objects (10,000 took 13 s, 100,000 did not end in 15 minutes).
+  if (objects_ >= kMaxObjects) {
+    throw Error(
+        fmt::format("{}: more than {} surfaces, which a .3mf holds here (lib3mf's time grows with the "
+                    "square of the count); write a .glb or a file per label",
+                    path_, kMaxObjects));
   }
   Released mesh;
   ++objects_;

@@ -48,6 +48,7 @@ class ThreeMfModel {
   Handle materials_ = nullptr;  // a base material group, made with the first colour
   std::uint32_t materialGroup_ = 0;
   int objects_ = 0;
+  static constexpr int kMaxObjects = 10000;
   std::unique_ptr<AtomicFile> file_;
 };
 

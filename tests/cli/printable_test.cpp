@@ -70,7 +70,7 @@ std::vector<Mesh> read3mf(const std::string& path) {
     PLib3MFModelResource* object = nullptr;
     EXPECT_EQ(lib3mf_resourceiterator_getcurrent(objects, &object), LIB3MF_OK);
     Mesh m;
-    char name[512] = {};
+    char name[2048] = {};
     ULONG needed = 0;
     EXPECT_EQ(lib3mf_object_getnameutf8(object, name, sizeof name, &needed), LIB3MF_OK);
     m.name = name;
@@ -308,6 +308,26 @@ TEST(Printable, TheAtlasThreeMfHasANamedColouredManifoldObjectPerLabel) {
     EXPECT_EQ(printable(m).badEdges, 0u) << m.name;
   }
   expectNoRepairs(prusaInfo(slicer, dir + "/smooth.3mf", dir), 116);
+  fs::remove_all(dir);
+}
+
+// Names as a table gives them can hold bytes that are no UTF-8 (a Latin-1 table) or controls,
+// which XML does not allow: each becomes U+FFFD, and a long name is cut at a character's end to
+// 1024 bytes, so that lib3mf reads the file back (it refused the bytes, and left a 5,000-byte name
+// empty).
+TEST(Printable, ThreeMfNamesAreXmlThatLib3mfReadsBack) {
+  const std::string dir = testing::tempDir();
+  const std::string longName = std::string(1023, 'A') + "\xC3\xA9";  // a 2-byte character across 1024
+  std::ofstream(dir + "/t.txt") << "1 ctl\x01x\n2 L\xE9sion\n3 " << longName << "\n4 ok\xC3\xA9\n";
+  const auto r =
+      testing::runCli("extract 'phantom:boxes?n=16&count=4' --label-table " + dir + "/t.txt -q -o " + dir + "/n.3mf");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const std::vector<Mesh> objects = read3mf(dir + "/n.3mf");
+  ASSERT_EQ(objects.size(), 4u);
+  EXPECT_EQ(objects[0].name, "ctl\xEF\xBF\xBDx");
+  EXPECT_EQ(objects[1].name, "L\xEF\xBF\xBDsion");
+  EXPECT_EQ(objects[2].name, std::string(1023, 'A'));
+  EXPECT_EQ(objects[3].name, "ok\xC3\xA9");
   fs::remove_all(dir);
 }
 
