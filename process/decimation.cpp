@@ -18,6 +18,7 @@
 #include "core/error.h"
 #include "core/fans.h"
 #include "core/scratch.h"
+#include "core/volume_info.h"
 #include "process/simplifier.h"
 
 namespace isoslab {
@@ -1431,7 +1432,7 @@ DecimationSink::Faces DecimationSink::simplify(const Faces& faces, std::int64_t 
     checking.reset();
     if (complex_) {
       const Timed searching(scope.seconds.crossing);
-      const ScratchVector<VertexId> crossing = crossingVertices(out, crossingCache);
+      const ScratchVector<VertexId> crossing = crossingVertices(out, result.labels, crossingCache);
       bad.insert(bad.end(), crossing.begin(), crossing.end());
       scope.crossing += crossing.empty() ? 0 : 1;
     }
@@ -2059,7 +2060,14 @@ namespace isoslab {
 // the low corner of their boxes' overlap: an edge of either through the other (for two triangles
 // with a corner in common, a fold: the edge opposite it), or both on the same three points.
 ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangle> triangles,
+                                                         std::span<const LabelPair> labels,
                                                          CrossingCache& cache) const {
+  // The layers of a segmentation may overlap (core/volume_info.h): their surfaces may cross, and
+  // only triangles of one layer are tested against each other. A triangle's layer is that of its
+  // label (the background, 0, is every layer's).
+  const auto layerOf = [&](std::uint32_t t) {
+    return labels.empty() ? 0 : labelLayer(labels[t][0] != 0 ? labels[t][0] : labels[t][1]);
+  };
   ScratchVector<VertexId> out;
   // The triangles of the last try that are here again (each once here and once there): a pair of
   // them is not tested again, and crosses if it crossed then.
@@ -2167,7 +2175,7 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
       for (std::uint32_t n = m + 1; n < start[i + 1]; ++n) {
         const Triangle &s = triangles[list[m]], &t = triangles[list[n]];
         const Box &bs = boxes[list[m]], &bt = boxes[list[n]];
-        bool apart = false;
+        bool apart = layerOf(list[m]) != layerOf(list[n]);
         for (std::size_t d = 0; d < 3; ++d) apart = apart || bs.low[d] > bt.high[d] || bt.low[d] > bs.high[d];
         // A pair is tested in one cell: that of the larger low corner of their boxes.
         const Span &cs = spans[list[m]], &ct = spans[list[n]];

@@ -399,7 +399,8 @@ class DecimationSink final : public MeshSink {
     std::vector<std::pair<Triangle, Triangle>> pairs;
   };
   // The vertices of triangles that pass through one another (or fold over a corner they share).
-  ScratchVector<VertexId> crossingVertices(std::span<const Triangle> triangles, CrossingCache& cache) const;
+  ScratchVector<VertexId> crossingVertices(std::span<const Triangle> triangles, std::span<const LabelPair> labels,
+                                           CrossingCache& cache) const;
   // Whether the triangle's centroid and edge midpoints are within `limit` of the original surface
   // (with `forwardEdges`, only the midpoints of the edges that run from the smaller id).
   bool triangleWithin(const Triangle& t, const Originals& surface, double limit, Hint& hint,

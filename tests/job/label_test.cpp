@@ -816,6 +816,49 @@ TEST(LabelInputs, SegNrrdMetadataIsReadWholeOrRefused) {
   EXPECT_EQ(r.labels[1].color, (std::array<std::uint8_t, 3>{26, 102, 230}));
 }
 
+// Layers may overlap, so their surfaces may cross: the decimation's crossing test compares
+// triangles of one layer only. It compared every pair, so that two overlapping balls in two layers
+// kept every triangle (each try was refused as crossing).
+TEST(LabelInputs, OverlappingLayersDecimateAndStayClosed) {
+  const std::string dir = testing::tempDir();
+  const std::string seg = dir + "/balls.seg.nrrd";
+  const int n = 24;
+  std::string header = fmt::format(
+      "NRRD0004\ntype: unsigned char\ndimension: 4\nspace: left-posterior-superior\nsizes: 2 {0} {0} {0}\n"
+      "space directions: none (1,0,0) (0,1,0) (0,0,1)\nkinds: list domain domain domain\nencoding: raw\n"
+      "space origin: (0,0,0)\nSegment0_ID:=A\nSegment0_LabelValue:=1\nSegment0_Layer:=0\nSegment0_Name:=A\n"
+      "Segment1_ID:=B\nSegment1_LabelValue:=1\nSegment1_Layer:=1\nSegment1_Name:=B\n\n",
+      n);
+  std::string data;
+  for (int k = 0; k < n; ++k) {
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        const auto in = [&](double cx) {
+          return (i - cx) * (i - cx) + (j - 11.5) * (j - 11.5) + (k - 11.5) * (k - 11.5) < 64;
+        };
+        data += static_cast<char>(in(9.5) ? 1 : 0);   // layer 0: ball A
+        data += static_cast<char>(in(13.5) ? 1 : 0);  // layer 1: ball B, overlapping A
+      }
+    }
+  }
+  std::ofstream(seg, std::ios::binary) << header << data;
+  for (const char* threads : {"1", "2"}) {
+    const auto r = testing::runCli("extract " + seg + " --max-error 1 --threads " + threads + " -o '" + dir + "/t" +
+                                   threads + "{name}.ply' --report " + dir + "/r.json -q");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto report = nlohmann::json::parse(testing::slurp(dir + "/r.json"));
+    const auto& d = report["decimation"];
+    EXPECT_EQ(d["regions_kept_whole"], 0);
+    EXPECT_LT(d["triangles_after"].get<double>(), 0.5 * d["triangles_before"].get<double>());
+    ASSERT_EQ(report["labels"].size(), 2u);
+    for (const auto& l : report["labels"]) {
+      EXPECT_TRUE(l["closed"].get<bool>()) << l["name"];
+    }
+  }
+  EXPECT_TRUE(testing::slurp(dir + "/t1A.ply") == testing::slurp(dir + "/t2A.ply"));
+  EXPECT_TRUE(testing::slurp(dir + "/t1B.ply") == testing::slurp(dir + "/t2B.ply"));
+}
+
 // One pass keys a label by its layer in the upper bits of a 32-bit value (core/volume_info.h): a
 // segmentation of more layers than fit is refused in one line, and a channel still reads one.
 TEST(LabelInputs, MoreLayersThanOnePassHoldsAreRefused) {
