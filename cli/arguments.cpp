@@ -112,6 +112,21 @@ CLI::Validator finiteNumber() {
       "");
 }
 
+CLI::Validator nonNegativeNumber() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        errno = 0;
+        char* end = nullptr;
+        const double v = std::strtod(value.c_str(), &end);
+        const bool number = !value.empty() && end == value.c_str() + value.size();
+        if (!number || !(v >= 0) || !std::isfinite(v) || (errno == ERANGE && v > 1)) {
+          return fmt::format("'{}' is not a finite number of 0 or more", value);
+        }
+        return {};
+      },
+      "");
+}
+
 CLI::Validator isoValue() {
   return CLI::Validator(
       [](std::string& value) -> std::string {

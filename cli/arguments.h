@@ -38,6 +38,8 @@ CLI::Validator listOf(const std::string& what, const std::vector<std::string>& n
 /// A floating-point option whose number must be finite ("nan", "inf" and "1e400" are refused).
 /// Other text is CLI11's to refuse.
 CLI::Validator finiteNumber();
+/// A finite number of 0 or more (CLI::NonNegativeNumber takes NaN and prints its range whole).
+CLI::Validator nonNegativeNumber();
 
 /// --iso: a finite number, `auto`, or a named CT value (stream/iso_choice.h: bone, skin), names in any
 /// case and rewritten in lower case; otherwise "'TEXT' is not a number, auto, bone or skin" ("'nan' is

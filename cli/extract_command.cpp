@@ -186,7 +186,7 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
       "Connected components (a second pass over the input; with labels, each label's voxel components apart, "
       "a dropped one's voxels going to the label around it)";
   extract->add_option("--keep-largest", args.keepLargest, "Keep only the N largest components (by --component-measure)")
-      ->check(CLI::Range(std::uint64_t{1}, std::numeric_limits<std::uint64_t>::max()))
+      ->check(integerIn(1, std::numeric_limits<std::int64_t>::max()))
       ->group(componentsGroup);
   extract
       ->add_option("--component-measure", args.componentMeasure,
@@ -196,13 +196,13 @@ CLI::App* addExtractCommand(CLI::App& app, ExtractArgs& args) {
       ->capture_default_str()
       ->group(componentsGroup);
   extract->add_option("--min-triangles", args.minTriangles, "Drop components of fewer triangles")
-      ->check(CLI::Range(std::uint64_t{1}, std::numeric_limits<std::uint64_t>::max()))
+      ->check(integerIn(1, std::numeric_limits<std::int64_t>::max()))
       ->group(componentsGroup);
   extract
       ->add_option("--min-volume", args.minVolume,
                    "Drop components enclosing less volume (output units cubed, |enclosed volume|; labels: voxels "
                    "times the voxel volume)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(nonNegativeNumber())
       ->group(componentsGroup);
   extract
       ->add_option("--seed", args.seed,

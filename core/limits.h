@@ -23,6 +23,8 @@ inline constexpr std::int64_t kMaxDataFiles = 1000000;
 inline constexpr std::int64_t kMaxFrames = 1000000;
 /// Bytes of a text header (NRRD, MetaImage) before its data.
 inline constexpr std::int64_t kMaxHeaderBytes = 16 * 1024 * 1024;
+/// A label table (`--label-table`): FreeSurfer's is 50 KB.
+inline constexpr std::uintmax_t kMaxLabelTableBytes = 64 * 1024 * 1024;
 /// Bytes of a mesh file read by `metrics` and `decode` (they read it whole).
 inline constexpr std::int64_t kMaxMeshFileBytes = std::int64_t{16} * 1024 * 1024 * 1024;
 /// Depth of nested DICOM sequences (DCMTK's reader recurses once per level).

@@ -6,12 +6,14 @@
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
 
 #include "core/edit_distance.h"
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/volume_info.h"
 
 namespace isoslab {
@@ -66,16 +68,47 @@ const LabelEntry* LabelTable::nearest(const std::string& name) const noexcept {
 }
 
 LabelTable readLabelTable(const std::string& path) {
+  // The file whole (a table is small): a regular file of at most limits::kMaxLabelTableBytes (a device such
+  // as /dev/zero would be read without end), its UTF-8 byte order mark skipped.
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(status)) throw Error(fmt::format("{}: cannot open the label table", path));
+  if (!std::filesystem::is_regular_file(status)) {
+    throw Error(fmt::format("{}: the label table is not a regular file", path));
+  }
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) throw Error(fmt::format("{}: cannot read the label table", path));
+  if (size > limits::kMaxLabelTableBytes) {
+    throw Error(fmt::format("{}: the label table is {} bytes; a table may hold {} MiB at most", path, size,
+                            limits::kMaxLabelTableBytes >> 20));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{}: cannot open the label table", path));
+  std::string text(static_cast<std::size_t>(size), '\0');
+  in.read(text.data(), static_cast<std::streamsize>(size));
+  if (in.gcount() != static_cast<std::streamsize>(size))
+    throw Error(fmt::format("{}: cannot read the label table", path));
+  if (text.rfind("\xEF\xBB\xBF", 0) == 0) text.erase(0, 3);
+  if (text.rfind("\xFF\xFE", 0) == 0 || text.rfind("\xFE\xFF", 0) == 0) {
+    throw Error(fmt::format("{}: the label table is UTF-16 text; save it as UTF-8", path));
+  }
+  if (text.find('\0') != std::string::npos) {
+    throw Error(fmt::format("{}: the label table holds a NUL byte: it is no text", path));
+  }
   LabelTable table;
   std::set<std::int32_t> seen;
-  std::string line;
   int number = 0;
-  while (std::getline(in, line)) {
+  // Lines end at \n, \r\n or \r (an old Mac table).
+  for (std::size_t at = 0; at < text.size();) {
+    const std::size_t end = std::min(text.find_first_of("\r\n", at), text.size());
+    const std::string line = text.substr(at, end - at);
+    at = end + (text.compare(end, 2, "\r\n") == 0 ? 2 : 1);
     ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    const auto hash = line.find('#');
+    // A comment starts at a '#' outside quotes (an ITK-SNAP name may hold one).
+    std::size_t hash = 0;
+    for (bool quoted = false; hash < line.size() && (quoted || line[hash] != '#'); ++hash) {
+      if (line[hash] == '"') quoted = !quoted;
+    }
     const std::string body = line.substr(0, hash);
     std::istringstream fields(body);
     std::vector<std::string> tokens;
@@ -127,7 +160,6 @@ LabelTable readLabelTable(const std::string& path) {
     }
     table.entries.push_back(std::move(entry));
   }
-  if (in.bad()) throw Error(fmt::format("{}: cannot read the label table", path));
   if (table.entries.empty()) throw Error(fmt::format("{}: the label table holds no label", path));
   return table;
 }

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.h"
+
 namespace isoslab::cli {
 namespace {
 
@@ -48,6 +50,17 @@ TEST(Arguments, IntegersAndFiniteNumbers) {
   EXPECT_EQ(parse(finiteNumber(), {"--x", "-1e3"}), "ok: -1e3");
   EXPECT_EQ(parse(finiteNumber(), {"--x", "-inf"}), "--x: '-inf' is not a finite number");
   EXPECT_EQ(parse(finiteNumber(), {"--x", "1e999"}), "--x: '1e999' is not a finite number");
+  // --min-volume's check: CLI::NonNegativeNumber took NaN and printed its range in 309 digits.
+  EXPECT_EQ(parse(nonNegativeNumber(), {"--x", "0"}), "ok: 0");
+  EXPECT_EQ(parse(nonNegativeNumber(), {"--x", "2.5e3"}), "ok: 2.5e3");
+  for (const std::string bad : {"nan", "-1", "inf", "1e400", "-0.5", "x"}) {
+    EXPECT_EQ(parse(nonNegativeNumber(), {"--x", bad}), "--x: '" + bad + "' is not a finite number of 0 or more");
+  }
+  const auto keep = isoslab::testing::runCli("extract phantom:voxel --keep-largest 18446744073709551616 -o x.ply");
+  EXPECT_EQ(keep.exitCode, 2);
+  EXPECT_EQ(keep.err,
+            "isoslab: error: --keep-largest: '18446744073709551616' is not a whole number from 1 to "
+            "9223372036854775807\n");
 }
 
 // Library messages name settings in backticks (core/error.h); the program spells them as options.

@@ -19,6 +19,7 @@
 #include "encode/mesh_reader.h"
 #include "extract/label_extractor.h"
 #include "io/label_source.h"
+#include "io/label_table.h"
 #include "io/pad_source.h"
 #include "io/volume_writer.h"
 #include "job/extract_job.h"
@@ -600,6 +601,39 @@ TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
   EXPECT_EQ(r.err,
             "isoslab: error: -o pattern '" + dir + "/{name}.ply' gives '" + dir + "/a_b.ply' to labels 1 and 2\n");
   EXPECT_EQ(testing::fileCount(dir), 3);
+}
+
+// A label table is text in any line ending, with or without a UTF-8 byte order mark; an ITK-SNAP
+// name may hold '#'. What is no text table is refused in one line: a device (/dev/zero was read
+// until memory ran out), a folder, UTF-16, a NUL byte.
+TEST(LabelTables, AreTextInAnyLineEndingAndRefuseWhatIsNot) {
+  const std::string dir = testing::tempDir();
+  const LabelTable mac = readLabelTable(writeText(dir + "/mac.txt", "\xEF\xBB\xBF# old Mac\r1 Liver\r2 Spleen\r"));
+  ASSERT_EQ(mac.entries.size(), 2u);
+  EXPECT_EQ(mac.entries[0].name, "Liver");
+  EXPECT_EQ(mac.entries[1].value, 2);
+  const LabelTable itk = readLabelTable(
+      writeText(dir + "/itk.txt",
+                "# ITK-SnAP\r\n    1   255 0 0  1 1 1  \"Label #1\"  # a comment\r\n    2 0 255 0 1 1 1 \"B\"\n"));
+  ASSERT_EQ(itk.entries.size(), 2u);
+  EXPECT_EQ(itk.entries[0].name, "Label #1");
+  EXPECT_EQ(itk.entries[1].name, "B");
+  const auto refused = [](const std::string& path) {
+    try {
+      readLabelTable(path);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("read");
+  };
+  EXPECT_EQ(refused("/dev/zero"), "/dev/zero: the label table is not a regular file");
+  EXPECT_EQ(refused(dir), dir + ": the label table is not a regular file");
+  EXPECT_EQ(refused(writeText(dir + "/u16.txt", std::string("\xFF\xFE"
+                                                            "1\0 \0A\0",
+                                                            8))),
+            dir + "/u16.txt: the label table is UTF-16 text; save it as UTF-8");
+  EXPECT_EQ(refused(writeText(dir + "/nul.txt", std::string("1 A\n\0", 5))),
+            dir + "/nul.txt: the label table holds a NUL byte: it is no text");
 }
 
 TEST(LabelCli, AbsentLabelsWarnAndInfoSaysLabelMap) {
