@@ -204,6 +204,18 @@ def _terminal_progress():
     return show
 
 
+def _progress_callback(progress):
+    """What a `progress` argument asks for: a callable as it is; None or True, the terminal's bar
+    (none where stderr is no terminal or tqdm is absent); False, none."""
+    if progress is None or progress is True:
+        return _terminal_progress()
+    if progress is False:
+        return None
+    if not callable(progress):
+        raise TypeError(f"progress must be callable, True or False (got {progress!r}).")
+    return progress
+
+
 def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=None, **options):
     """Runs the `isoslab extract` job in this process on files (a path or a list of paths: DICOM
     folders, NIfTI, NRRD, MetaImage, image stacks, raw with raw_dims=...) or on a 3D NumPy array,
@@ -224,7 +236,7 @@ def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=Non
     `progress`: a callable progress(fraction, stage), called on this thread with fractions rising
     to 1 (stage "components" for a component filter's first pass, then "extract"); an exception it
     raises stops the run and is raised here. Left out, a progress bar is shown when stderr is a
-    terminal and tqdm is installed; False shows none. Ctrl-C stops the run within a slab and raises
+    terminal and tqdm is installed (True too); False shows none. Ctrl-C stops the run within a slab and raises
     KeyboardInterrupt. A stopped or failed run leaves no output. Errors raise isoslab.Error with the
     program's one-line message.
     """
@@ -265,12 +277,7 @@ def extract(inputs, output, *, iso=None, method="mc", spacing=None, progress=Non
         elif name == "labels":
             value = _label_list(value)
         settings[name] = value
-    if progress is None:
-        progress = _terminal_progress()
-    elif progress is False:
-        progress = None
-    elif not callable(progress):
-        raise TypeError(f"progress must be callable (got {progress!r}).")
+    progress = _progress_callback(progress)
     return json.loads(_isoslab.extract(settings, volume, progress))
 
 
@@ -326,10 +333,7 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), select=None, smooth=0, de
         settings["keep_largest"] = int(keep_largest)
     if min_volume is not None:
         settings["min_volume"] = float(min_volume)
-    if progress is None:
-        progress = _terminal_progress()
-    elif progress is False:
-        progress = None
+    progress = _progress_callback(progress)
     found, report = _isoslab.label_surfaces(settings, labels, progress)
     surfaces = {int(label): (verts, faces) for label, _, verts, faces in found}
     adjacency = {}

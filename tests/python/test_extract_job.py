@@ -163,11 +163,22 @@ def test_unknown_options_are_refused():
 
 CHILD = """
 import sys, isoslab
-isoslab.extract("phantom:head?n=200", sys.argv[1], progress=None if sys.argv[2] == "default" else False)
+isoslab.extract("phantom:head?n=200", sys.argv[1], progress={"default": None, "on": True, "off": False}[sys.argv[2]])
 """
 
 
-@pytest.mark.parametrize("progress", ["default", "off"])
+def test_progress_takes_a_callable_true_or_false():
+    labels = np.zeros((6, 6, 6), np.int32)
+    labels[2:4, 2:4, 2:4] = 1
+    for progress in (True, False, None, lambda fraction, stage: None):
+        assert list(isoslab.label_surfaces(labels, progress=progress)[0]) == [1]
+    for call in (lambda p: isoslab.label_surfaces(labels, progress=p),
+                 lambda p: isoslab.extract("phantom:voxel", "a.ply", progress=p)):
+        with pytest.raises(TypeError, match=r"progress must be callable, True or False \(got 3\)"):
+            call(3)
+
+
+@pytest.mark.parametrize("progress", ["default", "on", "off"])
 def test_a_progress_bar_on_a_terminal_unless_turned_off(tmp_path, progress):
     pytest.importorskip("tqdm")
     import fcntl
@@ -187,7 +198,7 @@ def test_a_progress_bar_on_a_terminal_unless_turned_off(tmp_path, progress):
         pass  # the terminal closed
     os.close(main)
     assert run.returncode == 0
-    if progress == "default":
+    if progress != "off":
         # tqdm's bar, redrawn in place up to 100%, then cleared (leave=False).
         shown = [int(p) for p in re.findall(rb"isoslab extract: +(\d+)%", seen)]
         assert len(shown) > 5 and shown == sorted(shown) and shown[-1] == 100, seen[-300:]
