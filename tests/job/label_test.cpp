@@ -964,6 +964,11 @@ TEST(LabelInputs, ALayeredSegNrrdMeshesEveryLayerInOnePass) {
   ASSERT_EQ(all["label_interfaces"].size(), 1u);
   EXPECT_EQ(all["label_interfaces"][0]["labels"], nlohmann::json::array({1, 2}));
   EXPECT_EQ(all["label_interfaces"][0]["layer"], 0);
+  // {label} gives Liver (1 of layer 0) and Tumour (1 of layer 1) one file: refused, saying which.
+  const auto clash = testing::runCli("extract " + seg + " -o '" + dir + "/{label}.ply' -q");
+  EXPECT_EQ(clash.exitCode, 2);
+  EXPECT_EQ(clash.err, "isoslab: error: -o pattern '" + dir + "/{label}.ply' gives '" + dir +
+                           "/1.ply' to labels 1 and 1 of layer 1\n");
   // A value selects its label in every layer; a name, the label it names.
   const auto byValue = run("value", "--labels 1");
   ASSERT_EQ(byValue["labels"].size(), 2u);
