@@ -2184,8 +2184,8 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
           continue;
         }
         // Corners in common: none, every edge is tested; one, the edges opposite it (those from it
-        // cannot pass through the other's inside); an edge, none (a fold there turns a triangle
-        // over, which the simplifier refuses).
+        // cannot pass through the other's inside); an edge, whether they are folded onto each
+        // other (below).
         std::size_t shared = 0, sharedInS = 0, sharedInT = 0;
         for (std::size_t a = 0; a < 3; ++a) {
           for (std::size_t b = 0; b < 3; ++b) {
@@ -2206,9 +2206,30 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
           pairs.emplace_back(s, t);
           continue;
         }
-        if (shared > 1) continue;
+        if (shared > 2) continue;
         const std::array<Vec3d, 3> p{toDouble(pf[0]), toDouble(pf[1]), toDouble(pf[2])};
         const std::array<Vec3d, 3> q{toDouble(qf[0]), toDouble(qf[1]), toDouble(qf[2])};
+        const Plane &sPlane = planes[list[m]], &tPlane = planes[list[n]];
+        if (shared == 2) {
+          // Two triangles on an edge, folded onto each other: the other corner of one in the
+          // other's plane, on the same side of the edge. Two sheets then lie on one another (a
+          // label of one voxel pressed flat onto its neighbour's face, the two faces split along
+          // different diagonals, so that no two triangles have the same three points).
+          std::size_t x = 0, y = 0;  // the corners not shared
+          while (s[x] == t[0] || s[x] == t[1] || s[x] == t[2]) ++x;
+          while (t[y] == s[0] || t[y] == s[1] || t[y] == s[2]) ++y;
+          const Vec3d& a = p[(x + 1) % 3];
+          const Vec3d& b = p[(x + 2) % 3];
+          const double tolerance = 1e-6 * std::sqrt(sPlane.normal2 * tPlane.size);
+          const Vec3d edge = sub(b, a);
+          if (std::abs(dot(sPlane.normal, sub(q[y], a))) <= tolerance &&
+              dot(cross(edge, sub(p[x], a)), cross(edge, sub(q[y], a))) > 0) {
+            out.insert(out.end(), s.begin(), s.end());
+            out.insert(out.end(), t.begin(), t.end());
+            pairs.emplace_back(s, t);
+          }
+          continue;
+        }
         // Where the corners of one that it does not share lie strictly on one side of the other's
         // plane (by more than rounding), neither passes through the other: one's edges do not reach
         // the plane, and the other's edges lie in it, where the first has no point but a shared
@@ -2227,7 +2248,6 @@ ScratchVector<VertexId> DecimationSink::crossingVertices(std::span<const Triangl
           }
           return free > 0 && (above == free || below == free);
         };
-        const Plane &sPlane = planes[list[m]], &tPlane = planes[list[n]];
         if (oneSide(p, s, sPlane, q, t, tPlane) || oneSide(q, t, tPlane, p, s, sPlane)) continue;
         bool hit = false;
         for (std::size_t k = 0; k < 3 && !hit; ++k) {

@@ -1500,6 +1500,32 @@ TEST(LabelDecimation, NoTwoTrianglesLieOnTheSamePoints) {
   }
 }
 
+// Two labels of one voxel each, face to face: a bound of a voxel let the decimation press one flat
+// onto the other's face, its four triangles on the face's four corners (split along the other
+// diagonal, so that no two had the same three points), enclosing nothing. Folds like that are now
+// refused as crossings.
+TEST(LabelDecimation, NoLabelIsPressedFlat) {
+  const std::string dir = testing::tempDir();
+  testing::VectorSource volume({6, 6, 6}, [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+    return x == 2 && z == 2 && (y == 2 || y == 3) ? static_cast<float>(1 + y) : 0.0f;
+  });
+  writeVolume(volume, dir + "/v.nrrd", {});
+  for (const double maxError : {0.75, 1.0, 2.0}) {
+    ExtractSettings s;
+    s.inputs = {dir + "/v.nrrd"};
+    s.labels = parseLabelRequest("all");
+    s.maxError = maxError;
+    s.threads = 1;
+    s.output = dir + "/{label}.ply";
+    const ExtractReport r = runExtract(s);
+    ASSERT_EQ(r.labels.size(), 2u);
+    for (const auto& label : r.labels) {
+      EXPECT_GT(label.stats.volume, 0.25) << "--max-error " << maxError << ", label " << label.value;
+      EXPECT_TRUE(label.stats.closed()) << label.value;
+    }
+  }
+}
+
 // The constraints (sheets, lines, fixed corners, the volume's faces, the displacement limit) in the
 // smoothing's rounds of steps side by side on threads: the same positions as on one thread.
 TEST(LabelSmoothing, SameOnThreadsAsOnOne) {
