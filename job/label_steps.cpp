@@ -20,8 +20,16 @@ std::optional<std::set<std::int32_t>> selectedLabels(const LabelRequest& request
   const auto keepValue = [&](std::int32_t value) {
     for (int layer = 0; layer < layers; ++layer) keep.insert(layeredLabel(layer, value));
   };
+  // The selection is a set of every label it names, per layer: ranges that name millions take
+  // gigabytes (`1-16777215` took 2.4 GB), so they are capped.
+  constexpr std::int64_t kMostSelected = 1000000;
+  std::int64_t selected = 0;
+  for (const auto& [lo, hi] : request.ranges) selected += (std::int64_t{hi} - lo + 1) * layers;
+  if (selected > kMostSelected) {
+    throw SettingError(fmt::format("`labels` ranges select {} labels{}; a selection holds at most {} (use all)",
+                                   selected, layers > 1 ? " over the layers" : "", kMostSelected));
+  }
   for (const auto& [lo, hi] : request.ranges) {
-    if (static_cast<std::int64_t>(hi) - lo > 16777216) throw SettingError("`labels` range is too wide");
     for (std::int64_t v = lo; v <= hi; ++v) {
       if (v != 0) keepValue(static_cast<std::int32_t>(v));
     }

@@ -543,6 +543,8 @@ TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
        "isoslab: error: --seed does not apply to several iso values in one pass yet\n"},
       {"'phantom:voxel' --labels all --seed 1,2,3 -o " + dir + "/{name}.ply", 2,
        "isoslab: error: --seed does not apply to label surfaces yet\n"},
+      {"'phantom:voxel' --labels 1-16777215 -o " + dir + "/{name}.ply", 2,
+       "isoslab: error: --labels ranges select 16777215 labels; a selection holds at most 1000000 (use all)\n"},
       {"'phantom:voxel' --channel 1 -o " + dir + "/{name}.ply", 1,
        "isoslab: error: --channel: phantom:voxel has one value per voxel (channel 0 only)\n"},
       {"'phantom:voxel' --labels all --iso 3 -o " + dir + "/{name}.ply", 2,
