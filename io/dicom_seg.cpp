@@ -52,6 +52,7 @@ struct SegLayout {
   std::vector<std::uint16_t> segmentOfFrame;              // binary and fractional
   std::vector<std::vector<std::uint32_t>> framesOfSlice;  // by lattice slice
   VolumeInfo info;
+  std::vector<std::string> warnings;
 
   std::int64_t framePixels() const { return std::int64_t{rows} * columns; }
 };
@@ -308,6 +309,21 @@ void placeFrames(DcmDataset* ds, std::int64_t frames, SegLayout& s) {
       }
     }
   }
+  // Segments may skip the slices they do not touch, but frames of which no two lie on neighbouring
+  // slices of SpacingBetweenSlices suggest a spacing of half the frames' (the surfaces would then
+  // be slabs a slice thick, with every other slice empty).
+  if (stepField == "SpacingBetweenSlices" && planes.size() >= 3) {
+    bool neighbours = false;
+    for (std::size_t k = 0; k + 1 < s.framesOfSlice.size() && !neighbours; ++k) {
+      neighbours = !s.framesOfSlice[k].empty() && !s.framesOfSlice[k + 1].empty();
+    }
+    if (!neighbours) {
+      s.warnings.push_back(fmt::format(
+          "{}: no two of its {} frame planes lie on neighbouring slices of its SpacingBetweenSlices ({:g} mm): every "
+          "other slice is empty, and each segment's surface is slabs a slice thick; is the spacing right?",
+          s.path, planes.size(), step));
+    }
+  }
   VolumeInfo& info = s.info;
   info.dims = {s.columns, s.rows, std::max<std::int64_t>(slices, 1)};
   info.spacing = {pixelSpacing[1], pixelSpacing[0], step};
@@ -422,6 +438,7 @@ class DicomSegSource final : public SliceSource {
       : file_(std::move(file)), layout_(std::move(layout)), reader_(layout_, pixels), planeOf_(std::move(planeOf)) {}
 
   const VolumeInfo& info() const noexcept override { return layout_.info; }
+  std::vector<std::string> warnings() override { return layout_.warnings; }
 
   bool readSlice(std::span<float> slice) override {
     if (next_ >= static_cast<std::int64_t>(layout_.framesOfSlice.size())) return false;

@@ -1942,6 +1942,26 @@ TEST(BadInputMessages, BytesThatAreNotUtf8ReachJsonAsReplacementCharacters) {
   EXPECT_EQ(gltf.at("asset").at("extras").at("space").get<std::string>(), "physica\xef\xbf\xbd");
 }
 
+// A SEG whose SpacingBetweenSlices is half its frames' spacing reads as slabs a slice thick with
+// every other slice empty: a warning says so (the run goes on, as segments may skip slices).
+TEST(BadInputMessages, ASegWhoseFramesNeverLieOnNeighbouringSlicesWarns) {
+  const std::string dir = tempDir();
+  const std::string half = damagedSeg(dir, [](DcmDataset* ds) { segSpacingBetweenSlices(ds, "0.8"); });
+  CliResult r = runCli("extract " + half + " -q -o '" + dir + "/{label}.ply' --report " + dir + "/r.json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const std::string warning = half +
+                              ": no two of its 7 frame planes lie on neighbouring slices of its SpacingBetweenSlices "
+                              "(0.8 mm): every other slice is empty, and each segment's surface is slabs a slice "
+                              "thick; is the spacing right?";
+  EXPECT_EQ(r.err, "isoslab: warning: " + warning + "\n");
+  EXPECT_EQ(nlohmann::json::parse(slurp(dir + "/r.json"))["warnings"], nlohmann::json::array({warning}));
+  // Its own spacing (1.6 mm): no warning.
+  const std::string whole = damagedSeg(dir, [](DcmDataset* ds) { segSpacingBetweenSlices(ds, "1.6"); });
+  r = runCli("extract " + whole + " -q -o '" + dir + "/{label}.ply'");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+}
+
 TEST(BadInputMessages, ControlCharactersAreEscaped) {
   const std::string dir = tempDir();
   const std::string stack = imageStack(dir, ".png", 64, 64);
