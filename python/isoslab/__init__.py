@@ -184,6 +184,23 @@ def _numbers(name, value):
         raise ValueError(f"`{name}` must be a sequence of numbers (got {value!r}).") from None
 
 
+def _spacing(value):
+    # An array's spacing, in its axes' order: three finite positive numbers.
+    numbers = _numbers("spacing", value)
+    if len(numbers) != 3 or not all(math.isfinite(v) and v != 0 for v in numbers):
+        raise ValueError(f"spacing must be three finite numbers other than 0, one per array axis (got {value!r}).")
+    return numbers
+
+
+def _whole(name, value, least, most):
+    # A count: an int (a NumPy integer too; not a bool, not a float, which would be truncated).
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be a whole number (got {value!r}).")
+    if not least <= value <= most:
+        raise ValueError(f"{name} must be from {least} to {most} (got {value}).")
+    return int(value)
+
+
 def _terminal_progress():
     """A progress bar on stderr (Debian's python3-tqdm) when stderr is a terminal, else None."""
     if not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):
@@ -322,15 +339,15 @@ def label_surfaces(labels, *, spacing=(1.0, 1.0, 1.0), select=None, smooth=0, de
     name = getattr(labels, "filename", None) if isinstance(labels, np.memmap) else None
     settings = {"output": "", "method": "mc", "inputs": [os.fspath(name) if name else "array"],
                 "labels": "all" if select is None else _label_list(select),
-                "array_spacing": _numbers("spacing", spacing)}
+                "array_spacing": _spacing(spacing)}
     if threads is not None:
-        settings["threads"] = int(threads)
+        settings["threads"] = _whole("threads", threads, 1, 256)
     if smooth:
-        settings["smooth"] = int(smooth)
+        settings["smooth"] = _whole("smooth", smooth, 0, 500)
     if decimate != 1.0:
         settings["decimate"] = float(decimate)
     if keep_largest is not None:
-        settings["keep_largest"] = int(keep_largest)
+        settings["keep_largest"] = _whole("keep_largest", keep_largest, 1, 2**63 - 1)
     if min_volume is not None:
         settings["min_volume"] = float(min_volume)
     progress = _progress_callback(progress)

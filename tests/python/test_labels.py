@@ -229,6 +229,19 @@ def test_label_surfaces_refuses_what_it_cannot_mesh():
         isoslab.label_surfaces(np.zeros((4, 4), np.int32))
     with pytest.raises(isoslab.Error, match="decimate must be above 0 and at most 1"):
         isoslab.label_surfaces(np.ones((4, 4, 4), np.int32), decimate=1.5)
+    # Counts are whole numbers in range (a float was truncated; 2**40 failed in pybind's cast), the
+    # spacing three finite numbers (NaN was named by isoslab's axis, not the array's).
+    ones = np.ones((4, 4, 4), np.int32)
+    for name, value, error, message in [("threads", 1.5, TypeError, "threads must be a whole number"),
+                                        ("smooth", True, TypeError, "smooth must be a whole number"),
+                                        ("threads", 2**40, ValueError, "threads must be from 1 to 256"),
+                                        ("threads", 0, ValueError, "threads must be from 1 to 256"),
+                                        ("keep_largest", -1, ValueError, "keep_largest must be from 1 to"),
+                                        ("spacing", (float("nan"), 1, 1), ValueError, "spacing must be three finite"),
+                                        ("spacing", (1, 2), ValueError, "spacing must be three finite")]:
+        with pytest.raises(error, match=message):
+            isoslab.label_surfaces(ones, **{name: value})
+    assert list(isoslab.label_surfaces(ones, threads=np.int64(2), spacing=(-1, 1, 2))[0]) == [1]
     # 2^24 + 1 is read (as a float) as 2^24: the two would be one label, so both are refused.
     big = np.zeros((4, 4, 4), np.int32)
     big[1, 1, 1], big[1, 1, 2] = 2**24 + 1, 2**24
