@@ -289,8 +289,7 @@ class SurfaceSetRun {
       chain.path = expandPattern(settings_.output, labelValue(label), nameOf(label), isoSet_ ? nameOf(label) : "");
       const auto [it, fresh] = paths_.emplace(chain.path, label);
       if (!fresh) {
-        // A layered segmentation's label by its value and layer, not by its key (core/volume_info.h).
-        const auto said = [](std::int32_t key) {
+        const auto said = [](std::int32_t key) {  // by value and layer, not by key (core/volume_info.h)
           return labelLayer(key) == 0 ? std::to_string(key)
                                       : fmt::format("{} of layer {}", labelValue(key), labelLayer(key));
         };
