@@ -352,7 +352,7 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
   }
   // A 4-D NRRD is either components first (kinds "vector", "RGB-color", a segmentation's "list" of
   // layers, ...) or a series last. Its one axis that is not spatial is told by `kinds` (the axes that
-  // are not "domain" or "space"), else by the "none" of `space directions`, else it is the first.
+  // are not "domain" or "space"), else by the "none" of `space directions`, else by the first kind.
   std::size_t first = 0;
   double components = 1;
   bool seriesLast = false;
@@ -362,7 +362,8 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
       std::istringstream k(lower(fields["kinds"]));
       std::size_t axis = 0;
       for (std::string kind; k >> kind; ++axis) {
-        if (kind != "domain" && kind != "space") byKinds.push_back(axis);
+        // "???" and "none" say nothing of the axis.
+        if (kind != "domain" && kind != "space" && kind != "???" && kind != "none") byKinds.push_back(axis);
       }
     }
     if (fields.count("space directions")) {
