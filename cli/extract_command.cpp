@@ -354,9 +354,10 @@ int runExtractCommand(const ExtractArgs& args, RankGroup* ranks) {
     for (const ExtractLabel& l : r.labels) closedLabels += l.stats.closed();
     const std::string closed =
         !r.labels.empty() && r.labels.front().topology ? fmt::format(" ({} closed)", closedLabels) : "";
-    std::fprintf(stderr, "isoslab: %s: %zu surfaces%s, %llu triangles in all, %.2f s -> %s\n",
+    std::fprintf(stderr, "isoslab: %s: %zu surface%s%s, %llu triangles in all, %.2f s -> %s\n",
                  r.isoSource == "values" ? (r.method + " at " + args.iso).c_str() : "labels", r.labels.size(),
-                 closed.c_str(), static_cast<unsigned long long>(s.triangles), r.seconds.total, args.output.c_str());
+                 r.labels.size() == 1 ? "" : "s", closed.c_str(), static_cast<unsigned long long>(s.triangles),
+                 r.seconds.total, args.output.c_str());
     return 0;
   }
   const std::string how = args.iso.empty()         ? " (the input's suggestion)"
