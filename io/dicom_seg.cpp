@@ -313,11 +313,16 @@ void placeFrames(DcmDataset* ds, std::int64_t frames, SegLayout& s) {
   // slices of SpacingBetweenSlices suggest a spacing of half the frames' (the surfaces would then
   // be slabs a slice thick, with every other slice empty).
   if (stepField == "SpacingBetweenSlices" && planes.size() >= 3) {
-    bool neighbours = false;
-    for (std::size_t k = 0; k + 1 < s.framesOfSlice.size() && !neighbours; ++k) {
-      neighbours = !s.framesOfSlice[k].empty() && !s.framesOfSlice[k + 1].empty();
+    // Every gap between two slices with frames exactly two slices (key slices further apart, or
+    // gaps that vary, are an annotation's, not a spacing's).
+    bool halved = true;
+    std::size_t last = 0;
+    for (std::size_t k = 1; k < s.framesOfSlice.size() && halved; ++k) {
+      if (s.framesOfSlice[k].empty()) continue;
+      halved = k - last == 2;
+      last = k;
     }
-    if (!neighbours) {
+    if (halved) {
       s.warnings.push_back(fmt::format(
           "{}: no two of its {} frame planes lie on neighbouring slices of its SpacingBetweenSlices ({:g} mm): every "
           "other slice is empty, and each segment's surface is slabs a slice thick; is the spacing right?",

@@ -135,9 +135,14 @@ LabelTable readLabelTable(const std::string& path) {
       entry.name = tokens[1];
     }
     const auto value = wholeNumber(tokens[0]);
-    if (!value || std::abs(static_cast<double>(*value)) > kLargestLabel) {
+    if (!value) {
       throw Error(
           fmt::format("{}:{}: '{}' is not a label line: its first field is not a whole number", path, number, line));
+    }
+    if (std::abs(static_cast<double>(*value)) > kLargestLabel) {
+      throw Error(
+          fmt::format("{}:{}: label {} is beyond the labels a map can hold (whole numbers from -{:.0f} to {:.0f})",
+                      path, number, *value, kLargestLabel, kLargestLabel));
     }
     entry.value = static_cast<std::int32_t>(*value);
     // A colour when the three fields after the name are whole numbers (mricron's third field is a

@@ -411,7 +411,14 @@ std::unique_ptr<SliceSource> openNrrd(const std::string& path, int channel, std:
     constexpr std::string_view prefix = "Segment";
     if (key.rfind(prefix, 0) != 0) return std::nullopt;
     const std::size_t underscore = key.find('_', prefix.size());
-    if (underscore == std::string::npos || underscore == prefix.size()) return std::nullopt;
+    // Digits only, and no leading zero (Segment03_ would be looked up as Segment3_).
+    if (underscore == std::string::npos || underscore == prefix.size() ||
+        !std::all_of(key.begin() + static_cast<std::ptrdiff_t>(prefix.size()),
+                     key.begin() + static_cast<std::ptrdiff_t>(underscore),
+                     [](char c) { return c >= '0' && c <= '9'; }) ||
+        (key[prefix.size()] == '0' && underscore > prefix.size() + 1)) {
+      return std::nullopt;
+    }
     int n = 0;
     const auto [end, error] = std::from_chars(key.data() + prefix.size(), key.data() + underscore, n);
     if (error != std::errc() || end != key.data() + underscore) return std::nullopt;

@@ -2,8 +2,12 @@
 // rules' first pass.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <set>
+#include <utility>
+#include <vector>
 
 #include "core/error.h"
 #include "core/interrupt.h"
@@ -23,8 +27,16 @@ std::optional<std::set<std::int32_t>> selectedLabels(const LabelRequest& request
   // The selection is a set of every label it names, per layer: ranges that name millions take
   // gigabytes (`1-16777215` took 2.4 GB), so they are capped.
   constexpr std::int64_t kMostSelected = 1000000;
-  std::int64_t selected = 0;
-  for (const auto& [lo, hi] : request.ranges) selected += (std::int64_t{hi} - lo + 1) * layers;
+  std::vector<std::pair<std::int64_t, std::int64_t>> ranges;  // merged, to count each value once
+  for (const auto& [lo, hi] : request.ranges) ranges.emplace_back(lo, hi);
+  std::sort(ranges.begin(), ranges.end());
+  std::int64_t selected = 0, covered = std::numeric_limits<std::int64_t>::min();  // the last value counted
+  for (const auto& [lo, hi] : ranges) {
+    const std::int64_t from = std::max(lo, covered + 1);
+    if (hi < from) continue;
+    selected += (hi - from + 1 - (from <= 0 && 0 <= hi ? 1 : 0)) * layers;  // 0 is never kept
+    covered = hi;
+  }
   if (selected > kMostSelected) {
     throw SettingError(fmt::format("`labels` ranges select {} labels{}; a selection holds at most {} (use all)",
                                    selected, layers > 1 ? " over the layers" : "", kMostSelected));

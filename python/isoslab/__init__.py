@@ -224,12 +224,14 @@ def _terminal_progress():
 def _progress_callback(progress):
     """What a `progress` argument asks for: a callable as it is; None or True, the terminal's bar
     (none where stderr is no terminal or tqdm is absent); False, none."""
+    if isinstance(progress, np.bool_):
+        progress = bool(progress)
     if progress is None or progress is True:
         return _terminal_progress()
     if progress is False:
         return None
     if not callable(progress):
-        raise TypeError(f"progress must be callable, True or False (got {progress!r}).")
+        raise TypeError(f"progress must be callable, True or False (got {type(progress).__name__} {progress!r}).")
     return progress
 
 

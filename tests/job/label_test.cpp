@@ -545,6 +545,9 @@ TEST(LabelCli, BadInputGetsOneLineAndLeavesNothing) {
        "isoslab: error: --seed does not apply to label surfaces yet\n"},
       {"'phantom:voxel' --labels 1-16777215 -o " + dir + "/{name}.ply", 2,
        "isoslab: error: --labels ranges select 16777215 labels; a selection holds at most 1000000 (use all)\n"},
+      // Each value once, and 0 (never kept) not at all.
+      {"'phantom:voxel' --labels 1-800000,500000-1200000,0-5 -o " + dir + "/{name}.ply", 2,
+       "isoslab: error: --labels ranges select 1200000 labels; a selection holds at most 1000000 (use all)\n"},
       {"'phantom:voxel' --channel 1 -o " + dir + "/{name}.ply", 1,
        "isoslab: error: --channel: phantom:voxel has one value per voxel (channel 0 only)\n"},
       {"'phantom:voxel' --labels all --iso 3 -o " + dir + "/{name}.ply", 2,
@@ -636,6 +639,10 @@ TEST(LabelTables, AreTextInAnyLineEndingAndRefuseWhatIsNot) {
             dir + "/u16.txt: the label table is UTF-16 text; save it as UTF-8");
   EXPECT_EQ(refused(writeText(dir + "/nul.txt", std::string("1 A\n\0", 5))),
             dir + "/nul.txt: the label table holds a NUL byte: it is no text");
+  EXPECT_EQ(refused(writeText(dir + "/big.txt", "1 Liver\n16777216 Big\n")),
+            dir +
+                "/big.txt:2: label 16777216 is beyond the labels a map can hold (whole numbers from -16777215 to "
+                "16777215)");
 }
 
 TEST(LabelCli, AbsentLabelsWarnAndInfoSaysLabelMap) {

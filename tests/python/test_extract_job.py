@@ -170,11 +170,11 @@ isoslab.extract("phantom:head?n=200", sys.argv[1], progress={"default": None, "o
 def test_progress_takes_a_callable_true_or_false():
     labels = np.zeros((6, 6, 6), np.int32)
     labels[2:4, 2:4, 2:4] = 1
-    for progress in (True, False, None, lambda fraction, stage: None):
+    for progress in (True, False, None, np.bool_(True), lambda fraction, stage: None):
         assert list(isoslab.label_surfaces(labels, progress=progress)[0]) == [1]
     for call in (lambda p: isoslab.label_surfaces(labels, progress=p),
                  lambda p: isoslab.extract("phantom:voxel", "a.ply", progress=p)):
-        with pytest.raises(TypeError, match=r"progress must be callable, True or False \(got 3\)"):
+        with pytest.raises(TypeError, match=r"progress must be callable, True or False \(got int 3\)"):
             call(3)
 
 
