@@ -97,17 +97,25 @@ CLI::Validator listOf(const std::string& what, const std::vector<std::string>& n
       "");
 }
 
+namespace {
+
+// The whole of `value` as a number (strtod's: NaN and infinities too, an overflow as infinite), or
+// none when it is not one.
+std::optional<double> wholeNumberText(const std::string& value) {
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(value.c_str(), &end);
+  if (value.empty() || end != value.c_str() + value.size()) return std::nullopt;
+  return errno == ERANGE && std::abs(v) > 1 ? std::copysign(INFINITY, v) : v;
+}
+
+}  // namespace
+
 CLI::Validator finiteNumber() {
   return CLI::Validator(
       [](std::string& value) -> std::string {
-        errno = 0;
-        char* end = nullptr;
-        const double v = std::strtod(value.c_str(), &end);
-        const bool number = !value.empty() && end == value.c_str() + value.size();
-        if (number && (!std::isfinite(v) || (errno == ERANGE && std::abs(v) > 1))) {
-          return fmt::format("'{}' is not a finite number", value);
-        }
-        return {};
+        const auto v = wholeNumberText(value);
+        return v && !std::isfinite(*v) ? fmt::format("'{}' is not a finite number", value) : std::string();
       },
       "");
 }
@@ -115,14 +123,9 @@ CLI::Validator finiteNumber() {
 CLI::Validator nonNegativeNumber() {
   return CLI::Validator(
       [](std::string& value) -> std::string {
-        errno = 0;
-        char* end = nullptr;
-        const double v = std::strtod(value.c_str(), &end);
-        const bool number = !value.empty() && end == value.c_str() + value.size();
-        if (!number || !(v >= 0) || !std::isfinite(v) || (errno == ERANGE && v > 1)) {
-          return fmt::format("'{}' is not a finite number of 0 or more", value);
-        }
-        return {};
+        const auto v = wholeNumberText(value);
+        return v && std::isfinite(*v) && *v >= 0 ? std::string()
+                                                 : fmt::format("'{}' is not a finite number of 0 or more", value);
       },
       "");
 }
